@@ -1,0 +1,382 @@
+"""Encoder and decoder networks of neural latent optimisation.
+
+The paper's graph layer (Zhang et al., Sec. "Graph-based Encoder & Decoder")::
+
+    x_i' = x_i + sum_{j in N(i)} LeakyReLU(W_t [x_i, x_j, e_ji] + b_t)
+
+with one weight set ``(W_t, b_t)`` per node type ``t`` (arm, hand) chosen by
+the *receiving* node ``i``. Messages flow along the directed edges,
+source (parent) -> target (child); the sum is an ``index_add`` over the edge
+list, batched over frames. When the layer changes width the residual ``x_i``
+cannot be added as is, so it goes through a per-node-type linear skip
+(``P_t x_i``, no bias); at equal width the skip is the identity, as in the paper.
+Root nodes have no incoming edge, so their update is the skip alone.
+
+Latent code: ``z`` is ``(B, N_robot, k)``, ``k`` numbers per robot node
+(default ``k = 4``: 104 numbers for YuMi with hands, 40 for NAO/Pepper). One
+block per joint keeps the decoder a true graph network (each node reads its own
+block, its limits and its neighbours) and the code small enough to optimise
+in a few milliseconds per iteration.
+
+* :class:`GraphEncoder`: human skeleton graph, per-node widths F -> 16 -> 32 -> 64,
+  then one linear map from the flattened node features to ``z``.
+* :class:`GraphDecoder`: robot structure graph, per-node input ``z_i ⊕ lower_i ⊕
+  upper_i``, widths 32 -> 16 -> 1, ``tanh``, then :func:`remap_to_limits`.
+* :class:`MLPEncoder` / :class:`MLPDecoder`: the plain fully connected variants of
+  the ablation, same call signatures.
+* :class:`RetargetModel`: encoder + decoder + their configuration.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+from torch import nn
+
+from nlo_lab.errors import SettingsError
+from nlo_lab.graph import NODE_ARM, NODE_HAND, Graph
+
+__all__ = [
+    "GraphLayer",
+    "GraphEncoder",
+    "GraphDecoder",
+    "MLPEncoder",
+    "MLPDecoder",
+    "RetargetModel",
+    "remap_to_limits",
+    "build_model",
+    "MODEL_KINDS",
+]
+
+MODEL_KINDS = ("graph", "mlp")
+NUM_NODE_TYPES = 2  # NODE_ARM, NODE_HAND
+LEAKY_SLOPE = 0.2  # negative slope of the LeakyReLU in the messages
+
+
+def remap_to_limits(a: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+    """Map ``tanh`` outputs ``a`` in [-1, 1] linearly onto ``[lower, upper]``.
+
+    ``lower + (upper - lower)(a + 1)/2``, then clamped so that float rounding
+    can never put an angle one ulp outside its limits (the clamp is inactive
+    otherwise and passes gradients through).
+
+    Args:
+        a: ``(..., n)`` values; ``tanh`` is applied here, so any real input is fine.
+        lower: ``(n,)`` lower limits [rad].
+        upper: ``(n,)`` upper limits [rad].
+
+    Returns:
+        ``(..., n)`` joint angles inside the limits.
+    """
+    s = torch.tanh(a)
+    q = lower + (upper - lower) * (s + 1.0) * 0.5
+    return torch.maximum(torch.minimum(q, upper), lower)
+
+
+def _typed_linear(in_f: int, out_f: int, bias: bool) -> nn.ModuleList:
+    return nn.ModuleList(nn.Linear(in_f, out_f, bias=bias) for _ in range(NUM_NODE_TYPES))
+
+
+def _select_by_type(outputs: list[torch.Tensor], is_hand: torch.Tensor) -> torch.Tensor:
+    """``outputs[NODE_HAND]`` where ``is_hand`` (over dim -2), else ``outputs[NODE_ARM]``."""
+    return torch.where(is_hand[:, None], outputs[NODE_HAND], outputs[NODE_ARM])
+
+
+class GraphLayer(nn.Module):
+    """One residual message-passing layer with per-node-type weights.
+
+    Args:
+        in_features: node feature width C_in.
+        out_features: node feature width C_out.
+        edge_features: edge feature width F.
+    """
+
+    def __init__(self, in_features: int, out_features: int, edge_features: int):
+        super().__init__()
+        self.in_features, self.out_features, self.edge_features = in_features, out_features, edge_features
+        self.message = _typed_linear(2 * in_features + edge_features, out_features, bias=True)
+        # Linear skip when the width changes (the paper's residual needs equal widths).
+        self.skip = None if in_features == out_features else _typed_linear(in_features, out_features, bias=False)
+
+    def forward(
+        self,
+        x: torch.Tensor,
+        edge_index: torch.Tensor,
+        edge_attr: torch.Tensor,
+        node_type: torch.Tensor,
+    ) -> torch.Tensor:
+        """Update node features.
+
+        Args:
+            x: ``(B, N, C_in)`` node features.
+            edge_index: ``(2, E)`` source -> target.
+            edge_attr: ``(E, F)`` static or ``(B, E, F)`` per-sample edge features.
+            node_type: ``(N,)`` :data:`NODE_ARM` / :data:`NODE_HAND`.
+
+        Returns:
+            ``(B, N, C_out)``.
+        """
+        B = x.shape[0]
+        src, dst = edge_index[0], edge_index[1]
+        if edge_attr.ndim == 2:
+            edge_attr = edge_attr.expand(B, -1, -1)  # (B, E, F)
+        h = torch.cat([x[:, dst], x[:, src], edge_attr], dim=-1)  # (B, E, 2C+F): [x_i, x_j, e_ji]
+        edge_is_hand = node_type[dst] == NODE_HAND  # weights of the receiving node's type
+        msg = _select_by_type([lin(h) for lin in self.message], edge_is_hand)  # (B, E, C_out)
+        msg = nn.functional.leaky_relu(msg, LEAKY_SLOPE)
+        agg = x.new_zeros(B, x.shape[1], self.out_features).index_add(1, dst, msg)  # (B, N, C_out)
+        if self.skip is None:
+            res = x
+        else:
+            res = _select_by_type([lin(x) for lin in self.skip], node_type == NODE_HAND)
+        return res + agg
+
+
+class _GraphBuffers(nn.Module):
+    """Holds a graph's tensors as buffers so that ``.to()`` moves them."""
+
+    def __init__(self, graph: Graph):
+        super().__init__()
+        self.node_names = tuple(graph.node_names)
+        self.register_buffer("edge_index", graph.edge_index.long().clone(), persistent=False)
+        self.register_buffer("edge_attr", graph.edge_attr.float().clone(), persistent=False)
+        self.register_buffer("node_type", graph.node_type.long().clone(), persistent=False)
+
+
+class GraphEncoder(nn.Module):
+    """Human skeleton graph -> latent ``z`` ``(B, N_robot, k)``.
+
+    Args:
+        human_graph: the skeleton graph (only structure and node types are used;
+            edge features come per sample from the caller).
+        in_features: node feature width F of ``node_features(demo)``.
+        edge_features: human edge feature width (3: bone offsets).
+        n_robot_nodes: nodes of the robot graph (actuated joints).
+        latent_per_node: ``k``.
+        widths: per-node hidden widths (paper: 16, 32, 64).
+    """
+
+    def __init__(
+        self,
+        human_graph: Graph,
+        in_features: int,
+        edge_features: int,
+        n_robot_nodes: int,
+        latent_per_node: int = 4,
+        widths: tuple[int, ...] = (16, 32, 64),
+    ):
+        super().__init__()
+        self.graph = _GraphBuffers(human_graph)
+        self.n_robot_nodes, self.latent_per_node = n_robot_nodes, latent_per_node
+        dims = (in_features, *widths)
+        self.layers = nn.ModuleList(GraphLayer(a, b, edge_features) for a, b in zip(dims[:-1], dims[1:]))
+        self.to_latent = nn.Linear(human_graph.num_nodes * widths[-1], n_robot_nodes * latent_per_node)
+
+    def forward(self, node_x: torch.Tensor, edge_x: torch.Tensor | None = None) -> torch.Tensor:
+        """``node_x (B, N_h, F)``, ``edge_x (B, E_h, 3)`` or None (the graph's static offsets) -> ``z (B, N_r, k)``."""
+        g = self.graph
+        e = g.edge_attr.to(node_x.dtype) if edge_x is None else edge_x
+        x = node_x
+        for layer in self.layers:
+            x = layer(x, g.edge_index, e, g.node_type)
+        z = self.to_latent(x.flatten(1))
+        return z.view(-1, self.n_robot_nodes, self.latent_per_node)
+
+
+class GraphDecoder(nn.Module):
+    """Latent ``z (B, N_r, k)`` -> joint angles ``q (B, n)`` inside the limits.
+
+    Args:
+        robot_graph: ``robot.graph`` (nodes = actuated joints, edge_attr (E, 6)).
+        lower: ``(n,)`` lower limits [rad], node order = joint order.
+        upper: ``(n,)`` upper limits [rad].
+        latent_per_node: ``k``.
+        widths: per-node widths (paper: 32, 16, 1; the last must be 1).
+    """
+
+    def __init__(
+        self,
+        robot_graph: Graph,
+        lower: torch.Tensor,
+        upper: torch.Tensor,
+        latent_per_node: int = 4,
+        widths: tuple[int, ...] = (32, 16, 1),
+    ):
+        super().__init__()
+        if widths[-1] != 1:
+            raise SettingsError(f"the decoder's last width must be 1 (one angle per joint), got {widths}")
+        n = robot_graph.num_nodes
+        if lower.shape != (n,) or upper.shape != (n,):
+            raise SettingsError(f"limits must be ({n},) like the robot graph, got {tuple(lower.shape)}/{tuple(upper.shape)}")
+        self.graph = _GraphBuffers(robot_graph)
+        self.latent_per_node = latent_per_node
+        self.register_buffer("lower", lower.detach().float().clone(), persistent=False)
+        self.register_buffer("upper", upper.detach().float().clone(), persistent=False)
+        edge_f = robot_graph.edge_attr.shape[-1]
+        dims = (latent_per_node + 2, *widths)
+        self.layers = nn.ModuleList(GraphLayer(a, b, edge_f) for a, b in zip(dims[:-1], dims[1:]))
+
+    @property
+    def latent_shape(self) -> tuple[int, int]:
+        """``(N_r, k)``: the shape of one sample's latent."""
+        return (self.graph.node_type.shape[0], self.latent_per_node)
+
+    def forward(self, z: torch.Tensor) -> torch.Tensor:
+        """``z (B, N_r, k)`` -> ``q (B, n)`` [rad]."""
+        g = self.graph
+        B = z.shape[0]
+        lim = torch.stack([self.lower, self.upper], dim=-1).expand(B, -1, -1)  # (B, N_r, 2)
+        x = torch.cat([z, lim], dim=-1)  # (B, N_r, k+2)
+        for layer in self.layers:
+            x = layer(x, g.edge_index, g.edge_attr, g.node_type)
+        return remap_to_limits(x[..., 0], self.lower, self.upper)
+
+
+def _mlp(dims: tuple[int, ...]) -> nn.Sequential:
+    mods: list[nn.Module] = []
+    for i, (a, b) in enumerate(zip(dims[:-1], dims[1:])):
+        mods.append(nn.Linear(a, b))
+        if i < len(dims) - 2:
+            mods.append(nn.LeakyReLU(LEAKY_SLOPE))
+    return nn.Sequential(*mods)
+
+
+class MLPEncoder(nn.Module):
+    """Plain fully connected encoder (ablation): flattened node features -> ``z``.
+
+    Same call signature as :class:`GraphEncoder`; edge features are ignored.
+    """
+
+    def __init__(
+        self,
+        human_graph: Graph,
+        in_features: int,
+        edge_features: int,
+        n_robot_nodes: int,
+        latent_per_node: int = 4,
+        widths: tuple[int, ...] = (256, 256),
+    ):
+        super().__init__()
+        del edge_features  # part of the common signature only
+        self.n_robot_nodes, self.latent_per_node = n_robot_nodes, latent_per_node
+        self.net = _mlp((human_graph.num_nodes * in_features, *widths, n_robot_nodes * latent_per_node))
+
+    def forward(self, node_x: torch.Tensor, edge_x: torch.Tensor | None = None) -> torch.Tensor:
+        """``node_x (B, N_h, F)`` -> ``z (B, N_r, k)``."""
+        return self.net(node_x.flatten(1)).view(-1, self.n_robot_nodes, self.latent_per_node)
+
+
+class MLPDecoder(nn.Module):
+    """Plain fully connected decoder (ablation): ``z ⊕ lower ⊕ upper`` -> tanh -> remap."""
+
+    def __init__(
+        self,
+        robot_graph: Graph,
+        lower: torch.Tensor,
+        upper: torch.Tensor,
+        latent_per_node: int = 4,
+        widths: tuple[int, ...] = (128, 64),
+    ):
+        super().__init__()
+        n = robot_graph.num_nodes
+        self.n_nodes, self.latent_per_node = n, latent_per_node
+        self.register_buffer("lower", lower.detach().float().clone(), persistent=False)
+        self.register_buffer("upper", upper.detach().float().clone(), persistent=False)
+        self.net = _mlp((n * (latent_per_node + 2), *widths, n))
+
+    @property
+    def latent_shape(self) -> tuple[int, int]:
+        """``(N_r, k)``."""
+        return (self.n_nodes, self.latent_per_node)
+
+    def forward(self, z: torch.Tensor) -> torch.Tensor:
+        """``z (B, N_r, k)`` -> ``q (B, n)`` [rad]."""
+        B = z.shape[0]
+        lim = torch.stack([self.lower, self.upper], dim=-1).expand(B, -1, -1)
+        return remap_to_limits(self.net(torch.cat([z, lim], dim=-1).flatten(1)), self.lower, self.upper)
+
+
+class RetargetModel(nn.Module):
+    """Encoder ``f_phi`` and decoder ``f_psi`` for one robot, with their configuration.
+
+    Attributes:
+        encoder: human features -> ``z (B, N_r, k)``.
+        decoder: ``z`` -> ``q (B, n)``.
+        robot_name: the robot the decoder was built for.
+        config: hyperparameters needed to rebuild the model (:func:`build_model`).
+    """
+
+    def __init__(self, encoder: nn.Module, decoder: nn.Module, robot_name: str, config: dict[str, Any]):
+        super().__init__()
+        self.encoder, self.decoder = encoder, decoder
+        self.robot_name = robot_name
+        self.config = dict(config)
+        # Mean and spread of the encoder's latents over the training frames (the
+        # ``train-stats`` initialisation); N(0, 1) until training fills them in.
+        shape = decoder.latent_shape
+        self.register_buffer("latent_mean", torch.zeros(shape))
+        self.register_buffer("latent_std", torch.ones(shape))
+
+    @property
+    def latent_shape(self) -> tuple[int, int]:
+        """``(N_r, k)``: the latent of one frame."""
+        return self.decoder.latent_shape
+
+    def encode(self, node_x: torch.Tensor, edge_x: torch.Tensor | None = None) -> torch.Tensor:
+        """Human features ``(B, N_h, F)`` (+ ``(B, E_h, 3)``) -> ``z (B, N_r, k)``."""
+        return self.encoder(node_x, edge_x)
+
+    def decode(self, z: torch.Tensor) -> torch.Tensor:
+        """``z (B, N_r, k)`` -> ``q (B, n)`` inside the joint limits."""
+        return self.decoder(z)
+
+    def forward(self, node_x: torch.Tensor, edge_x: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        """Encoder then decoder; returns ``(q, z)``."""
+        z = self.encode(node_x, edge_x)
+        return self.decode(z), z
+
+
+def build_model(
+    robot_name: str,
+    robot_graph: Graph,
+    lower: torch.Tensor,
+    upper: torch.Tensor,
+    human_graph: Graph,
+    in_features: int,
+    edge_features: int = 3,
+    kind: str = "graph",
+    latent_per_node: int = 4,
+) -> RetargetModel:
+    """Build an untrained :class:`RetargetModel`.
+
+    Args:
+        robot_name: recorded in the model (and in checkpoints).
+        robot_graph: ``robot.graph``.
+        lower, upper: ``(n,)`` joint limits [rad].
+        human_graph: ``nlo_lab.human.skeleton_graph()``.
+        in_features: F of ``node_features(demo)``.
+        edge_features: width of ``edge_features(demo)``.
+        kind: ``"graph"`` (the paper) or ``"mlp"`` (the ablation).
+        latent_per_node: ``k`` of ``z (B, N_r, k)``.
+
+    Raises:
+        SettingsError: unknown kind or a non-positive latent size.
+    """
+    if kind not in MODEL_KINDS:
+        raise SettingsError(f"unknown model kind {kind!r}; expected one of {MODEL_KINDS}")
+    if int(latent_per_node) < 1:
+        raise SettingsError(f"latent_per_node must be >= 1, got {latent_per_node}")
+    enc_cls, dec_cls = (GraphEncoder, GraphDecoder) if kind == "graph" else (MLPEncoder, MLPDecoder)
+    n_r = robot_graph.num_nodes
+    encoder = enc_cls(human_graph, in_features, edge_features, n_r, latent_per_node)
+    decoder = dec_cls(robot_graph, lower, upper, latent_per_node)
+    config = {
+        "kind": kind,
+        "latent_per_node": int(latent_per_node),
+        "in_features": int(in_features),
+        "edge_features": int(edge_features),
+        "human_nodes": int(human_graph.num_nodes),
+        "robot_nodes": int(n_r),
+    }
+    return RetargetModel(encoder, decoder, robot_name, config)
