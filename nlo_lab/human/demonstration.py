@@ -68,6 +68,38 @@ class Demonstration:
     def __post_init__(self) -> None:
         self.validate()
 
+    @classmethod
+    def from_arrays(
+        cls,
+        fps: float,
+        arm_positions: np.ndarray,
+        arm_mask: np.ndarray,
+        wrist_rotations: np.ndarray,
+        wrist_mask: np.ndarray,
+        finger_positions: np.ndarray,
+        finger_mask: np.ndarray,
+        name: str = "",
+        meta: dict[str, Any] | None = None,
+        path=None,
+    ) -> "Demonstration":
+        """Build and validate a demonstration; a validation error names ``path`` (the source file).
+
+        Readers use this instead of the constructor so that an invalid field is
+        reported together with the file it came from.
+        """
+        demo = object.__new__(cls)
+        demo.fps = fps
+        demo.arm_positions = arm_positions
+        demo.arm_mask = arm_mask
+        demo.wrist_rotations = wrist_rotations
+        demo.wrist_mask = wrist_mask
+        demo.finger_positions = finger_positions
+        demo.finger_mask = finger_mask
+        demo.name = name
+        demo.meta = {} if meta is None else dict(meta)
+        demo.validate(path=path)
+        return demo
+
     # ------------------------------------------------------------------ checks
     def validate(self, path=None) -> None:
         """Check shapes, fps and finiteness; raise :class:`DemonstrationError` naming the field."""
