@@ -1,0 +1,451 @@
+"""Batched, differentiable forward kinematics of a URDF tree.
+
+The URDF is parsed once (:func:`parse_urdf`, our own small XML reader so that
+every problem becomes a :class:`~nlo_lab.errors.RobotDescriptionError` naming
+the file). :class:`KinematicTree` then precomputes, per moving joint, the
+index of its nearest moving ancestor, the fixed transform from that ancestor's
+frame to the joint (fixed joints are folded in), its axis and its mimic rule.
+One forward pass is
+
+1. expand the actuated angles to every moving joint (mimic: ``m * q_src + c``),
+2. one vectorised Rodrigues call for all joint rotations ``(B, M, 3, 3)``,
+3. chain level by level: every joint at the same depth of the moving-joint tree
+   in one batched matmul,
+4. every link = (its anchor's world frame) @ (a constant), one batched matmul.
+
+Rotations and translations are kept apart (3x3 + 3) and assembled into 4x4
+matrices only at the end.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import torch
+
+from nlo_lab.errors import RobotDescriptionError
+
+__all__ = [
+    "JointInfo",
+    "URDFModel",
+    "parse_urdf",
+    "rpy_to_matrix",
+    "matrix_to_rpy",
+    "KinematicTree",
+]
+
+MOVING_TYPES = ("revolute", "continuous")
+SUPPORTED_TYPES = MOVING_TYPES + ("fixed",)
+
+
+# --------------------------------------------------------------------------- rotations
+def rpy_to_matrix(rpy: Sequence[float]) -> np.ndarray:
+    """URDF roll-pitch-yaw (fixed axes x, y, z) to a rotation matrix ``Rz(y) Ry(p) Rx(r)``.
+
+    Args:
+        rpy: ``(3,)`` roll, pitch, yaw [rad].
+
+    Returns:
+        ``(3, 3)`` float64 rotation matrix.
+    """
+    r, p, y = (float(v) for v in rpy)
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def matrix_to_rpy(R: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`rpy_to_matrix` (pitch in [-pi/2, pi/2]); ``(3, 3)`` -> ``(3,)`` [rad]."""
+    R = np.asarray(R, dtype=np.float64)
+    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
+    if abs(math.cos(pitch)) < 1e-9:  # gimbal lock: put everything into yaw
+        return np.array([0.0, pitch, math.atan2(-R[0, 1], R[1, 1])])
+    return np.array([math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])]) + 0.0  # no -0.0
+
+
+def _transform(xyz, rpy) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = rpy_to_matrix(rpy)
+    T[:3, 3] = xyz
+    return T
+
+
+# --------------------------------------------------------------------------- URDF model
+@dataclass(frozen=True)
+class JointInfo:
+    """One URDF joint.
+
+    Attributes:
+        name: joint name.
+        type: ``"revolute"``, ``"continuous"`` or ``"fixed"``.
+        parent: parent link name.
+        child: child link name.
+        origin: ``(4, 4)`` float64 ``T_parent_joint`` (the ``<origin>``).
+        axis: ``(3,)`` unit axis in the joint frame.
+        lower: lower limit [rad] (``-pi`` for continuous joints without a limit).
+        upper: upper limit [rad].
+        mimic: ``(source_joint, multiplier, offset)`` or ``None``.
+    """
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    origin: np.ndarray
+    axis: np.ndarray
+    lower: float
+    upper: float
+    mimic: tuple[str, float, float] | None = None
+
+    @property
+    def moving(self) -> bool:
+        return self.type in MOVING_TYPES
+
+    @property
+    def origin_xyz_rpy(self) -> np.ndarray:
+        """``(6,)`` the origin as xyz [m] + rpy [rad]."""
+        return np.concatenate([self.origin[:3, 3], matrix_to_rpy(self.origin[:3, :3])])
+
+
+@dataclass(frozen=True)
+class URDFModel:
+    """A parsed URDF: links and joints, joints in depth-first order from the root.
+
+    Attributes:
+        name: the robot's name attribute.
+        path: the file it came from.
+        root: the root link.
+        links: link names, parents before children.
+        joints: joints, parents before children.
+    """
+
+    name: str
+    path: Path
+    root: str
+    links: tuple[str, ...]
+    joints: tuple[JointInfo, ...]
+
+    def joint(self, name: str) -> JointInfo:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise RobotDescriptionError(f"{self.path}: no joint named {name!r}")
+
+    def parent_joint(self, link: str) -> JointInfo | None:
+        """The joint whose child is ``link`` (``None`` for the root)."""
+        for j in self.joints:
+            if j.child == link:
+                return j
+        return None
+
+
+def _floats(text: str | None, n: int, what: str, path: Path) -> np.ndarray:
+    if text is None:
+        return np.zeros(n)
+    try:
+        values = np.array([float(v) for v in text.split()])
+    except ValueError:
+        raise RobotDescriptionError(f"{path}: {what} must be {n} numbers, got {text!r}") from None
+    if values.shape != (n,) or not np.all(np.isfinite(values)):
+        raise RobotDescriptionError(f"{path}: {what} must be {n} finite numbers, got {text!r}")
+    return values
+
+
+def parse_urdf(path: str | Path) -> URDFModel:
+    """Read a URDF file into a :class:`URDFModel`.
+
+    Args:
+        path: the ``.urdf`` file.
+
+    Returns:
+        The model, joints ordered parents first.
+
+    Raises:
+        RobotDescriptionError: missing file, malformed XML, a joint naming a link
+            that does not exist, a link with two parents, several roots or a
+            cycle, an unsupported joint type, a bad number, a mimic joint whose
+            source does not exist.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise RobotDescriptionError(f"URDF file not found: {path}")
+    try:
+        root_el = ET.parse(path).getroot()
+    except ET.ParseError as e:
+        raise RobotDescriptionError(f"{path}: malformed URDF XML ({e})") from None
+    if root_el.tag != "robot":
+        raise RobotDescriptionError(f"{path}: the root element must be <robot>, got <{root_el.tag}>")
+    links = [el.get("name") for el in root_el.findall("link")]
+    if any(n is None for n in links):
+        raise RobotDescriptionError(f"{path}: a <link> has no name")
+    if len(set(links)) != len(links):
+        dup = sorted({n for n in links if links.count(n) > 1})
+        raise RobotDescriptionError(f"{path}: duplicate link names {dup}")
+    link_set = set(links)
+
+    joints: dict[str, JointInfo] = {}
+    for el in root_el.findall("joint"):
+        name, jtype = el.get("name"), el.get("type")
+        if name is None:
+            raise RobotDescriptionError(f"{path}: a <joint> has no name")
+        if name in joints:
+            raise RobotDescriptionError(f"{path}: duplicate joint name {name!r}")
+        if jtype not in SUPPORTED_TYPES:
+            raise RobotDescriptionError(
+                f"{path}: joint {name!r} has type {jtype!r}; supported: {', '.join(SUPPORTED_TYPES)}"
+            )
+        ends = {}
+        for tag in ("parent", "child"):
+            sub = el.find(tag)
+            ends[tag] = None if sub is None else sub.get("link")
+            if ends[tag] not in link_set:
+                raise RobotDescriptionError(f"{path}: joint {name!r} names {tag} link {ends[tag]!r}, which does not exist")
+        origin_el = el.find("origin")
+        xyz = _floats(None if origin_el is None else origin_el.get("xyz"), 3, f"joint {name!r} origin xyz", path)
+        rpy = _floats(None if origin_el is None else origin_el.get("rpy"), 3, f"joint {name!r} origin rpy", path)
+        axis_el = el.find("axis")
+        axis = np.array([1.0, 0.0, 0.0]) if axis_el is None else _floats(axis_el.get("xyz"), 3, f"joint {name!r} axis", path)
+        lower, upper = -math.pi, math.pi
+        if jtype in MOVING_TYPES:
+            if np.linalg.norm(axis) < 1e-9:
+                raise RobotDescriptionError(f"{path}: joint {name!r} has a zero axis")
+            axis = axis / np.linalg.norm(axis)
+            limit_el = el.find("limit")
+            if limit_el is None and jtype == "revolute":
+                raise RobotDescriptionError(f"{path}: revolute joint {name!r} has no <limit>")
+            if limit_el is not None and (limit_el.get("lower") is not None or jtype == "revolute"):
+                lower = float(_floats(limit_el.get("lower", "0"), 1, f"joint {name!r} lower limit", path)[0])
+                upper = float(_floats(limit_el.get("upper", "0"), 1, f"joint {name!r} upper limit", path)[0])
+            if lower > upper:
+                raise RobotDescriptionError(f"{path}: joint {name!r} has lower limit {lower} > upper limit {upper}")
+        mimic = None
+        mimic_el = el.find("mimic")
+        if mimic_el is not None:
+            src = mimic_el.get("joint")
+            mult = float(_floats(mimic_el.get("multiplier", "1"), 1, f"joint {name!r} mimic multiplier", path)[0])
+            off = float(_floats(mimic_el.get("offset", "0"), 1, f"joint {name!r} mimic offset", path)[0])
+            mimic = (src, mult, off)
+        joints[name] = JointInfo(name, jtype, ends["parent"], ends["child"], _transform(xyz, rpy), axis, lower, upper, mimic)
+
+    for j in joints.values():
+        if j.mimic is not None:
+            src = joints.get(j.mimic[0])
+            if src is None:
+                raise RobotDescriptionError(f"{path}: joint {j.name!r} mimics {j.mimic[0]!r}, which does not exist")
+            if not (j.moving and src.moving):
+                raise RobotDescriptionError(f"{path}: mimic joint {j.name!r} and its source {src.name!r} must both move")
+
+    parent_of: dict[str, JointInfo] = {}
+    for j in joints.values():
+        if j.child in parent_of:
+            raise RobotDescriptionError(f"{path}: link {j.child!r} has two parent joints ({parent_of[j.child].name!r}, {j.name!r})")
+        parent_of[j.child] = j
+    roots = [n for n in links if n not in parent_of]
+    if len(roots) != 1:
+        raise RobotDescriptionError(f"{path}: expected exactly one root link, found {roots}")
+    children: dict[str, list[JointInfo]] = {n: [] for n in links}
+    for j in joints.values():
+        children[j.parent].append(j)
+    order_links, order_joints, stack = [], [], [roots[0]]
+    while stack:  # depth-first, keeps file order among siblings
+        link = stack.pop()
+        order_links.append(link)
+        for j in reversed(children[link]):
+            order_joints.append(j)
+            stack.append(j.child)
+    if len(order_links) != len(links):
+        missing = sorted(set(links) - set(order_links))
+        raise RobotDescriptionError(f"{path}: links {missing} are not connected to the root {roots[0]!r} (cycle?)")
+    # order_joints is in stack-push order; re-sort so that each joint follows its parent link's joint.
+    rank = {n: i for i, n in enumerate(order_links)}
+    order_joints.sort(key=lambda j: rank[j.child])
+    return URDFModel(root_el.get("name", path.stem), path, roots[0], tuple(order_links), tuple(order_joints))
+
+
+# --------------------------------------------------------------------------- FK
+class KinematicTree:
+    """Precomputed index tensors of a URDF tree and its batched FK.
+
+    Args:
+        model: the parsed URDF.
+        actuated: names of the actuated joints, the order of the angle vector
+            ``q``. Every moving joint must be actuated or mimic an actuated
+            joint (directly or through other mimic joints).
+
+    Raises:
+        RobotDescriptionError: an actuated name that is not a moving non-mimic
+            joint, or a moving joint that is neither actuated nor a mimic.
+    """
+
+    def __init__(self, model: URDFModel, actuated: Sequence[str]):
+        self.model = model
+        path = model.path
+        joints = {j.name: j for j in model.joints}
+        self.actuated = tuple(actuated)
+        if len(set(self.actuated)) != len(self.actuated):
+            raise RobotDescriptionError(f"{path}: actuated joints listed twice: {sorted({a for a in actuated if list(actuated).count(a) > 1})}")
+        for name in self.actuated:
+            j = joints.get(name)
+            if j is None:
+                raise RobotDescriptionError(f"{path}: actuated joint {name!r} does not exist in the URDF")
+            if not j.moving or j.mimic is not None:
+                raise RobotDescriptionError(f"{path}: actuated joint {name!r} is {'a mimic' if j.mimic else j.type} joint")
+        act_index = {n: i for i, n in enumerate(self.actuated)}
+
+        def resolve(j: JointInfo, depth: int = 0) -> tuple[int, float, float]:
+            """(actuated index, multiplier, offset) of a moving joint."""
+            if depth > len(joints):
+                raise RobotDescriptionError(f"{path}: mimic joints form a cycle at {j.name!r}")
+            if j.mimic is None:
+                if j.name not in act_index:
+                    raise RobotDescriptionError(
+                        f"{path}: moving joint {j.name!r} is neither in the spec's actuated_joints nor a mimic joint"
+                    )
+                return act_index[j.name], 1.0, 0.0
+            src, m, c = resolve(joints[j.mimic[0]], depth + 1)
+            return src, j.mimic[1] * m, j.mimic[1] * c + j.mimic[2]
+
+        # Anchor of each link: the nearest moving joint at or above it (-1: the root),
+        # and the constant transform from that anchor's frame to the link.
+        moving: list[JointInfo] = []
+        anchor_of_link: dict[str, int] = {model.root: -1}
+        const_of_link: dict[str, np.ndarray] = {model.root: np.eye(4)}
+        pre: list[np.ndarray] = []  # T_anchor_jointframe of each moving joint
+        parent_moving: list[int] = []
+        for j in model.joints:  # parents first
+            a, C = anchor_of_link[j.parent], const_of_link[j.parent]
+            if j.moving:
+                moving.append(j)
+                pre.append(C @ j.origin)
+                parent_moving.append(a)
+                anchor_of_link[j.child], const_of_link[j.child] = len(moving) - 1, np.eye(4)
+            else:
+                anchor_of_link[j.child], const_of_link[j.child] = a, C @ j.origin
+        depth = []
+        for p in parent_moving:
+            depth.append(0 if p < 0 else depth[p] + 1)
+        # Sort moving joints by depth so that each level is a contiguous slice.
+        order = sorted(range(len(moving)), key=lambda i: (depth[i], i))
+        new_pos = {old: new for new, old in enumerate(order)}
+        self.moving_names = tuple(moving[i].name for i in order)
+        self.moving_parent = [new_pos[parent_moving[i]] if parent_moving[i] >= 0 else -1 for i in order]
+        self.moving_pre = np.stack([pre[i] for i in order]) if moving else np.zeros((0, 4, 4))  # (M, 4, 4)
+        rules = [resolve(moving[i]) for i in order]
+        levels = [depth[i] for i in order]
+        self.level_slices: list[tuple[int, int]] = []
+        for d in sorted(set(levels)):
+            idx = [k for k, lv in enumerate(levels) if lv == d]
+            self.level_slices.append((idx[0], idx[-1] + 1))
+        self.link_names = model.links
+        self.link_index = {n: i for i, n in enumerate(model.links)}
+        # body 0 = root; body k+1 = child frame of moving joint k (sorted order)
+        self.link_body = [0 if anchor_of_link[n] < 0 else new_pos[anchor_of_link[n]] + 1 for n in model.links]
+        self.link_const = np.stack([const_of_link[n] for n in model.links])  # (L, 4, 4)
+        self._np = {
+            "src": np.array([r[0] for r in rules], dtype=np.int64),
+            "mult": np.array([r[1] for r in rules]),
+            "off": np.array([r[2] for r in rules]),
+            "axis": np.stack([moving[i].axis for i in order]) if moving else np.zeros((0, 3)),
+        }
+        # parent index within the previous level's slice, per level >= 1
+        self._level_parent_local = []
+        for li, (s, e) in enumerate(self.level_slices):
+            if li == 0:
+                self._level_parent_local.append(None)
+                continue
+            ps, _ = self.level_slices[li - 1]
+            self._level_parent_local.append(np.array([self.moving_parent[k] - ps for k in range(s, e)], dtype=np.int64))
+        self._cache: dict[tuple, dict[str, torch.Tensor]] = {}
+
+    @property
+    def n_links(self) -> int:
+        return len(self.link_names)
+
+    def _consts(self, device: torch.device, dtype: torch.dtype) -> dict[str, torch.Tensor]:
+        key = (device, dtype)
+        c = self._cache.get(key)
+        if c is None:
+            f = lambda a: torch.as_tensor(a, dtype=dtype, device=device)  # noqa: E731
+            i = lambda a: torch.as_tensor(a, dtype=torch.long, device=device)  # noqa: E731
+            axis = f(self._np["axis"])  # (M, 3)
+            K = torch.zeros(axis.shape[0], 3, 3, dtype=dtype, device=device)  # cross-product matrices
+            K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
+            K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = axis[:, 2], -axis[:, 1], axis[:, 0]
+            c = {
+                "src": i(self._np["src"]),
+                "mult": f(self._np["mult"]),
+                "off": f(self._np["off"]),
+                "K": K,
+                "K2": K @ K,
+                "pre_R": f(self.moving_pre[:, :3, :3]),
+                "pre_t": f(self.moving_pre[:, :3, 3]),
+                "link_body": i(self.link_body),
+                "const_R": f(self.link_const[:, :3, :3]),
+                "const_t": f(self.link_const[:, :3, 3]),
+                "level_parent": [None if p is None else i(p) for p in self._level_parent_local],
+            }
+            self._cache[key] = c
+        return c
+
+    def joint_angles(self, q: torch.Tensor) -> torch.Tensor:
+        """Expand actuated angles ``(..., n)`` to every moving joint ``(..., M)`` (sorted order)."""
+        c = self._consts(q.device, q.dtype)
+        return q.index_select(-1, c["src"]) * c["mult"] + c["off"]
+
+    def forward(self, q: torch.Tensor) -> torch.Tensor:
+        """World poses of every link.
+
+        Args:
+            q: ``(..., n)`` actuated joint angles [rad], in :attr:`actuated` order.
+
+        Returns:
+            ``(..., L, 4, 4)`` ``T_root_link`` for every link in :attr:`link_names` order.
+        """
+        n = len(self.actuated)
+        if q.shape[-1] != n:
+            raise ValueError(f"{self.model.name}: expected {n} joint angles in the last dimension, got shape {tuple(q.shape)}")
+        if not torch.is_floating_point(q):
+            q = q.to(torch.get_default_dtype())
+        lead = q.shape[:-1]
+        q = q.reshape(-1, n)  # (B, n)
+        B = q.shape[0]
+        c = self._consts(q.device, q.dtype)
+        theta = q.index_select(1, c["src"]) * c["mult"] + c["off"]  # (B, M)
+        s, co = torch.sin(theta)[..., None, None], torch.cos(theta)[..., None, None]
+        eye = torch.eye(3, dtype=q.dtype, device=q.device)
+        R_joint = eye + s * c["K"] + (1.0 - co) * c["K2"]  # (B, M, 3, 3) Rodrigues
+        R_local = c["pre_R"] @ R_joint  # (B, M, 3, 3): T_parentbody_body rotation
+        t_local = c["pre_t"]  # (M, 3)
+        Rs, ts = [], []
+        R_prev = t_prev = None
+        for li, (a, b) in enumerate(self.level_slices):
+            if li == 0:
+                R_w, t_w = R_local[:, a:b], t_local[a:b].expand(B, -1, -1)
+            else:
+                p = c["level_parent"][li]
+                Rp, tp = R_prev.index_select(1, p), t_prev.index_select(1, p)  # (B, m, 3, 3), (B, m, 3)
+                R_w = Rp @ R_local[:, a:b]
+                t_w = (Rp @ t_local[a:b, :, None]).squeeze(-1) + tp
+            Rs.append(R_w)
+            ts.append(t_w)
+            R_prev, t_prev = R_w, t_w
+        root_R = eye.expand(B, 1, 3, 3)
+        root_t = torch.zeros(B, 1, 3, dtype=q.dtype, device=q.device)
+        R_body = torch.cat([root_R] + Rs, 1)  # (B, 1+M, 3, 3)
+        t_body = torch.cat([root_t] + ts, 1)  # (B, 1+M, 3)
+        Rb, tb = R_body.index_select(1, c["link_body"]), t_body.index_select(1, c["link_body"])
+        R = Rb @ c["const_R"]  # (B, L, 3, 3)
+        t = (Rb @ c["const_t"][..., None]).squeeze(-1) + tb  # (B, L, 3)
+        bottom = torch.tensor([0.0, 0.0, 0.0, 1.0], dtype=q.dtype, device=q.device).expand(B, R.shape[1], 1, 4)
+        T = torch.cat([torch.cat([R, t[..., None]], -1), bottom], -2)  # (B, L, 4, 4)
+        return T.reshape(*lead, R.shape[1], 4, 4)
