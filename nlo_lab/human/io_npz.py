@@ -53,7 +53,10 @@ def save_npz(demo: Demonstration, path) -> Path:
     except (TypeError, ValueError) as err:
         raise DemonstrationError(f"meta is not JSON-serialisable: {err}", path=path, field="meta") from None
     arrays = {name: getattr(demo, name) for name in _ARRAYS}
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent if str(path.parent) else ".")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as err:
+        raise DemonstrationError(f"cannot write into the folder ({err})", path=path) from None
     try:
         with os.fdopen(fd, "wb") as f:
             np.savez(
