@@ -78,7 +78,9 @@ def main(argv: list[str] | None = None) -> None:
     bridge = LoopbackBridge()
     print(f"zmq_url={bridge.zmq_url}", flush=True)
     print(f"web_url={bridge.web_url}", flush=True)
-    sys.stdout.flush()
+    # Nobody reads our stdout after the two lines: send later prints to /dev/null so a full pipe never blocks us.
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
     try:
         bridge.run()
     except KeyboardInterrupt:

@@ -48,21 +48,32 @@ def _stop_process(proc: subprocess.Popen) -> None:
             stream.close()
 
 
-def _read_line(proc: subprocess.Popen, deadline: float) -> str:
+def _read_lines(proc: subprocess.Popen, wanted: tuple[str, ...], deadline: float) -> dict[str, str]:
+    """``key=value`` lines the server prints at start, read unbuffered (select + os.read) until all ``wanted`` keys are seen."""
+    fd = proc.stdout.fileno()
+    buf, found = b"", {}
     sel = selectors.DefaultSelector()
-    sel.register(proc.stdout, selectors.EVENT_READ)
+    sel.register(fd, selectors.EVENT_READ)
     try:
-        while time.monotonic() < deadline:
-            if sel.select(timeout=max(0.0, min(0.2, deadline - time.monotonic()))):
-                line = proc.stdout.readline()
-                if not line:
-                    raise ViewerError(f"the viewer server exited early (status {proc.poll()})")
-                return line.decode("utf-8").strip()
-            if proc.poll() is not None:
-                raise ViewerError(f"the viewer server exited early (status {proc.returncode})")
+        while len(found) < len(wanted):
+            while b"\n" in buf:
+                line, buf = buf.split(b"\n", 1)
+                key, sep, value = line.decode("utf-8", "replace").strip().partition("=")
+                if sep and key in wanted:
+                    found[key] = value
+            if len(found) == len(wanted):
+                break
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise ViewerError("the viewer server did not start in time")
+            if sel.select(timeout=min(0.2, remaining)):
+                chunk = os.read(fd, 4096)
+                if not chunk:
+                    raise ViewerError(f"the viewer server exited early (status {proc.wait(timeout=5)})")
+                buf += chunk
     finally:
         sel.close()
-    raise ViewerError("the viewer server did not start in time")
+    return found
 
 
 class Viewer:
@@ -89,13 +100,7 @@ class Viewer:
         self._finalizer = weakref.finalize(self, _stop_process, self._proc)  # runs at close(), GC, or exit
         atexit.register(self._finalizer)
         try:
-            deadline = time.monotonic() + timeout
-            lines = {}
-            while len(lines) < 2:
-                line = _read_line(self._proc, deadline)
-                key, sep, value = line.partition("=")
-                if sep and key in ("zmq_url", "web_url"):
-                    lines[key] = value
+            lines = _read_lines(self._proc, ("zmq_url", "web_url"), time.monotonic() + timeout)
             self.zmq_url, self.url = lines["zmq_url"], lines["web_url"]
             with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL
                 window = ViewerWindow(zmq_url=self.zmq_url, start_server=False, server_args=[])
