@@ -62,15 +62,15 @@ def segment_distance(a0: torch.Tensor, a1: torch.Tensor, b0: torch.Tensor, b1: t
         a0, a1, b0, b1: ``(..., 3)`` end points [m], broadcastable.
 
     Returns:
-        ``(...)`` distance [m] (>= 0). Differentiable; the gradient is zero
-        where the segments touch (distance below 1e-6 m).
+        ``(...)`` distance [m] (>= 0). Differentiable; distances below
+        1e-6 m read as 0, with zero gradient (sqrt is not differentiable at 0).
     """
     s, t = closest_parameters(a0, a1, b0, b1)
     p = a0 + s[..., None] * (a1 - a0)  # (..., 3) closest point on a
     q = b0 + t[..., None] * (b1 - b0)  # (..., 3) closest point on b
     d2 = ((p - q) ** 2).sum(-1)
     # clamp keeps sqrt's gradient finite when the segments intersect
-    return d2.clamp_min(_EPS).sqrt()
+    return torch.where(d2 > _EPS, d2.clamp_min(_EPS).sqrt(), torch.zeros_like(d2))
 
 
 def capsule_distance(

@@ -124,6 +124,8 @@ class RobotSpec:
         collision_pairs: pairs of capsule names that are checked.
         pair_margins: d_min [m] of each pair, same order.
         description: free text.
+        neutral_pose: optional ``((joint, angle [rad]), ...)``: a collision-free
+            rest pose (YuMi's all-zero pose crosses the forearms).
     """
 
     name: str
@@ -136,6 +138,7 @@ class RobotSpec:
     collision_pairs: tuple[tuple[str, str], ...]
     pair_margins: tuple[float, ...]
     description: str = ""
+    neutral_pose: tuple[tuple[str, float], ...] | None = None
 
     def __post_init__(self) -> None:
         if set(self.arms) != set(SIDES):
@@ -269,6 +272,14 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
             raise RobotDescriptionError(f"{path}: collision_margin names the pair {key!r}, which is not in collision_pairs")
         overrides[frozenset((a, b))] = float(value)
     margins = tuple(overrides.get(frozenset(p), default) for p in pairs)
+    neutral = data.get("neutral_pose")
+    if neutral is not None:
+        if not isinstance(neutral, dict) or not all(isinstance(v, (int, float)) for v in neutral.values()):
+            raise RobotDescriptionError(f"{path}: 'neutral_pose' must map joint names to angles [rad]")
+        unknown = sorted(set(neutral) - set(actuated))
+        if unknown:
+            raise RobotDescriptionError(f"{path}: neutral_pose names joints {unknown} that are not in actuated_joints")
+        neutral = tuple((str(k), float(v)) for k, v in neutral.items())
     return RobotSpec(
         name=str(data.get("name", path.stem)),
         path=path,
@@ -280,6 +291,7 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         collision_pairs=tuple(pairs),
         pair_margins=margins,
         description=str(data.get("description", "")),
+        neutral_pose=neutral,
     )
 
 
@@ -315,6 +327,12 @@ class Robot:
         self._graph64 = self._build_graph()
         # reference pose: q = 0 clamped into the limits
         self._q_ref = np.clip(np.zeros(self.n_joints), self._lower, self._upper)
+        self._q_neutral = self._q_ref.copy()
+        for joint, angle in spec.neutral_pose or ():
+            i = self.joint_names.index(joint)
+            if not self._lower[i] <= angle <= self._upper[i]:
+                raise RobotDescriptionError(f"{spec.path}: neutral_pose {joint} = {angle} is outside [{self._lower[i]}, {self._upper[i]}]")
+            self._q_neutral[i] = angle
         with torch.no_grad():
             T = self.tree.forward(torch.as_tensor(self._q_ref, dtype=torch.float64))  # (L, 4, 4)
         self._ref_poses = {n: T[i] for i, n in enumerate(self.link_names)}
@@ -494,6 +512,12 @@ class Robot:
     def reference_q(self) -> torch.Tensor:
         """``(n,)`` the reference pose: zero clamped into the limits [rad]."""
         return torch.as_tensor(self._q_ref, dtype=self.dtype, device=self.device)
+
+    @property
+    def neutral_q(self) -> torch.Tensor:
+        """``(n,)`` a collision-free rest pose [rad]: the spec's ``neutral_pose``
+        (unlisted joints at the reference pose), else :attr:`reference_q`."""
+        return torch.as_tensor(self._q_neutral, dtype=self.dtype, device=self.device)
 
     def zero_pose_lengths(self, side: str) -> tuple[float, float]:
         """``(upper, fore)`` = shoulder->elbow, elbow->wrist distances [m] at the reference pose."""

@@ -1,0 +1,108 @@
+"""Segment and capsule distances against brute-force sampling; gradients stay finite."""
+
+from __future__ import annotations
+
+import functools
+
+import pytest
+import torch
+
+from nlo_lab.collision import capsule_distance, segment_distance
+from nlo_lab.robots import Robot, load_robot
+
+N = 2001  # samples per segment for the brute-force reference
+
+
+@functools.lru_cache(maxsize=None)
+def robot64(name: str) -> Robot:
+    return load_robot(name).to(dtype=torch.float64)
+
+
+def brute_force(a0, a1, b0, b1, n=N):
+    """Sampled distance and its guaranteed over-estimate bound (half a sample step on each segment)."""
+    s = torch.linspace(0, 1, n, dtype=torch.float64)[:, None]
+    pa, pb = a0 + s * (a1 - a0), b0 + s * (b1 - b0)  # (N, 3)
+    d = torch.cdist(pa, pb).min()
+    slack = 0.5 * ((a1 - a0).norm() + (b1 - b0).norm()) / (n - 1)
+    return d, slack
+
+
+def special_cases():
+    t = lambda *v: torch.tensor(v, dtype=torch.float64)  # noqa: E731
+    return [
+        (t(0, 0, 0), t(1, 0, 0), t(0, 1, 0), t(1, 1, 0)),  # parallel, overlapping
+        (t(0, 0, 0), t(1, 0, 0), t(2, 1, 0), t(3, 1, 0)),  # parallel, disjoint
+        (t(0, 0, 0), t(1, 0, 0), t(3, 0, 0), t(2, 0, 0)),  # collinear, disjoint, reversed
+        (t(0, 0, 0), t(1, 0, 0), t(0.5, -1, 0), t(0.5, 1, 0)),  # crossing: distance 0
+        (t(0, 0, 0), t(1, 0, 0), t(0.5, 0.2, 0.3), t(0.5, 0.2, 0.3)),  # b is a point
+        (t(0.3, 0.3, 0.3), t(0.3, 0.3, 0.3), t(0, 0, 0), t(0, 0, 1)),  # a is a point
+        (t(1, 1, 1), t(1, 1, 1), t(0, 0, 0), t(0, 0, 0)),  # two points
+        (t(0, 0, 0), t(1, 0, 0), t(-1, 0.1, 0), t(3, 0.1 + 1e-9, 0)),  # almost parallel
+    ]
+
+
+def test_segment_distance_matches_brute_force():
+    g = torch.Generator().manual_seed(0)
+    cases = special_cases() + [tuple(torch.randn(4, 3, generator=g, dtype=torch.float64) * 0.3)]
+    cases += [tuple(torch.randn(4, 3, generator=g, dtype=torch.float64) * 0.3) for _ in range(40)]
+    a0, a1, b0, b1 = (torch.stack(x) for x in zip(*cases))
+    d = segment_distance(a0, a1, b0, b1)  # batched
+    for i, case in enumerate(cases):
+        ref, slack = brute_force(*case)
+        assert float(d[i]) <= float(ref) + 1e-12, f"case {i}: closer than any sampled pair"
+        assert float(ref) - float(d[i]) <= float(slack) + 1e-12, f"case {i}: {float(d[i])} vs sampled {float(ref)}"
+    # exact values of the special cases
+    torch.testing.assert_close(d[:4], torch.tensor([1.0, (1 + 1) ** 0.5, 1.0, 0.0], dtype=torch.float64), atol=1e-6, rtol=0)
+
+
+def test_segment_distance_is_symmetric_and_broadcasts():
+    g = torch.Generator().manual_seed(1)
+    a0, a1, b0, b1 = torch.randn(4, 5, 3, generator=g, dtype=torch.float64)
+    torch.testing.assert_close(segment_distance(a0, a1, b0, b1), segment_distance(b1, b0, a1, a0))
+    assert segment_distance(a0, a1, b0[:1], b1[:1]).shape == (5,)
+
+
+def test_gradients_finite_for_degenerate_cases():
+    for case in special_cases():
+        pts = [p.clone().requires_grad_(True) for p in case]
+        segment_distance(*pts).backward()
+        for p in pts:
+            assert torch.isfinite(p.grad).all()
+    for case in special_cases():  # float32 too
+        pts = [p.float().requires_grad_(True) for p in case]
+        segment_distance(*pts).backward()
+        assert all(torch.isfinite(p.grad).all() for p in pts)
+
+
+def test_gradient_matches_finite_differences():
+    g = torch.Generator().manual_seed(2)
+    pts = tuple(torch.randn(3, 3, generator=g, dtype=torch.float64).requires_grad_(True) for _ in range(4))
+    assert torch.autograd.gradcheck(segment_distance, pts, eps=1e-6, atol=1e-6)
+
+
+def test_capsule_distance_subtracts_radii():
+    a0, a1 = torch.tensor([0.0, 0, 0]), torch.tensor([1.0, 0, 0])
+    b0, b1 = torch.tensor([0.0, 1, 0]), torch.tensor([1.0, 1, 0])
+    assert float(capsule_distance(a0, a1, 0.2, b0, b1, 0.3)) == pytest.approx(0.5)
+    assert float(capsule_distance(a0, a1, 0.7, b0, b1, 0.6)) == pytest.approx(-0.3)
+
+
+@pytest.mark.parametrize("name", ["yumi", "nao", "pepper"])
+def test_robot_capsule_distances_match_brute_force(name):
+    robot = robot64(name)
+    g = torch.Generator().manual_seed(3)
+    q = robot.lower_limits + torch.rand(3, robot.n_joints, generator=g, dtype=torch.float64) * (robot.upper_limits - robot.lower_limits)
+    poses = robot.forward_kinematics(q)
+    d = robot.capsule_distances(poses)  # (3, P)
+    torch.testing.assert_close(d, robot.capsule_distances(robot.forward_kinematics_tensor(q)))
+    caps = {c.name: c for c in robot.spec.capsules}
+    for b in range(q.shape[0]):
+        for p, (na, nb) in enumerate(robot.spec.collision_pairs):
+            ends = []
+            for c in (caps[na], caps[nb]):
+                T = poses[c.link][b]
+                for pt in (c.p0, c.p1):
+                    ends.append(T[:3, :3] @ torch.tensor(pt, dtype=torch.float64) + T[:3, 3])
+            ref, slack = brute_force(*ends, n=301)  # capsules <= 0.3 m: slack <= 1 mm
+            ref = ref - caps[na].radius - caps[nb].radius
+            assert float(ref) - float(slack) - 1e-12 <= float(d[b, p]) <= float(ref) + 1e-12, (name, na, nb)
