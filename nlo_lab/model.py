@@ -29,6 +29,7 @@ in a few milliseconds per iteration.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import torch
@@ -71,20 +72,17 @@ def remap_to_limits(a: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -
     """
     s = torch.tanh(a)
     q = lower + (upper - lower) * (s + 1.0) * 0.5
-    return torch.maximum(torch.minimum(q, upper), lower)
-
-
-def _typed_linear(in_f: int, out_f: int, bias: bool) -> nn.ModuleList:
-    return nn.ModuleList(nn.Linear(in_f, out_f, bias=bias) for _ in range(NUM_NODE_TYPES))
-
-
-def _select_by_type(outputs: list[torch.Tensor], is_hand: torch.Tensor) -> torch.Tensor:
-    """``outputs[NODE_HAND]`` where ``is_hand`` (over dim -2), else ``outputs[NODE_ARM]``."""
-    return torch.where(is_hand[:, None], outputs[NODE_HAND], outputs[NODE_ARM])
+    return torch.clamp(q, min=lower, max=upper)
 
 
 class GraphLayer(nn.Module):
     """One residual message-passing layer with per-node-type weights.
+
+    The weight of type ``t`` is one matrix ``W_t = [W_self | W_nbr | W_edge]`` over
+    the concatenation ``[x_i, x_j, e_ji]``; it is applied blockwise (node blocks
+    once per node, then gathered per edge), which is the same map as the
+    concatenation but avoids materialising ``(B, E, 2C+F)`` and lets static edge
+    features be projected once, without the batch dimension.
 
     Args:
         in_features: node feature width C_in.
@@ -95,9 +93,16 @@ class GraphLayer(nn.Module):
     def __init__(self, in_features: int, out_features: int, edge_features: int):
         super().__init__()
         self.in_features, self.out_features, self.edge_features = in_features, out_features, edge_features
-        self.message = _typed_linear(2 * in_features + edge_features, out_features, bias=True)
+        fan_in = 2 * in_features + edge_features
+        bound = 1.0 / math.sqrt(fan_in)  # nn.Linear's default initialisation
+        self.weight = nn.Parameter(torch.empty(NUM_NODE_TYPES, out_features, fan_in).uniform_(-bound, bound))
+        self.bias = nn.Parameter(torch.empty(NUM_NODE_TYPES, out_features).uniform_(-bound, bound))
         # Linear skip when the width changes (the paper's residual needs equal widths).
-        self.skip = None if in_features == out_features else _typed_linear(in_features, out_features, bias=False)
+        if in_features == out_features:
+            self.skip = None
+        else:
+            b = 1.0 / math.sqrt(in_features)
+            self.skip = nn.Parameter(torch.empty(NUM_NODE_TYPES, out_features, in_features).uniform_(-b, b))
 
     def forward(
         self,
@@ -110,26 +115,36 @@ class GraphLayer(nn.Module):
 
         Args:
             x: ``(B, N, C_in)`` node features.
-            edge_index: ``(2, E)`` source -> target.
+            edge_index: ``(2, E)`` source j -> target i.
             edge_attr: ``(E, F)`` static or ``(B, E, F)`` per-sample edge features.
             node_type: ``(N,)`` :data:`NODE_ARM` / :data:`NODE_HAND`.
 
         Returns:
             ``(B, N, C_out)``.
         """
-        B = x.shape[0]
+        B, N, C = x.shape
+        O, K = self.out_features, NUM_NODE_TYPES
         src, dst = edge_index[0], edge_index[1]
-        if edge_attr.ndim == 2:
-            edge_attr = edge_attr.expand(B, -1, -1)  # (B, E, F)
-        h = torch.cat([x[:, dst], x[:, src], edge_attr], dim=-1)  # (B, E, 2C+F): [x_i, x_j, e_ji]
-        edge_is_hand = node_type[dst] == NODE_HAND  # weights of the receiving node's type
-        msg = _select_by_type([lin(h) for lin in self.message], edge_is_hand)  # (B, E, C_out)
+        t_edge = node_type[dst]  # weights of the receiving node's type
+        w_self, w_nbr, w_edge = self.weight.split([C, C, self.edge_features], dim=-1)  # (K, O, .)
+        blocks = [w_self, w_nbr] + ([] if self.skip is None else [self.skip])
+        # Every node through every block and type at once: (B, N, nb*K*O).
+        y = x @ torch.cat(blocks, dim=0).reshape(-1, C).T
+        nb = len(blocks)
+        y = y.reshape(B, N * nb * K, O)
+        col = lambda node, block, t: (node * nb + block) * K + t  # row of y for (node, block, type)
+        msg = y.index_select(1, col(dst, 0, t_edge)) + y.index_select(1, col(src, 1, t_edge))  # (B, E, O)
+        if edge_attr.ndim == 2:  # static: project once, (E, O)
+            msg = msg + (torch.einsum("ef,eof->eo", edge_attr, w_edge[t_edge]) + self.bias[t_edge])
+        else:  # per sample: (B, E, O)
+            msg = msg + torch.einsum("bef,eof->beo", edge_attr, w_edge[t_edge]) + self.bias[t_edge]
         msg = nn.functional.leaky_relu(msg, LEAKY_SLOPE)
-        agg = x.new_zeros(B, x.shape[1], self.out_features).index_add(1, dst, msg)  # (B, N, C_out)
+        agg = x.new_zeros(B, N, O).index_add(1, dst, msg)  # (B, N, O): sum over incoming edges
         if self.skip is None:
             res = x
         else:
-            res = _select_by_type([lin(x) for lin in self.skip], node_type == NODE_HAND)
+            nodes = torch.arange(N, device=x.device)
+            res = y.index_select(1, col(nodes, 2, node_type))
         return res + agg
 
 

@@ -64,9 +64,9 @@ def test_graph_layer_matches_the_formula():
     out = layer(x, g.edge_index, e, g.node_type)
     expected = x.clone()
     for k, (j, i) in enumerate(g.edge_index.T.tolist()):
-        lin = layer.message[int(g.node_type[i])]
+        t = int(g.node_type[i])
         h = torch.cat([x[:, i], x[:, j], e[k].expand(2, -1)], -1)
-        expected[:, i] += torch.nn.functional.leaky_relu(lin(h), 0.2)
+        expected[:, i] += torch.nn.functional.leaky_relu(h @ layer.weight[t].T + layer.bias[t], 0.2)
     torch.testing.assert_close(out, expected)
 
 
@@ -84,6 +84,21 @@ def test_graph_layer_messages_flow_source_to_target_only():
     x3[0, 1] += 1.0  # node 1 feeds nodes 2 and 4
     out3 = layer(x3, g.edge_index, g.edge_attr, g.node_type)
     assert ((out - out3).abs().sum(-1)[0] > 1e-7).tolist() == [False, True, True, False, True]
+
+
+def test_graph_layer_skip_projection_matches_the_formula():
+    torch.manual_seed(6)
+    g = chain_graph()
+    layer = GraphLayer(3, 5, 6).double()
+    x = torch.randn(2, 5, 3, dtype=torch.float64)
+    e = g.edge_attr.double()
+    out = layer(x, g.edge_index, e, g.node_type)
+    expected = torch.stack([x[:, i] @ layer.skip[int(g.node_type[i])].T for i in range(5)], dim=1)
+    for k, (j, i) in enumerate(g.edge_index.T.tolist()):
+        t = int(g.node_type[i])
+        h = torch.cat([x[:, i], x[:, j], e[k].expand(2, -1)], -1)
+        expected[:, i] += torch.nn.functional.leaky_relu(h @ layer.weight[t].T + layer.bias[t], 0.2)
+    torch.testing.assert_close(out, expected)
 
 
 def test_static_and_per_sample_edges_agree_and_batch_equals_loop():
@@ -106,7 +121,7 @@ def test_node_types_use_separate_weights():
     x = torch.randn(1, 5, 4)
     out = layer(x, g.edge_index, g.edge_attr, g.node_type)
     with torch.no_grad():
-        layer.message[NODE_HAND].weight.add_(1.0)
+        layer.weight[NODE_HAND].add_(1.0)
     out2 = layer(x, g.edge_index, g.edge_attr, g.node_type)
     changed = ((out - out2).abs().sum(-1)[0] > 1e-7).tolist()
     # Receivers of type hand (3, 4) change; arm receivers (1, 2) and the root (0) do not.
