@@ -344,10 +344,10 @@ def build_hand(u: Urdf, s: str) -> None:
 def mimic_limits(lo: float, hi: float, mult: float, off: float) -> tuple[float, float]:
     """Limits of a coupled joint that hold the formula's whole range over the source's range.
 
-    Rounded outwards to 0.01 rad so that the formula never leaves them.
+    Rounded outwards to 0.01 rad (the formula's end values lie inside or on them).
     """
     a, b = sorted((mult * lo + off, mult * hi + off))
-    return (math.floor(a * 100 - 1e-9) / 100, math.ceil(b * 100 + 1e-9) / 100)
+    return (math.floor(a * 100) / 100, math.ceil(b * 100) / 100)
 
 
 # --------------------------------------------------------------------------- spec
