@@ -486,7 +486,7 @@ class RetargetScene:
                 from nlo_lab.metrics import _mapped_human
 
                 self.human_scene = HumanScene(vis, demo, mapped=_mapped_human(demo, robot))
-        style_viewer(vis, camera=(1.6, -0.45 if layout == "side" and demo is not None else 0.0, 0.4))
+        style_viewer(vis, camera=self._camera(layout == "side" and demo is not None))
         self.robot_scene.draw()
         if self.human_scene is not None:
             self.human_scene.draw()
@@ -494,6 +494,14 @@ class RetargetScene:
 
     def __len__(self) -> int:
         return int(self.angles.shape[0])
+
+    def _camera(self, side_by_side: bool) -> tuple[float, float, float]:
+        """A camera in front, far enough to see every link (and the human) of frame 0 [m]."""
+        pts = [T[0, :3, 3] for T in self.robot_scene.link_poses(self.angles[:1]).values()]
+        if self.human_scene is not None:
+            pts.extend(self.human_scene.arms[0].reshape(-1, 3))
+        radius = float(np.max(np.linalg.norm(np.asarray(pts), axis=-1)))
+        return (max(0.8, 2.0 * radius), -0.45 if side_by_side else 0.0, 0.2 + 0.3 * radius)
 
     def set_frame(self, t: int) -> None:
         """Show frame ``t`` (robot pose and human skeleton)."""
