@@ -501,7 +501,7 @@ class RetargetScene:
         if self.human_scene is not None:
             pts.extend(self.human_scene.arms[0].reshape(-1, 3))
         radius = float(np.max(np.linalg.norm(np.asarray(pts), axis=-1)))
-        return (max(0.8, 2.0 * radius), -0.45 if side_by_side else 0.0, 0.2 + 0.3 * radius)
+        return (max(1.0, 2.8 * radius), -0.45 if side_by_side else 0.0, 0.2 + 0.3 * radius)
 
     def set_frame(self, t: int) -> None:
         """Show frame ``t`` (robot pose and human skeleton)."""
