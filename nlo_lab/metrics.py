@@ -197,24 +197,19 @@ def _angles(robot, angles: Any) -> np.ndarray:
     return q
 
 
-def _forward(robot, q: np.ndarray) -> dict[str, np.ndarray]:
-    """FK as numpy: link -> ``(T, 4, 4)`` float64."""
-    import torch
-
-    ref = robot.lower_limits
-    qt = torch.as_tensor(q, dtype=ref.dtype, device=ref.device)
-    with torch.no_grad():
-        poses = robot.forward_kinematics(qt)
-    return {k: v.detach().cpu().double().numpy() for k, v in poses.items()}
-
-
 def _poses_torch(robot, q: np.ndarray):
+    """FK of ``(T, n)`` angles in the robot's dtype and device: link -> ``(T, 4, 4)`` tensors."""
     import torch
 
     ref = robot.lower_limits
     qt = torch.as_tensor(q, dtype=ref.dtype, device=ref.device)
     with torch.no_grad():
         return robot.forward_kinematics(qt)
+
+
+def _forward(robot, q: np.ndarray) -> dict[str, np.ndarray]:
+    """FK as numpy: link -> ``(T, 4, 4)`` float64."""
+    return {k: v.detach().cpu().double().numpy() for k, v in _poses_torch(robot, q).items()}
 
 
 def _map_to_robot_fallback(demo: "Demonstration", robot) -> np.ndarray:
