@@ -351,6 +351,13 @@ class KinematicTree:
         # body 0 = root; body k+1 = child frame of moving joint k (sorted order)
         self.link_body = [0 if anchor_of_link[n] < 0 else new_pos[anchor_of_link[n]] + 1 for n in model.links]
         self.link_const = np.stack([const_of_link[n] for n in model.links])  # (L, 4, 4)
+        # Links whose constant is the identity are bodies themselves (no matmul needed);
+        # the others ("fixed" links) get one batched matmul. Final link k is row
+        # link_gather[k] of cat([bodies (1+M), fixed links (F)]).
+        is_fixed = [not np.array_equal(self.link_const[k], np.eye(4)) for k in range(len(model.links))]
+        self.fixed_links = [k for k, f in enumerate(is_fixed) if f]
+        n_body = 1 + len(moving)
+        self.link_gather = [n_body + self.fixed_links.index(k) if f else self.link_body[k] for k, f in enumerate(is_fixed)]
         self._np = {
             "src": np.array([r[0] for r in rules], dtype=np.int64),
             "mult": np.array([r[1] for r in rules]),
@@ -389,9 +396,10 @@ class KinematicTree:
                 "K2": K @ K,
                 "pre_R": f(self.moving_pre[:, :3, :3]),
                 "pre_t": f(self.moving_pre[:, :3, 3]),
-                "link_body": i(self.link_body),
-                "const_R": f(self.link_const[:, :3, :3]),
-                "const_t": f(self.link_const[:, :3, 3]),
+                "fixed_body": i([self.link_body[k] for k in self.fixed_links]),
+                "const_R": f(self.link_const[self.fixed_links, :3, :3]),  # (F, 3, 3)
+                "const_t": f(self.link_const[self.fixed_links, :3, 3]),  # (F, 3)
+                "link_gather": i(self.link_gather),
                 "level_parent": [None if p is None else i(p) for p in self._level_parent_local],
             }
             self._cache[key] = c
@@ -425,17 +433,19 @@ class KinematicTree:
         eye = torch.eye(3, dtype=q.dtype, device=q.device)
         R_joint = eye + s * c["K"] + (1.0 - co) * c["K2"]  # (B, M, 3, 3) Rodrigues
         R_local = c["pre_R"] @ R_joint  # (B, M, 3, 3): T_parentbody_body rotation
-        t_local = c["pre_t"]  # (M, 3)
+        sizes = [b - a for a, b in self.level_slices]
+        R_levels = R_local.split(sizes, 1)  # split, not slicing: one cheap backward
+        t_levels = c["pre_t"].split(sizes, 0)  # (m, 3) each
         Rs, ts = [], []
         R_prev = t_prev = None
-        for li, (a, b) in enumerate(self.level_slices):
+        for li, (R_l, t_l) in enumerate(zip(R_levels, t_levels)):
             if li == 0:
-                R_w, t_w = R_local[:, a:b], t_local[a:b].expand(B, -1, -1)
+                R_w, t_w = R_l, t_l.expand(B, -1, -1)
             else:
                 p = c["level_parent"][li]
                 Rp, tp = R_prev.index_select(1, p), t_prev.index_select(1, p)  # (B, m, 3, 3), (B, m, 3)
-                R_w = Rp @ R_local[:, a:b]
-                t_w = (Rp @ t_local[a:b, :, None]).squeeze(-1) + tp
+                R_w = Rp @ R_l
+                t_w = (Rp @ t_l[:, :, None]).squeeze(-1) + tp
             Rs.append(R_w)
             ts.append(t_w)
             R_prev, t_prev = R_w, t_w
@@ -443,9 +453,11 @@ class KinematicTree:
         root_t = torch.zeros(B, 1, 3, dtype=q.dtype, device=q.device)
         R_body = torch.cat([root_R] + Rs, 1)  # (B, 1+M, 3, 3)
         t_body = torch.cat([root_t] + ts, 1)  # (B, 1+M, 3)
-        Rb, tb = R_body.index_select(1, c["link_body"]), t_body.index_select(1, c["link_body"])
-        R = Rb @ c["const_R"]  # (B, L, 3, 3)
-        t = (Rb @ c["const_t"][..., None]).squeeze(-1) + tb  # (B, L, 3)
+        Rb, tb = R_body.index_select(1, c["fixed_body"]), t_body.index_select(1, c["fixed_body"])  # (B, F, ...)
+        R_fixed = Rb @ c["const_R"]  # (B, F, 3, 3)
+        t_fixed = (Rb @ c["const_t"][..., None]).squeeze(-1) + tb  # (B, F, 3)
+        R = torch.cat([R_body, R_fixed], 1).index_select(1, c["link_gather"])  # (B, L, 3, 3)
+        t = torch.cat([t_body, t_fixed], 1).index_select(1, c["link_gather"])  # (B, L, 3)
         bottom = torch.tensor([0.0, 0.0, 0.0, 1.0], dtype=q.dtype, device=q.device).expand(B, R.shape[1], 1, 4)
         T = torch.cat([torch.cat([R, t[..., None]], -1), bottom], -2)  # (B, L, 4, 4)
         return T.reshape(*lead, R.shape[1], 4, 4)
