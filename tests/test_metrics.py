@@ -240,3 +240,33 @@ def test_tracking_errors_drop_masked_frames():
     assert errs["frechet_wrist_m"] == pytest.approx(0.0, abs=1e-12)
     with pytest.raises(NloLabError, match="frames"):
         tracking_errors(demo, robot, q[:-1])
+
+
+def test_self_collision_frames_counts_frames_with_any_penetration():
+    from nlo_lab.metrics import self_collision_frames
+
+    class _Fake:
+        name, n_joints = "fake", 2
+        lower_limits = torch.full((2,), -1.0)
+
+        def forward_kinematics(self, q):
+            return {"q": q}
+
+        def capsule_distances(self, poses):  # (T, P=2): pair distances are the joint values
+            return poses["q"]
+
+    q = np.array([[0.1, 0.2], [-0.01, 0.3], [0.2, -0.5], [0.0, 0.0], [-0.1, -0.1]])
+    assert self_collision_frames(_Fake(), q) == 3  # frames 1, 2, 4; touching (0.0) is not penetrating
+
+
+def test_real_robot_mid_pose_is_feasible():
+    from nlo_lab.metrics import self_collision_frames
+    from nlo_lab.robots import load_robot
+
+    robot = load_robot("nao")
+    mid = 0.5 * (robot.lower_limits + robot.upper_limits).double().numpy()
+    q = np.tile(mid, (3, 1))
+    assert limit_violations(robot, q) == 0
+    q[1, 0] = robot.upper_limits[0].item() + 0.1
+    assert limit_violations(robot, q) == 1
+    assert isinstance(self_collision_frames(robot, q), int)
