@@ -13,8 +13,10 @@ One forward pass is
    in one batched matmul,
 4. every link = (its anchor's world frame) @ (a constant), one batched matmul.
 
-Rotations and translations are kept apart (3x3 + 3) and assembled into 4x4
-matrices only at the end.
+Frames are chained as 3x4 ``[R | t]`` blocks (one matmul per level) and
+completed to 4x4 only at the end; the joint rotation is folded into
+precomputed constants (``pre_R``, ``pre_R K``, ``pre_R K^2``), so no matmul is
+spent on it.
 """
 
 from __future__ import annotations
@@ -392,13 +394,14 @@ class KinematicTree:
                 "src": i(self._np["src"]),
                 "mult": f(self._np["mult"]),
                 "off": f(self._np["off"]),
-                "K": K,
-                "K2": K @ K,
+                # pre_R @ Rodrigues(theta) = pre_R + sin * (pre_R K) + (1 - cos) * (pre_R K^2): no matmul per call
                 "pre_R": f(self.moving_pre[:, :3, :3]),
+                "pre_RK": f(self.moving_pre[:, :3, :3]) @ K,
+                "pre_RK2": f(self.moving_pre[:, :3, :3]) @ (K @ K),
                 "pre_t": f(self.moving_pre[:, :3, 3]),
                 "fixed_body": i([self.link_body[k] for k in self.fixed_links]),
-                "const_R": f(self.link_const[self.fixed_links, :3, :3]),  # (F, 3, 3)
-                "const_t": f(self.link_const[self.fixed_links, :3, 3]),  # (F, 3)
+                "const_A": f(self.link_const[self.fixed_links, :3, :]),  # (F, 3, 4)
+                "keep_t": f([0.0, 0.0, 0.0, 1.0]),
                 "link_gather": i(self.link_gather),
                 "level_parent": [None if p is None else i(p) for p in self._level_parent_local],
             }
@@ -431,33 +434,28 @@ class KinematicTree:
         theta = q.index_select(1, c["src"]) * c["mult"] + c["off"]  # (B, M)
         s, co = torch.sin(theta)[..., None, None], torch.cos(theta)[..., None, None]
         eye = torch.eye(3, dtype=q.dtype, device=q.device)
-        R_joint = eye + s * c["K"] + (1.0 - co) * c["K2"]  # (B, M, 3, 3) Rodrigues
-        R_local = c["pre_R"] @ R_joint  # (B, M, 3, 3): T_parentbody_body rotation
+        # (B, M, 3, 3) rotation of T_parentbody_body = pre_R @ Rodrigues(axis, theta)
+        R_local = c["pre_R"] + s * c["pre_RK"] + (1.0 - co) * c["pre_RK2"]
+        # Frames as 3x4 [R | t]: chaining A_w = R_p @ [R_l | t_l] + [0 | t_p] is one matmul.
+        keep_t = c["keep_t"]  # (4,) = (0, 0, 0, 1): picks the parent's translation column
+        A_local = torch.cat([R_local, c["pre_t"][:, :, None].expand(B, -1, -1, -1)], -1)  # (B, M, 3, 4)
         sizes = [b - a for a, b in self.level_slices]
-        R_levels = R_local.split(sizes, 1)  # split, not slicing: one cheap backward
-        t_levels = c["pre_t"].split(sizes, 0)  # (m, 3) each
-        Rs, ts = [], []
-        R_prev = t_prev = None
-        for li, (R_l, t_l) in enumerate(zip(R_levels, t_levels)):
+        levels = []
+        A_prev = None
+        for li, A_l in enumerate(A_local.split(sizes, 1)):  # split, not slicing: one cheap backward
             if li == 0:
-                R_w, t_w = R_l, t_l.expand(B, -1, -1)
+                A_w = A_l
             else:
-                p = c["level_parent"][li]
-                Rp, tp = R_prev.index_select(1, p), t_prev.index_select(1, p)  # (B, m, 3, 3), (B, m, 3)
-                R_w = Rp @ R_l
-                t_w = (Rp @ t_l[:, :, None]).squeeze(-1) + tp
-            Rs.append(R_w)
-            ts.append(t_w)
-            R_prev, t_prev = R_w, t_w
-        root_R = eye.expand(B, 1, 3, 3)
-        root_t = torch.zeros(B, 1, 3, dtype=q.dtype, device=q.device)
-        R_body = torch.cat([root_R] + Rs, 1)  # (B, 1+M, 3, 3)
-        t_body = torch.cat([root_t] + ts, 1)  # (B, 1+M, 3)
-        Rb, tb = R_body.index_select(1, c["fixed_body"]), t_body.index_select(1, c["fixed_body"])  # (B, F, ...)
-        R_fixed = Rb @ c["const_R"]  # (B, F, 3, 3)
-        t_fixed = (Rb @ c["const_t"][..., None]).squeeze(-1) + tb  # (B, F, 3)
-        R = torch.cat([R_body, R_fixed], 1).index_select(1, c["link_gather"])  # (B, L, 3, 3)
-        t = torch.cat([t_body, t_fixed], 1).index_select(1, c["link_gather"])  # (B, L, 3)
-        bottom = torch.tensor([0.0, 0.0, 0.0, 1.0], dtype=q.dtype, device=q.device).expand(B, R.shape[1], 1, 4)
-        T = torch.cat([torch.cat([R, t[..., None]], -1), bottom], -2)  # (B, L, 4, 4)
-        return T.reshape(*lead, R.shape[1], 4, 4)
+                Ap = A_prev.index_select(1, c["level_parent"][li])  # (B, m, 3, 4)
+                A_w = Ap[..., :3] @ A_l + Ap * keep_t
+            levels.append(A_w)
+            A_prev = A_w
+        root = torch.cat([eye, torch.zeros(3, 1, dtype=q.dtype, device=q.device)], -1).expand(B, 1, 3, 4)
+        A_body = torch.cat([root] + levels, 1)  # (B, 1+M, 3, 4)
+        Ab = A_body.index_select(1, c["fixed_body"])  # (B, F, 3, 4)
+        A_fixed = Ab[..., :3] @ c["const_A"] + Ab * keep_t  # (B, F, 3, 4)
+        A = torch.cat([A_body, A_fixed], 1).index_select(1, c["link_gather"])  # (B, L, 3, 4)
+        L = A.shape[1]
+        bottom = torch.tensor([0.0, 0.0, 0.0, 1.0], dtype=q.dtype, device=q.device).expand(B, L, 1, 4)
+        T = torch.cat([A, bottom], -2)  # (B, L, 4, 4)
+        return T.reshape(*lead, L, 4, 4)
