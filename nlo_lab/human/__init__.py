@@ -1,5 +1,6 @@
 """Human demonstrations: the data model, readers and writers, the skeleton graph, the synthetic corpus."""
 
+from nlo_lab.human.corpus import corpus_clip, corpus_names, sign_corpus
 from nlo_lab.human.demonstration import ARM_JOINTS, FINGER_POINTS, FINGERS, SIDES, Demonstration
 from nlo_lab.human.io import load_demonstration, load_h5_sequences, save_npz
 from nlo_lab.human.skeleton import NODE_NAMES, edge_features, node_features, skeleton_graph
@@ -22,4 +23,5 @@ __all__ = [
     "resample",
     "map_to_robot",
     "wrist_frame_from_hand",
+    "sign_corpus", "corpus_clip", "corpus_names",
 ]
