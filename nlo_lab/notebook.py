@@ -31,6 +31,7 @@ __all__ = [
     "close_viewer",
     "show_robot",
     "show_view",
+    "show_human",
     "view_html",
     "joint_table",
     "plot_graph",
@@ -162,6 +163,26 @@ def show_robot(robot, q=None, *, height: int = 400, live: bool | None = None):
     if q.shape[0] != 1:
         raise NloLabError(f"show_robot shows one pose; got {q.shape[0]} frames (use show_view)")
     return show_view(robot, q, height=height, live=live)
+
+
+def show_human(demo, *, height: int = 400, live: bool | None = None):
+    """An animated 3-D view of a human ``Demonstration`` alone (skeleton and fingers); see :func:`show_view`."""
+    from meshcat.animation import Animation
+
+    from nlo_lab.viz import HumanScene, iframe_html, recording_visualizer, style_viewer
+
+    v = viewer() if live is not False else None
+    if v is None and live:
+        raise NloLabError("no live viewer could be started (static view requested, or the server did not start)")
+    vis = v.vis if v is not None else recording_visualizer()
+    vis.delete()
+    style_viewer(vis, camera=(1.2, 0.0, 0.2))
+    scene = HumanScene(vis, demo).draw()
+    if len(demo) > 1:
+        anim = Animation(default_framerate=float(demo.fps))
+        scene.add_to(anim)
+        vis.set_animation(anim, play=True, repetitions=0)
+    return v.jupyter_cell(height=height) if v is not None else iframe_html(vis.static_html(), height=height)
 
 
 def view_html(page: str, height: int = 400) -> str:
