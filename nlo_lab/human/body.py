@@ -104,8 +104,20 @@ _SEGMENTS = np.array(
 )
 # Chain roots and j1 joints (MCP for fingers, CMC for the thumb) [fraction of hand length].
 _ROOTS = np.array([[0.06, 0.03, -0.04], [0.05, 0.0, -0.06], [0.015, 0.0, -0.06], [-0.03, 0.0, -0.06], [-0.07, 0.0, -0.06]])
-_J1 = np.array([[0.13, 0.08, -0.13], [0.115, 0.02, -0.365], [0.015, 0.0, -0.373], [-0.085, 0.02, -0.345], [-0.17, 0.04, -0.30]])
+_J1 = np.array([[0.13, 0.08, -0.13], [0.125, 0.02, -0.365], [0.015, 0.0, -0.373], [-0.09, 0.02, -0.345], [-0.185, 0.04, -0.30]])
 _SPREAD_SIGN = np.array([1.0, 1.0, 1.0, -1.0, -1.0])  # +spread = away from the middle finger (radial for index)
+
+
+def _norm(v: np.ndarray, keepdims: bool = False) -> np.ndarray:
+    """Euclidean norm over the last axis (cheaper than np.linalg.norm on small arrays)."""
+    return np.sqrt(np.sum(v * v, axis=-1, keepdims=keepdims))
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the last axis (cheaper than np.cross on small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def _rot(a: np.ndarray, i: int, j: int) -> np.ndarray:
@@ -290,11 +302,11 @@ def hand_frame(wrist: np.ndarray, finger_base: np.ndarray) -> np.ndarray:
     x = wrist -> middle MCP, y = little MCP -> index MCP made orthogonal to x, z = x cross y.
     """
     x = finger_base[..., 2, :] - wrist
-    x = x / np.linalg.norm(x, axis=-1, keepdims=True)
+    x = x / _norm(x, True)
     y = finger_base[..., 1, :] - finger_base[..., 4, :]
     y = y - np.sum(y * x, axis=-1, keepdims=True) * x
-    y = y / np.linalg.norm(y, axis=-1, keepdims=True)
-    return np.stack([x, y, np.cross(x, y)], axis=-1)
+    y = y / _norm(y, True)
+    return np.stack([x, y, _cross(x, y)], axis=-1)
 
 
 def arm_fk(params: BodyParams, arm: np.ndarray, fingers: np.ndarray, side: str) -> ArmPose:
@@ -387,7 +399,7 @@ def arm_ik(
     shoulder = np.array([0.0, -params.shoulder_width / 2, 0.0])
     lu, lf = params.upper_arm, params.forearm
     d = target - shoulder
-    dist = np.linalg.norm(d, axis=-1, keepdims=True)
+    dist = _norm(d, True)
     axis = d / np.maximum(dist, 1e-9)
     dist = np.clip(dist, abs(lu - lf) + 0.05, 0.97 * (lu + lf))
     cos_e = (lu**2 + lf**2 - dist**2) / (2 * lu * lf)  # interior angle at the elbow
@@ -396,10 +408,11 @@ def arm_ik(
     cos_a = (lu**2 + dist**2 - lf**2) / (2 * lu * dist)
     along = lu * cos_a
     radius = lu * np.sqrt(np.clip(1 - cos_a**2, 0.0, 1.0))
-    ref = np.stack(np.broadcast_arrays(np.zeros_like(np.asarray(elbow_out, float)), -np.asarray(elbow_out, float), -np.ones_like(np.asarray(elbow_out, float))), axis=-1)
+    out = np.asarray(elbow_out, dtype=np.float64)
+    ref = np.stack(np.broadcast_arrays(np.zeros_like(out), -out, -np.ones_like(out)), axis=-1)  # down and out
     ref = np.broadcast_to(ref, axis.shape)
     perp = ref - np.sum(ref * axis, axis=-1, keepdims=True) * axis
-    perp = perp / np.maximum(np.linalg.norm(perp, axis=-1, keepdims=True), 1e-9)
+    perp = perp / np.maximum(_norm(perp, True), 1e-9)
     elbow = shoulder + axis * along + perp * radius
     wrist = shoulder + axis * dist
     u = (elbow - shoulder) / lu  # upper arm direction
@@ -407,7 +420,7 @@ def arm_ik(
     se = np.sin(elbow_flex)[..., None]
     x = (f - np.cos(elbow_flex)[..., None] * u) / np.maximum(se, 1e-9)
     z = -u
-    y = np.cross(z, x)
+    y = _cross(z, x)
     r_upper = np.stack([x, y, z], axis=-1)
     angles = np.concatenate([_euler_from_upper(r_upper), elbow_flex[..., None], np.asarray(distal, dtype=np.float64)], axis=-1)
     return angles
@@ -417,7 +430,7 @@ def arm_ik(
 def torso_signed_distance(params: BodyParams, points: np.ndarray) -> np.ndarray:
     """Signed distance [m] of ``(..., 3)`` points to the torso (rounded box); < 0 inside."""
     q = np.abs(np.asarray(points) - params.torso_center) - (params.torso_half_extents - params.torso_rounding)
-    outside = np.linalg.norm(np.maximum(q, 0.0), axis=-1)
+    outside = _norm(np.maximum(q, 0.0))
     inside = np.minimum(np.max(q, axis=-1), 0.0)
     return outside + inside - params.torso_rounding
 
@@ -425,10 +438,10 @@ def torso_signed_distance(params: BodyParams, points: np.ndarray) -> np.ndarray:
 def head_signed_distance(params: BodyParams, points: np.ndarray) -> np.ndarray:
     """Signed distance [m] of ``(..., 3)`` points to the head sphere and neck capsule; < 0 inside."""
     p = np.asarray(points)
-    head = np.linalg.norm(p - params.head_center, axis=-1) - params.head_radius
+    head = _norm(p - params.head_center) - params.head_radius
     a, b, r = params.neck
     t = np.clip(np.sum((p - a) * (b - a), axis=-1) / np.sum((b - a) ** 2), 0.0, 1.0)
-    neck = np.linalg.norm(p - (a + t[..., None] * (b - a)), axis=-1) - r
+    neck = _norm(p - (a + t[..., None] * (b - a))) - r
     return np.minimum(head, neck)
 
 

@@ -5,7 +5,7 @@ scenarios and two test scenarios with the paper's sequence counts. Each scenario
 lexicon of glosses; a sequence is a sentence of 2-6 signs by one of ``N_SIGNERS`` synthetic
 signers (:func:`nlo_lab.human.body.random_body`; one in four is left-handed), starting and
 ending at the rest pose. Signs are solved with the analytic arm IK on the signer's body
-(:mod:`nlo_lab.human.body`); transitions between signs (0.2-0.4 s) and to/from rest
+(:mod:`nlo_lab.human.body`); transitions between signs (0.2-0.45 s) and to/from rest
 (0.4-0.7 s) are minimum-jerk in joint space, signs last 0.5-1.2 s. Test signs use
 ``(handshape, location, movement)`` combinations that no training sign uses
 (:func:`nlo_lab.human.signs.is_test_combination`).
@@ -13,7 +13,8 @@ ending at the rest pose. Signs are solved with the analytic arm IK on the signer
 Every sequence is checked when generated and regenerated (with the next attempt's random
 stream) until it is plausible: joint angles inside ``ARM_RANGES`` / ``FINGER_RANGES``, every
 hand point at least ``CLEARANCE`` from torso, neck and head, the two hands at least
-``HAND_CLEARANCE`` apart, wrist acceleration below ``WRIST_ACCEL_LIMIT``. Deterministic from
+``HAND_CLEARANCE`` apart, wrist speed and acceleration below ``WRIST_SPEED_LIMIT`` and
+``WRIST_ACCEL_LIMIT``, fingertip acceleration below ``FINGERTIP_ACCEL_LIMIT``. Deterministic from
 the seed; the corpus is cached per seed and callers get copies.
 """
 
@@ -52,6 +53,8 @@ __all__ = [
     "CLEARANCE",
     "HAND_CLEARANCE",
     "WRIST_ACCEL_LIMIT",
+    "FINGERTIP_ACCEL_LIMIT",
+    "WRIST_SPEED_LIMIT",
     "sign_corpus",
     "corpus_clip",
     "corpus_names",
@@ -64,6 +67,8 @@ N_SIGNERS = 8
 CLEARANCE = 0.01  # [m] minimum distance of any hand point to torso, neck or head
 HAND_CLEARANCE = 0.01  # [m] minimum distance between points of the two hands
 WRIST_ACCEL_LIMIT = 25.0  # [m/s^2] generation bound on the finite-difference wrist acceleration
+WRIST_SPEED_LIMIT = 2.2  # [m/s] generation bound on the wrist speed (fast signing peaks near 2 m/s)
+FINGERTIP_ACCEL_LIMIT = 60.0  # [m/s^2] the same for fingertips (they also swing with wrist rotations)
 _PUSH_CLEARANCE = 0.02  # [m] clearance targeted while solving a sign (above CLEARANCE)
 _MAX_ATTEMPTS = 40
 _FPS_CHOICES = (15, 20, 25, 30)
@@ -110,6 +115,7 @@ SCENARIOS: Mapping[str, Scenario] = MappingProxyType(
     }
 )
 _SCENARIO_ORDER = tuple(SCENARIOS)
+_ALL_NAMES = frozenset(f"{n}_{i:02d}" for n, sc in SCENARIOS.items() for i in range(1, sc.n_sequences + 1))
 
 
 @dataclass(frozen=True)
@@ -158,8 +164,8 @@ def sign_corpus(split: str, seed: int = 0) -> list[Demonstration]:
         ``body``, ``split``, ``seed``.
     """
     _check_split(split)
-    clips = _corpus(_check_seed(seed))
-    return [_copy_demo(clips[name].demo) for name in corpus_names(split)]
+    seed = _check_seed(seed)
+    return [_copy_demo(_generate(name, seed).demo) for name in corpus_names(split)]
 
 
 def corpus_clip(name: str, seed: int = 0) -> Demonstration:
@@ -200,15 +206,15 @@ def _check_seed(seed) -> int:
 
 
 def _clip(name: str, seed: int) -> _Clip:
-    clips = _corpus(_check_seed(seed))
-    if name not in clips:
+    seed = _check_seed(seed)
+    if name not in _ALL_NAMES:
         names = corpus_names()
         raise DemonstrationError(
             f"unknown corpus sequence {name!r}; valid names are e.g. {names[:2] + names[-2:]} "
             f"({len(names)} in all, see corpus_names())",
             field="name",
         )
-    return clips[name]
+    return _generate(name, seed)
 
 
 def _copy_demo(demo: Demonstration) -> Demonstration:
@@ -225,23 +231,17 @@ def _copy_demo(demo: Demonstration) -> Demonstration:
     )
 
 
-@functools.lru_cache(maxsize=4)
-def _corpus(seed: int) -> dict[str, _Clip]:
-    clips = {}
-    signers = _signers(seed)
-    for s_idx, scenario in enumerate(_SCENARIO_ORDER):
-        lexicon = _lexicon(scenario, seed)
-        for i in range(1, SCENARIOS[scenario].n_sequences + 1):
-            name = f"{scenario}_{i:02d}"
-            for attempt in range(_MAX_ATTEMPTS):
-                rng = np.random.default_rng([seed, s_idx, i, attempt])
-                clip = _sequence(name, scenario, lexicon, signers, rng, seed)
-                if clip is not None:
-                    break
-            else:  # pragma: no cover - the generator is tuned so that this does not happen
-                raise DemonstrationError(f"no plausible sequence after {_MAX_ATTEMPTS} attempts", field=name)
-            clips[name] = clip
-    return clips
+@functools.lru_cache(maxsize=1024)
+def _generate(name: str, seed: int) -> _Clip:
+    """One sequence; each depends only on (seed, scenario, index), so clips are made on demand."""
+    scenario, index = name.rsplit("_", 1)
+    s_idx, i = _SCENARIO_ORDER.index(scenario), int(index)
+    lexicon, signers = _lexicon(scenario, seed), _signers(seed)
+    for attempt in range(_MAX_ATTEMPTS):
+        clip = _sequence(name, scenario, lexicon, signers, np.random.default_rng([seed, s_idx, i, attempt]), seed)
+        if clip is not None:
+            return clip
+    raise DemonstrationError(f"no plausible sequence after {_MAX_ATTEMPTS} attempts", field=name)  # pragma: no cover
 
 
 @functools.lru_cache(maxsize=32)
@@ -278,7 +278,7 @@ def _knuckle_centre(pose) -> np.ndarray:
 def _solve(body: BodyParams, ref: np.ndarray, distal: np.ndarray, fingers: np.ndarray, elbow_out: float) -> np.ndarray:
     """Arm angles ``(n, 7)`` that put the knuckle centre on ``ref`` ``(n, 3)`` (canonical right arm)."""
     wrist = ref.copy()
-    for _ in range(3):  # the hand offset depends on the forearm direction: a few fixed-point steps
+    for _ in range(2):  # the hand offset depends on the forearm direction: a few fixed-point steps
         q = arm_ik(body, wrist, "right", distal, elbow_out)
         wrist = wrist + (ref - knuckle_centre(body, q))
     return arm_ik(body, wrist, "right", distal, elbow_out)
@@ -406,11 +406,12 @@ def _transition(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarra
 
 
 def _transition_frames(body, a, b, fps: float, rng: np.random.Generator, rest_move: bool) -> int:
-    """Interior frames of a transition: long enough for the wrists' distance (peak about 14 m/s^2),
-    0.2-0.4 s between signs and 0.4-0.7 s to or from the rest pose."""
+    """Interior frames of a transition: long enough for the wrists' distance (peaks of about
+    14 m/s^2 and 2 m/s), 0.2-0.45 s between signs and 0.4-0.7 s to or from the rest pose."""
     gap = np.linalg.norm(_wrists(body, a[0][-1:], a[1][-1:]) - _wrists(body, b[0][:1], b[1][:1]), axis=-1).max()
-    lo, hi = (0.4, 0.7) if rest_move else (0.2, 0.4)
-    duration = float(np.clip(np.sqrt(5.77 * gap / 14.0) * rng.uniform(1.0, 1.15), lo, hi))
+    lo, hi = (0.4, 0.7) if rest_move else (0.2, 0.45)
+    needed = max(np.sqrt(5.77 * gap / 14.0), 1.875 * gap / 2.0)  # min-jerk peaks: 5.77 D/T^2, 1.875 D/T
+    duration = float(np.clip(needed * rng.uniform(1.0, 1.15), lo, hi))
     return max(1, int(round(duration * fps)) - 1)
 
 
@@ -436,8 +437,11 @@ def _plausible(body: BodyParams, arm: np.ndarray, fingers: np.ndarray, fps: floa
         if hand_gap < HAND_CLEARANCE:
             return False, poses
     for p in poses:
-        acc = np.diff(p.wrist, n=2, axis=0) * fps**2
-        if np.linalg.norm(acc, axis=-1).max() > WRIST_ACCEL_LIMIT:
+        if np.linalg.norm(np.diff(p.wrist, axis=0), axis=-1).max() * fps > WRIST_SPEED_LIMIT:
+            return False, poses
+        if np.linalg.norm(np.diff(p.wrist, n=2, axis=0), axis=-1).max() * fps**2 > WRIST_ACCEL_LIMIT:
+            return False, poses
+        if np.linalg.norm(np.diff(p.finger_tip, n=2, axis=0), axis=-1).max() * fps**2 > FINGERTIP_ACCEL_LIMIT:
             return False, poses
     return True, poses
 
@@ -460,6 +464,8 @@ def _sequence(name, scenario, lexicon, signers, rng, seed) -> _Clip | None:
         gloss = glosses[int(rng.integers(len(glosses)))]
         if signs and gloss == signs[-1].gloss:
             continue
+        if frames + int(1.6 * fps) + 2 > budget:  # the longest sign and transition would not fit
+            break
         sign = lexicon[gloss]
         seg = _sign_segment(sign, signer, fps, rng)
         qa, fa = _transition((arms[-1], fings[-1]), seg, _transition_frames(body, (arms[-1], fings[-1]), seg, fps, rng, not signs))
@@ -477,13 +483,15 @@ def _sequence(name, scenario, lexicon, signers, rng, seed) -> _Clip | None:
         return None
     tail = _rest_segment(signer, max(tail_frames, _MIN_FRAMES - frames - int(0.7 * fps)))
     qa, fa = _transition((arms[-1], fings[-1]), tail, _transition_frames(body, (arms[-1], fings[-1]), tail, fps, rng, True))
+    window = (np.concatenate([arms[-1][-2:], qa, tail[0]]), np.concatenate([fings[-1][-2:], fa, tail[1]]))
+    if not _plausible(body, window[0], window[1], fps)[0]:
+        return None
     arm = np.concatenate(arms + [qa, tail[0]])
     fingers = np.concatenate(fings + [fa, tail[1]])
     if not _MIN_FRAMES <= len(arm) <= _MAX_FRAMES:
         return None
-    ok, poses = _plausible(body, arm, fingers, fps)
-    if not ok:
-        return None
+    # every frame was checked in the overlapping windows above
+    poses = [arm_fk(body, arm[:, s], fingers[:, s], side) for s, side in enumerate(("left", "right"))]
     T = len(arm)
     demo = Demonstration(
         fps=fps,
