@@ -20,8 +20,11 @@ $(STAMP): pyproject.toml
 demo: setup
 	$(VENV)/bin/nlo-lab demo
 
+# Tests and every notebook (nbval runs each cell, fails on any error). Test mode
+# shortens the notebooks' loops; the static viewer means CI opens no ports.
 test: setup browser
-	$(PY) -m pytest -q
+	NLO_LAB_TEST_MODE=1 NLO_LAB_STATIC_VIEWER=1 $(PY) -m pytest -q -p no:cacheprovider tests notebooks \
+		--nbval-lax --nbval-current-env --nbval-cell-timeout=300
 
 # The browser test needs Debian's chromium; install it when we can (root + apt),
 # otherwise that one test says why it skipped.
