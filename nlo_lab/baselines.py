@@ -59,6 +59,7 @@ __all__ = [
     "train_supervised_net",
     "train_supervised_model",
     "supervised_network",
+    "supervised_dataset",
     "cache_dir",
 ]
 
@@ -434,6 +435,41 @@ def _cache_key(robot, settings: SupervisedSettings) -> str:
 _NETWORKS: dict[str, SupervisedNet] = {}
 
 
+def supervised_dataset(robot, settings: SupervisedSettings | None = None, *, use_cache: bool = True, progress: bool = False) -> tuple[Targets, torch.Tensor, float]:
+    """Training frames (every ``frame_stride``-th of the train split) and their
+    joint-space optimisation labels ``(N, n)`` [rad], float32.
+
+    The labels are cached as a file under :func:`cache_dir` (keyed like the
+    network, without the training settings). Returns ``(targets, labels,
+    label_seconds)``; ``label_seconds`` is the time the labels took when made.
+    """
+    from nlo_lab.train import corpus_targets
+
+    s = settings or SupervisedSettings()
+    label_key = _cache_key(robot, SupervisedSettings(frame_stride=s.frame_stride, label_iterations=s.label_iterations, corpus_seed=s.corpus_seed))
+    data = corpus_targets("train", seed=s.corpus_seed).index(slice(0, None, s.frame_stride))
+    path = cache_dir() / f"labels_{robot.name}_{label_key}.pt"
+    if use_cache and path.is_file():
+        try:
+            blob = torch.load(path, map_location="cpu", weights_only=True)
+            if blob["labels"].shape == (len(data), robot.n_joints):
+                return data, blob["labels"], float(blob["seconds"])
+        except Exception:  # a damaged cache file is rebuilt, never trusted
+            pass
+    start = time.perf_counter()
+    labels = supervised_labels(robot.to(dtype=torch.float32), data, s.label_iterations, progress=progress).float()
+    seconds = time.perf_counter() - start
+    if use_cache:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(path.name + ".tmp")
+            torch.save({"labels": labels, "seconds": seconds}, tmp)
+            tmp.replace(path)
+        except OSError:
+            pass
+    return data, labels, seconds
+
+
 def supervised_network(robot, settings: SupervisedSettings | None = None, *, use_cache: bool = True, progress: bool = False) -> SupervisedNet:
     """The ``nn_supervised`` network of ``robot``: labels by joint-space optimisation
     over the training split (every ``frame_stride``-th frame), then supervised training.
@@ -459,14 +495,8 @@ def supervised_network(robot, settings: SupervisedSettings | None = None, *, use
             return net
         except Exception:  # a damaged cache file is rebuilt, never trusted
             pass
-    from nlo_lab.train import corpus_targets
-
-    data = corpus_targets("train", seed=s.corpus_seed)
-    data = data.index(slice(0, None, s.frame_stride))
+    data, labels, label_seconds = supervised_dataset(robot, s, use_cache=use_cache, progress=progress)
     r32 = robot.to(dtype=torch.float32)
-    start = time.perf_counter()
-    labels = supervised_labels(r32, data, s.label_iterations, progress=progress)
-    label_seconds = time.perf_counter() - start
     net = train_supervised_net(r32, data.node_features, labels, s)
     net.info["label_seconds"] = label_seconds
     if use_cache:
