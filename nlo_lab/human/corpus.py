@@ -5,8 +5,8 @@ scenarios and two test scenarios with the paper's sequence counts. Each scenario
 lexicon of glosses; a sequence is a sentence of 2-6 signs by one of ``N_SIGNERS`` synthetic
 signers (:func:`nlo_lab.human.body.random_body`; one in four is left-handed), starting and
 ending at the rest pose. Signs are solved with the analytic arm IK on the signer's body
-(:mod:`nlo_lab.human.body`); transitions between signs (0.2-0.45 s) and to/from rest
-(0.4-0.7 s) are minimum-jerk in joint space, signs last 0.5-1.2 s. Test signs use
+(:mod:`nlo_lab.human.body`); transitions between signs (0.2-0.4 s, up to 0.6 s for the
+longest moves) and to/from rest (0.4-0.9 s) are minimum-jerk in joint space, signs last 0.5-1.2 s. Test signs use
 ``(handshape, location, movement)`` combinations that no training sign uses
 (:func:`nlo_lab.human.signs.is_test_combination`).
 
@@ -69,7 +69,8 @@ HAND_CLEARANCE = 0.01  # [m] minimum distance between points of the two hands
 WRIST_ACCEL_LIMIT = 25.0  # [m/s^2] generation bound on the finite-difference wrist acceleration
 WRIST_SPEED_LIMIT = 2.2  # [m/s] generation bound on the wrist speed (fast signing peaks near 2 m/s)
 FINGERTIP_ACCEL_LIMIT = 60.0  # [m/s^2] the same for fingertips (they also swing with wrist rotations)
-_PUSH_CLEARANCE = 0.02  # [m] clearance targeted while solving a sign (above CLEARANCE)
+_PUSH_CLEARANCE = 0.02  # [m] clearance from the body targeted while solving a sign (above CLEARANCE)
+_HAND_PUSH_CLEARANCE = 0.06  # [m] the same from a base hand (room for the approach of the dominant hand)
 _MAX_ATTEMPTS = 40
 _FPS_CHOICES = (15, 20, 25, 30)
 _MIN_FRAMES, _MAX_FRAMES = 60, 250
@@ -296,9 +297,9 @@ def _solve_clear(body, ref, distal, fingers, elbow_out, obstacle: np.ndarray | N
         if obstacle is not None:
             gap = np.linalg.norm(pts[:, :, None, :] - obstacle, axis=-1)  # (n, 26, m)
             t, i, j = np.unravel_index(np.argmin(gap), gap.shape)
-            if gap[t, i, j] < 2 * _PUSH_CLEARANCE:
+            if gap[t, i, j] < _HAND_PUSH_CLEARANCE:
                 away = (pts[t, i] - obstacle[j]) / max(gap[t, i, j], 1e-6)
-                push = push + away * (2 * _PUSH_CLEARANCE - gap[t, i, j] + 0.003)
+                push = push + away * (_HAND_PUSH_CLEARANCE - gap[t, i, j] + 0.003)
         if not push.any():
             break
         ref = ref + push
@@ -372,7 +373,7 @@ def _sign_segment(sign: Sign, signer: _Signer, fps: float, rng: np.random.Genera
         base_pose = arm_fk(body, q_base[:1], base_f[:1], "right")
         palm = 0.5 * (base_pose.wrist[0] + _knuckle_centre(base_pose)[0])
         palm = palm * [1.0, -1.0, 1.0]  # the other side, seen in the dominant's canonical frame
-        anchor = palm + np.array([0.0, 0.0, 0.10])
+        anchor = palm + np.array([0.0, 0.0, 0.12])
         obstacle = base_pose.hand_points()[0] * [1.0, -1.0, 1.0]  # (26, 3) base hand, dominant's frame
     else:
         anchor = location_point(sign.location, body, bilateral=two) + jitter
@@ -392,25 +393,49 @@ def _sign_segment(sign: Sign, signer: _Signer, fps: float, rng: np.random.Genera
 
 
 # ------------------------------------------------------------------ one sequence
-def _wrists(body: BodyParams, arm: np.ndarray, fingers: np.ndarray) -> np.ndarray:
+def _wrists(body: BodyParams, arm: np.ndarray, fingers=None) -> np.ndarray:
     """``(n, 2, 3)`` wrist positions (left, right)."""
     return np.stack([wrist_position(body, arm[:, s], side) for s, side in enumerate(("left", "right"))], 1)
 
 
-def _transition(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray], frames: int):
+_STAGGER = 0.3  # fraction of a transition by which one arm leads the other around a base hand
+
+
+def _phases(tau: np.ndarray, lead: int | None) -> np.ndarray:
+    """``(n, 2)`` minimum-jerk phases of the (left, right) arms; the ``lead`` arm moves first."""
+    if lead is None:
+        return np.repeat(minimum_jerk(tau)[:, None], 2, axis=1)
+    early = minimum_jerk(tau / (1 - _STAGGER))
+    late = minimum_jerk((tau - _STAGGER) / (1 - _STAGGER))
+    return np.stack([early, late] if lead == 0 else [late, early], axis=1)
+
+
+def _transition(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray], frames: int, lead: int | None = None):
     """``frames`` interior frames of a minimum-jerk joint-space move from the last frame of ``a`` to the first of ``b``."""
-    s = minimum_jerk(np.arange(1, frames + 1) / (frames + 1))
+    s = _phases(np.arange(1, frames + 1) / (frames + 1), lead)  # (frames, 2)
     qa, qb = a[0][-1], b[0][0]
     fa, fb = a[1][-1], b[1][0]
-    return qa + (qb - qa) * s[:, None, None], fa + (fb - fa) * s[:, None, None, None]
+    return qa + (qb - qa) * s[:, :, None], fa + (fb - fa) * s[:, :, None, None]
 
 
-def _transition_frames(body, a, b, fps: float, rng: np.random.Generator, rest_move: bool) -> int:
-    """Interior frames of a transition: long enough for the wrists' distance (peaks of about
-    14 m/s^2 and 2 m/s), 0.2-0.45 s between signs and 0.4-0.7 s to or from the rest pose."""
-    gap = np.linalg.norm(_wrists(body, a[0][-1:], a[1][-1:]) - _wrists(body, b[0][:1], b[1][:1]), axis=-1).max()
-    lo, hi = (0.4, 0.7) if rest_move else (0.2, 0.45)
-    needed = max(np.sqrt(5.77 * gap / 14.0), 1.875 * gap / 2.0)  # min-jerk peaks: 5.77 D/T^2, 1.875 D/T
+def _transition_frames(body, a, b, fps: float, rng: np.random.Generator, rest_move: bool, lead: int | None = None) -> int:
+    """Interior frames of a transition, long enough for its path.
+
+    The joint-space path's shape does not depend on the duration T, so its peak wrist speed
+    and acceleration are ``k1 / T`` and ``k2 / T^2``; T is the shortest duration that keeps them
+    near 2.0 m/s and 18 m/s^2, within 0.2-0.6 s between signs (0.2-0.4 s unless the move is
+    long) and 0.4-0.9 s to or from the rest pose.
+    """
+    tau = np.linspace(0.0, 1.0, 41)
+    s = _phases(tau, lead)
+    qa, qb = a[0][-1], b[0][0]
+    q = qa + (qb - qa) * s[:, :, None]  # (41, 2, 7)
+    w = _wrists(body, q, None)  # (41, 2, 3)
+    d1 = np.diff(w, axis=0) / (tau[1] - tau[0])
+    k1 = np.linalg.norm(d1, axis=-1).max()
+    k2 = np.linalg.norm(np.diff(d1, axis=0), axis=-1).max() / (tau[1] - tau[0])
+    lo, hi = (0.4, 0.9) if rest_move else (0.2, 0.6)
+    needed = max(k1 / 2.0, np.sqrt(k2 / 18.0))
     duration = float(np.clip(needed * rng.uniform(1.0, 1.15), lo, hi))
     return max(1, int(round(duration * fps)) - 1)
 
@@ -468,7 +493,11 @@ def _sequence(name, scenario, lexicon, signers, rng, seed) -> _Clip | None:
             break
         sign = lexicon[gloss]
         seg = _sign_segment(sign, signer, fps, rng)
-        qa, fa = _transition((arms[-1], fings[-1]), seg, _transition_frames(body, (arms[-1], fings[-1]), seg, fps, rng, not signs))
+        # around a base hand the base arrives first and the dominant hand leaves first
+        dom = 0 if signer.dominant == "left" else 1
+        lead = 1 - dom if sign.pattern == "base_hand" else (dom if signs and signs[-1].pattern == "base_hand" else None)
+        prev = (arms[-1], fings[-1])
+        qa, fa = _transition(prev, seg, _transition_frames(body, prev, seg, fps, rng, not signs, lead), lead)
         if frames + len(qa) + len(seg[0]) > budget:
             break
         window = (np.concatenate([arms[-1][-2:], qa, seg[0]]), np.concatenate([fings[-1][-2:], fa, seg[1]]))
@@ -482,7 +511,9 @@ def _sequence(name, scenario, lexicon, signers, rng, seed) -> _Clip | None:
     if len(signs) < 2:
         return None
     tail = _rest_segment(signer, max(tail_frames, _MIN_FRAMES - frames - int(0.7 * fps)))
-    qa, fa = _transition((arms[-1], fings[-1]), tail, _transition_frames(body, (arms[-1], fings[-1]), tail, fps, rng, True))
+    lead = (0 if signer.dominant == "left" else 1) if signs[-1].pattern == "base_hand" else None
+    prev = (arms[-1], fings[-1])
+    qa, fa = _transition(prev, tail, _transition_frames(body, prev, tail, fps, rng, True, lead), lead)
     window = (np.concatenate([arms[-1][-2:], qa, tail[0]]), np.concatenate([fings[-1][-2:], fa, tail[1]]))
     if not _plausible(body, window[0], window[1], fps)[0]:
         return None

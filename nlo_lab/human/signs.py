@@ -190,7 +190,7 @@ def location_point(name: str, body: BodyParams, bilateral: bool = False) -> np.n
     lateral = -0.12 if bilateral else 0.0
     points = {
         "neutral": (0.31 * reach, -0.10 if not bilateral else -0.14, -0.20),
-        "chest": (front + 0.07, -0.04 if not bilateral else -0.10, -0.15),
+        "chest": (front + 0.07, -0.04 if not bilateral else -0.12, -0.15),
         "chin": (head[0] + 0.55 * r + 0.08, -0.02 + lateral, head[2] - 0.85 * r - 0.02),
         "forehead": (head[0] + 0.85 * r + 0.08, -0.02 + lateral, head[2] + 0.40 * r),
         "shoulder": (front + 0.06, (0.8 if not bilateral else -0.8) * body.shoulder_width / 2, -0.04),
