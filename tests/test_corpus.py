@@ -17,6 +17,7 @@ WRIST_ACCEL_BOUND = 30.0  # [m/s^2] plausible peak wrist acceleration of signing
 FINGERTIP_ACCEL_BOUND = 80.0  # [m/s^2] fingertips also swing with the wrist's rotation
 WRIST_SPEED_BOUND = 2.5  # [m/s] no jumps between frames
 CONTACT_MARGIN = 0.005  # [m] a hand point may come this close to the skin, never closer
+ELBOW_RADIUS = 0.025  # [m] the elbow joint centre lies at least an arm's radius outside the torso
 
 
 @pytest.fixture(scope="module")
@@ -190,6 +191,8 @@ def test_hands_never_enter_torso_or_head(all_demos):
             assert head.min() > CONTACT_MARGIN, (d.name, side, head.min())
             torso = _torso_distance(body, pts)
             assert torso.min() > CONTACT_MARGIN, (d.name, side, torso.min())
+        elbows = _torso_distance(body, d.arm_positions[:, :, 1])
+        assert elbows.min() > ELBOW_RADIUS, (d.name, elbows.min())  # the upper arm stays beside the torso
         gap = np.linalg.norm(d.finger_positions[:, 0].reshape(-1, 1, 10, 3) - d.finger_positions[:, 1].reshape(-1, 10, 1, 3), axis=-1)
         assert gap.min() > CONTACT_MARGIN, d.name  # the two hands do not pass through each other
 

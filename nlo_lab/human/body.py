@@ -72,11 +72,12 @@ FINGER_JOINT_NAMES = ("flexion_1", "spread_1", "flexion_2", "flexion_3")  # thum
 
 _D = np.pi / 180.0
 # (7, 2) [rad]; shoulder from the clinical ROM (flexion 180, extension 60, abduction 180,
-# adduction across the body 50 (horizontal adduction when flexed), internal rotation 70,
+# adduction across the body 50 (horizontal adduction when flexed), internal rotation 90 (70 is
+# the clinical value with the arm abducted; reaching across the belly takes up to about 90),
 # external 90), elbow 0-150, pronation/supination 80/80, wrist flexion 80 / extension 70,
 # ulnar 30 / radial deviation 20.
 ARM_RANGES = np.array(
-    [[-60, 180], [-50, 180], [-90, 70], [0, 150], [-80, 80], [-70, 80], [-20, 30]], dtype=np.float64
+    [[-60, 180], [-50, 180], [-90, 90], [0, 150], [-80, 80], [-70, 80], [-20, 30]], dtype=np.float64
 ) * _D
 # (5, 4, 2) [rad]; fingers: MCP flexion 90 / hyperextension 20, spread +-20, PIP 0-110, DIP 0-80;
 # thumb: CMC flexion 50 / extension 20, palmar abduction 0-70, MCP 0-60 (10 hyperextension), IP 80 / 15.
@@ -375,11 +376,13 @@ def arm_ik(
     side: str,
     distal: np.ndarray,
     elbow_out: float | np.ndarray = 0.5,
+    elbow_forward: float | np.ndarray = 0.0,
 ) -> np.ndarray:
     """Analytic arm IK: shoulder and elbow angles that put the wrist on a target.
 
-    The elbow swivel is chosen naturally: the elbow lies as low as possible, turned
-    outwards by ``elbow_out`` (the reference direction is down and ``elbow_out`` sideways).
+    The elbow swivel is chosen naturally: the elbow lies as far as possible along the
+    reference direction ``(elbow_forward, elbow_out outwards, -1)``: down and a little out
+    (raise ``elbow_forward`` to bring the elbow in front of the belly when reaching across).
     Targets beyond 97 % of the arm's reach are pulled in along the shoulder->target line.
 
     Args:
@@ -388,6 +391,7 @@ def arm_ik(
         side: ``"left"`` or ``"right"``.
         distal: ``(..., 3)`` [rad] forearm pronation, wrist flexion, wrist deviation (copied).
         elbow_out: sideways part of the elbow reference direction (0 = straight down).
+        elbow_forward: forward part of the elbow reference direction.
 
     Returns:
         ``(..., 7)`` arm angles.
@@ -408,8 +412,8 @@ def arm_ik(
     cos_a = (lu**2 + dist**2 - lf**2) / (2 * lu * dist)
     along = lu * cos_a
     radius = lu * np.sqrt(np.clip(1 - cos_a**2, 0.0, 1.0))
-    out = np.asarray(elbow_out, dtype=np.float64)
-    ref = np.stack(np.broadcast_arrays(np.zeros_like(out), -out, -np.ones_like(out)), axis=-1)  # down and out
+    out, fwd = np.broadcast_arrays(np.asarray(elbow_out, dtype=np.float64), np.asarray(elbow_forward, dtype=np.float64))
+    ref = np.stack([fwd, -out, -np.ones_like(out)], axis=-1)  # down and out (right arm)
     ref = np.broadcast_to(ref, axis.shape)
     perp = ref - np.sum(ref * axis, axis=-1, keepdims=True) * axis
     perp = perp / np.maximum(_norm(perp, True), 1e-9)

@@ -12,7 +12,8 @@ longest moves) and to/from rest (0.4-0.9 s) are minimum-jerk in joint space, sig
 
 Every sequence is checked when generated and regenerated (with the next attempt's random
 stream) until it is plausible: joint angles inside ``ARM_RANGES`` / ``FINGER_RANGES``, every
-hand point at least ``CLEARANCE`` from torso, neck and head, the two hands at least
+hand point at least ``CLEARANCE`` from torso, neck and head, the elbows ``ELBOW_CLEARANCE``
+outside the torso, the two hands at least
 ``HAND_CLEARANCE`` apart, wrist speed and acceleration below ``WRIST_SPEED_LIMIT`` and
 ``WRIST_ACCEL_LIMIT``, fingertip acceleration below ``FINGERTIP_ACCEL_LIMIT``. Deterministic from
 the seed; the corpus is cached per seed and callers get copies.
@@ -40,6 +41,7 @@ from nlo_lab.human.body import (
     body_signed_distance,
     knuckle_centre,
     random_body,
+    torso_signed_distance,
     wrist_position,
 )
 from nlo_lab.human.demonstration import Demonstration
@@ -52,6 +54,7 @@ __all__ = [
     "N_SIGNERS",
     "CLEARANCE",
     "HAND_CLEARANCE",
+    "ELBOW_CLEARANCE",
     "WRIST_ACCEL_LIMIT",
     "FINGERTIP_ACCEL_LIMIT",
     "WRIST_SPEED_LIMIT",
@@ -71,6 +74,8 @@ WRIST_SPEED_LIMIT = 2.2  # [m/s] generation bound on the wrist speed (fast signi
 FINGERTIP_ACCEL_LIMIT = 60.0  # [m/s^2] the same for fingertips (they also swing with wrist rotations)
 _PUSH_CLEARANCE = 0.02  # [m] clearance from the body targeted while solving a sign (above CLEARANCE)
 _HAND_PUSH_CLEARANCE = 0.06  # [m] the same from a base hand (room for the approach of the dominant hand)
+_ELBOW_PUSH_CLEARANCE = 0.05  # [m] elbow joint centre from the torso while solving a sign
+ELBOW_CLEARANCE = 0.03  # [m] minimum distance of the elbow joint centre from the torso (about the arm's radius)
 _MAX_ATTEMPTS = 40
 _FPS_CHOICES = (15, 20, 25, 30)
 _MIN_FRAMES, _MAX_FRAMES = 60, 250
@@ -276,21 +281,24 @@ def _knuckle_centre(pose) -> np.ndarray:
     return pose.finger_base[..., 1:, :].mean(axis=-2)
 
 
-def _solve(body: BodyParams, ref: np.ndarray, distal: np.ndarray, fingers: np.ndarray, elbow_out: float) -> np.ndarray:
+def _solve(body: BodyParams, ref: np.ndarray, distal: np.ndarray, elbow_out: float, elbow_forward: float) -> np.ndarray:
     """Arm angles ``(n, 7)`` that put the knuckle centre on ``ref`` ``(n, 3)`` (canonical right arm)."""
     wrist = ref.copy()
     for _ in range(2):  # the hand offset depends on the forearm direction: a few fixed-point steps
-        q = arm_ik(body, wrist, "right", distal, elbow_out)
+        q = arm_ik(body, wrist, "right", distal, elbow_out, elbow_forward)
         wrist = wrist + (ref - knuckle_centre(body, q))
-    return arm_ik(body, wrist, "right", distal, elbow_out)
+    return arm_ik(body, wrist, "right", distal, elbow_out, elbow_forward)
 
 
 def _solve_clear(body, ref, distal, fingers, elbow_out, obstacle: np.ndarray | None = None) -> np.ndarray:
     """:func:`_solve`, then shift the whole sign away from the body (and from ``obstacle``,
-    ``(m, 3)`` points such as the other hand) until its hand clears them by ``_PUSH_CLEARANCE``."""
+    ``(m, 3)`` points such as the other hand) until its hand clears them by ``_PUSH_CLEARANCE``;
+    an elbow that would sink into the belly is brought forward."""
+    forward = 0.0
     for _ in range(6):
-        q = _solve(body, ref, distal, fingers, elbow_out)
-        pts = arm_fk(body, q, fingers, "right").hand_points()  # (n, 26, 3)
+        q = _solve(body, ref, distal, elbow_out, forward)
+        pose = arm_fk(body, q, fingers, "right")
+        pts = pose.hand_points()  # (n, 26, 3)
         sd = body_signed_distance(body, pts)
         worst = np.unravel_index(np.argmin(sd), sd.shape)
         push = body_gradient(body, pts[worst]) * max(_PUSH_CLEARANCE - sd[worst] + 0.003, 0.0)
@@ -300,7 +308,10 @@ def _solve_clear(body, ref, distal, fingers, elbow_out, obstacle: np.ndarray | N
             if gap[t, i, j] < _HAND_PUSH_CLEARANCE:
                 away = (pts[t, i] - obstacle[j]) / max(gap[t, i, j], 1e-6)
                 push = push + away * (_HAND_PUSH_CLEARANCE - gap[t, i, j] + 0.003)
-        if not push.any():
+        elbow_low = torso_signed_distance(body, pose.elbow).min() < _ELBOW_PUSH_CLEARANCE
+        if elbow_low and forward < 2.0:
+            forward += 0.5
+        if not push.any() and not elbow_low:
             break
         ref = ref + push
     return q
@@ -455,6 +466,8 @@ def _plausible(body: BodyParams, arm: np.ndarray, fingers: np.ndarray, fps: floa
     poses = [arm_fk(body, arm[:, s], fingers[:, s], side) for s, side in enumerate(("left", "right"))]
     pts = [p.hand_points() for p in poses]  # (T, 26, 3) each
     if min(body_signed_distance(body, p).min() for p in pts) < CLEARANCE:
+        return False, poses
+    if min(torso_signed_distance(body, p.elbow).min() for p in poses) < ELBOW_CLEARANCE:
         return False, poses
     near = np.linalg.norm(poses[0].wrist - poses[1].wrist, axis=-1) < 0.5  # two hands span < 0.25 m each
     if near.any():
