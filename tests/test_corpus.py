@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nlo_lab.errors import DemonstrationError
-from nlo_lab.human import Demonstration, corpus_clip, corpus_names, sign_corpus
+from nlo_lab.human import Demonstration, corpus_clip, corpus_names, sign_corpus, wrist_frame_from_hand
 from nlo_lab.human.body import ARM_RANGES, FINGER_RANGES, BodyParams, arm_fk
 from nlo_lab.human.corpus import SCENARIOS, corpus_angles, corpus_lexicon
 from nlo_lab.human.signs import HANDSHAPES, LOCATIONS, MOVEMENTS, PATTERNS, is_test_combination
@@ -146,6 +146,9 @@ def test_body_frame_and_conventions(all_demos):
             x = f[:, 2, 0] - d.position(side, "wrist")
             np.testing.assert_allclose(R[..., 0], x / np.linalg.norm(x, axis=-1, keepdims=True), atol=1e-9)
             assert np.all(np.einsum("ti,ti->t", R[..., 1], f[:, 1, 0] - f[:, 4, 0]) > 0.03)
+            # the same frame as the readers build from hand landmarks
+            from_hand = wrist_frame_from_hand(d.position(side, "wrist"), f[:, 1, 0], f[:, 4, 0], f[:, 2, 0])
+            np.testing.assert_allclose(R, from_hand, atol=1e-9)
             # the rest pose hangs below the shoulders, the hands come up to sign
             wrist_z = d.position(side, "wrist")[:, 2]
             assert wrist_z[0] < -0.35
