@@ -42,7 +42,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
 
-from nlo_lab.baselines import METHODS, BaselineSettings, SupervisedSettings, supervised_dataset, supervised_network, train_supervised_model  # noqa: E402
+from nlo_lab.baselines import METHODS, BaselineSettings, SupervisedSettings, supervised_dataset, supervised_network, train_variant  # noqa: E402
 from nlo_lab.errors import CheckpointError  # noqa: E402
 from nlo_lab.evaluate import evaluate, format_table  # noqa: E402
 from nlo_lab.human.corpus import sign_corpus  # noqa: E402
@@ -50,7 +50,7 @@ from nlo_lab.losses import targets_from_demonstration  # noqa: E402
 from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent  # noqa: E402
 from nlo_lab.robots import load_robot  # noqa: E402
-from nlo_lab.train import TrainSettings, corpus_targets, load_pretrained, new_model, train_model  # noqa: E402
+from nlo_lab.train import TrainSettings, corpus_targets, load_pretrained, train_model  # noqa: E402
 
 BUDGETS = (0, 10, 25, 50, 100)
 INITS = {  # label -> OptimizeSettings overrides
@@ -188,22 +188,8 @@ def table3(robot, demos, train_seconds: float, iterations: int):
     results, trained = {}, {}
     for name, kind, objective in VARIANTS:
         print(f"Table III: training {name} ({kind}, {objective}) for {train_seconds:.0f} s ...", file=sys.stderr)
-        start = time.perf_counter()
-        if objective == "fk":
-            r = train_model(
-                robot,
-                TrainSettings(kind=kind, epochs=10_000, max_seconds=train_seconds, val_every=100, val_frames=600, progress=False),
-                train_data=data,
-                val_data=val,
-            )
-            model, steps = r.model, r.steps
-        else:
-            torch.manual_seed(0)
-            model = new_model(robot, TrainSettings(kind=kind))
-            hist = train_supervised_model(model, data, labels, epochs=10_000, batch_size=64, lr=1e-3, seed=0, max_seconds=train_seconds)
-            steps = len(hist) * ((len(data) + 63) // 64)
-        trained[name] = (time.perf_counter() - start, steps)
-        model = model.to(dtype=robot.lower_limits.dtype).eval()
+        model, secs, steps = train_variant(robot, name, data, labels, train_seconds, val_data=val)
+        trained[name] = (secs, steps)
         per = {"Init": {}, "Optim": {}}
         for demo in demos:
             tg = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)

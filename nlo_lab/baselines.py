@@ -58,6 +58,8 @@ __all__ = [
     "supervised_labels",
     "train_supervised_net",
     "train_supervised_model",
+    "VARIANTS",
+    "train_variant",
     "supervised_network",
     "supervised_dataset",
     "cache_dir",
@@ -409,6 +411,51 @@ def train_supervised_model(model, targets: Targets, labels: torch.Tensor, *, epo
 
     torch.manual_seed(seed)
     return _fit(model, predict, (targets.node_features.to(lo.dtype), None if ef is None else ef.to(lo.dtype)), u, epochs, batch_size, lr, seed, max_seconds)
+
+
+VARIANTS = {  # Table III of the paper: name -> (model kind, training objective)
+    "AE": ("mlp", "supervised"),
+    "GAE": ("graph", "supervised"),
+    "AE+FK": ("mlp", "fk"),
+    "GAE+FK": ("graph", "fk"),
+}
+
+
+def train_variant(robot, name: str, data: Targets, labels: torch.Tensor | None, seconds: float, *, val_data: Targets | None = None, seed: int = 0):
+    """Train one Table III variant for a wall-clock budget.
+
+    Args:
+        robot: a loaded robot.
+        name: ``"AE"``, ``"GAE"`` (supervised on ``labels``) or ``"AE+FK"``, ``"GAE+FK"``
+            (the objective through forward kinematics, :func:`nlo_lab.train.train_model`).
+        data: training frames (with encoder features).
+        labels: ``(N, n)`` joint-space labels of ``data`` (supervised variants only).
+        seconds: training budget [s] (the same for every variant makes them comparable).
+        val_data: validation frames of the FK variants (default: ``data``).
+        seed: initial weights and batch order.
+
+    Returns:
+        ``(model, seconds, steps)``: the model in eval mode, in the robot's dtype.
+    """
+    from nlo_lab.train import TrainSettings, new_model, train_model
+
+    if name not in VARIANTS:
+        raise SettingsError(f"unknown variant {name!r}; expected one of {', '.join(VARIANTS)}")
+    kind, objective_kind = VARIANTS[name]
+    start = time.perf_counter()
+    if objective_kind == "fk":
+        val = val_data if val_data is not None else data
+        settings = TrainSettings(kind=kind, epochs=100_000, max_seconds=seconds, val_every=100, val_frames=min(600, len(val)), seed=seed, progress=False)
+        r = train_model(robot, settings, train_data=data, val_data=val)
+        model, steps = r.model, r.steps
+    else:
+        if labels is None:
+            raise SettingsError(f"variant {name!r} is supervised: it needs labels")
+        torch.manual_seed(seed)
+        model = new_model(robot, TrainSettings(kind=kind))
+        hist = train_supervised_model(model, data, labels, epochs=100_000, batch_size=64, lr=1e-3, seed=seed, max_seconds=seconds)
+        steps = len(hist) * ((len(data) + 63) // 64)
+    return model.to(dtype=robot.lower_limits.dtype).eval(), time.perf_counter() - start, steps
 
 
 def cache_dir() -> Path:

@@ -129,3 +129,20 @@ def test_unknown_method_is_refused():
     robot = load_robot("nao")
     with pytest.raises(SettingsError, match="unknown method 'magic'"):
         run_method("magic", robot, None)
+
+
+def test_table3_variants_train_and_stay_inside_the_limits():
+    from nlo_lab.baselines import VARIANTS, train_variant
+
+    robot = load_robot("nao")
+    q = random_feasible_pose(robot, 16, seed=4)
+    data = targets_from_demonstration(demonstration_from_robot(robot, q))
+    for name in VARIANTS:
+        model, seconds, steps = train_variant(robot, name, data, q, 0.2)
+        assert steps >= 1 and seconds > 0
+        out = model.decode(model.encode(data.node_features, data.edge_features))
+        assert limit_violations(robot, out.detach().numpy()) == 0
+    with pytest.raises(SettingsError, match="unknown variant"):
+        train_variant(robot, "VAE", data, q, 0.1)
+    with pytest.raises(SettingsError, match="needs labels"):
+        train_variant(robot, "GAE", data, None, 0.1)
