@@ -467,8 +467,10 @@ def cache_dir() -> Path:
     return Path(base) / "nlo_lab"
 
 
-def _cache_key(robot, settings: SupervisedSettings) -> str:
+def _cache_key(robot, settings: SupervisedSettings, data: Targets) -> str:
+    """Robot joints and limits, settings and the training frames' content (a changed corpus is a new key)."""
     ident = {
+        "data": hashlib.sha256(data.node_features.detach().cpu().float().numpy().tobytes()).hexdigest(),
         "robot": robot.name,
         "joints": list(robot.joint_names),
         "lower": [round(float(v), 6) for v in robot.lower_limits],
@@ -493,8 +495,8 @@ def supervised_dataset(robot, settings: SupervisedSettings | None = None, *, use
     from nlo_lab.train import corpus_targets
 
     s = settings or SupervisedSettings()
-    label_key = _cache_key(robot, SupervisedSettings(frame_stride=s.frame_stride, label_iterations=s.label_iterations, corpus_seed=s.corpus_seed))
     data = corpus_targets("train", seed=s.corpus_seed).index(slice(0, None, s.frame_stride))
+    label_key = _cache_key(robot, SupervisedSettings(frame_stride=s.frame_stride, label_iterations=s.label_iterations, corpus_seed=s.corpus_seed), data)
     path = cache_dir() / f"labels_{robot.name}_{label_key}.pt"
     if use_cache and path.is_file():
         try:
@@ -522,11 +524,12 @@ def supervised_network(robot, settings: SupervisedSettings | None = None, *, use
     over the training split (every ``frame_stride``-th frame), then supervised training.
 
     Cached per process and, with ``use_cache``, as a file under :func:`cache_dir`
-    (keyed by the robot's joints and limits and the settings). ``net.info`` holds
+    (keyed by the robot's joints and limits, the settings and the training frames). ``net.info`` holds
     ``label_seconds`` and ``train_seconds``.
     """
     s = settings or SupervisedSettings()
-    key = _cache_key(robot, s)
+    data, labels, label_seconds = supervised_dataset(robot, s, use_cache=use_cache, progress=progress)
+    key = _cache_key(robot, s, data)
     if use_cache and key in _NETWORKS:
         return _NETWORKS[key]
     path = cache_dir() / f"nn_supervised_{robot.name}_{key}.pt"
@@ -542,7 +545,6 @@ def supervised_network(robot, settings: SupervisedSettings | None = None, *, use
             return net
         except Exception:  # a damaged cache file is rebuilt, never trusted
             pass
-    data, labels, label_seconds = supervised_dataset(robot, s, use_cache=use_cache, progress=progress)
     r32 = robot.to(dtype=torch.float32)
     net = train_supervised_net(r32, data.node_features, labels, s)
     net.info["label_seconds"] = label_seconds
