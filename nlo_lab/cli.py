@@ -20,7 +20,7 @@ __all__ = ["main", "build_parser"]
 
 ROBOTS = ("yumi", "nao", "pepper")
 INITS = ("encoder", "random", "train-stats", "zeros")
-DEMO_CLIP = "demo:introduction_00"
+DEMO_CLIP = "demo:introduction_06"  # "HELLO, NAME, STUDENT" (133 frames at 20 fps)
 
 
 class UsageError(NloLabError):

@@ -78,7 +78,7 @@ def retarget(
 
 def summary(demo: Demonstration, robot: Robot, result: RetargetResult) -> dict[str, Any]:
     """The command line's JSON object (DESIGN.md, "Command line")."""
-    angles = torch.as_tensor(result.trajectory.angles, dtype=robot.lower_limits.dtype)
+    angles = torch.tensor(np.array(result.trajectory.angles), dtype=robot.lower_limits.dtype)  # a writable copy
     errors = tracking_errors(demo, robot, angles)
     return {
         "robot": robot.name,
