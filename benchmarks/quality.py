@@ -324,7 +324,7 @@ def main(argv=None) -> int:
     p.add_argument("--ablation-limit", type=int, default=8, help="init ablation and Table III: first N test sequences")
     p.add_argument("--iters", type=int, default=100)
     p.add_argument("--train-seconds", type=float, default=120.0, help="Table III: wall-clock training budget per variant [s]")
-    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--threads", type=int, default=1, help="torch threads (1: no oversubscription on a shared 2-core machine)")
     p.add_argument("--quick", action="store_true", help="4 sequences, 3 in the ablations, 20 s training per variant")
     p.add_argument("--skip", default="", help="comma list of parts to skip: table1,init,table3")
     p.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")

@@ -114,7 +114,7 @@ def main(argv=None) -> int:
     p.add_argument("--frames", type=int, default=30, help="frames timed for the one-frame interactive case")
     p.add_argument("--sequences", type=int, default=5, help="test sequences in the joint-space comparison")
     p.add_argument("--joint-cap", type=int, default=3000, help="iteration cap of the joint-space race")
-    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--threads", type=int, default=1, help="torch threads (1: no oversubscription on a shared 2-core machine)")
     p.add_argument("--no-write", action="store_true")
     args = p.parse_args(argv)
     torch.set_num_threads(max(1, args.threads))
