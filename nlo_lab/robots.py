@@ -162,6 +162,9 @@ def known_robots() -> list[str]:
 
 def _resolve(name_or_path: str | Path) -> Path:
     p = Path(name_or_path)
+    # A bundled name wins over a same-named file or folder in the working directory.
+    if isinstance(name_or_path, str) and name_or_path in known_robots():
+        return ROBOTS_DIR / f"{name_or_path}.json"
     if p.suffix == ".json" or p.exists() or len(p.parts) > 1:
         if not p.is_file():
             raise RobotDescriptionError(f"robot spec file not found: {p}")

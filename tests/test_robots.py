@@ -267,6 +267,12 @@ def test_unknown_robot_name_lists_known_robots():
     assert "r2d2" in str(e.value) and "nao" in str(e.value) and "pepper" in str(e.value)
 
 
+def test_bundled_name_wins_over_a_folder_of_that_name(tmp_path, monkeypatch):
+    (tmp_path / "nao").mkdir()
+    monkeypatch.chdir(tmp_path)
+    assert load_robot("nao").n_joints == 10
+
+
 def test_missing_spec_file(tmp_path):
     with pytest.raises(RobotDescriptionError, match="not found"):
         load_robot(tmp_path / "nope.json")
