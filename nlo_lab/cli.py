@@ -196,6 +196,11 @@ def main(argv: list[str] | None = None) -> int:
     """Run ``nlo-lab``; returns the exit status (0 ok, 2 bad input)."""
     try:
         args = build_parser().parse_args(argv)
+        import torch
+
+        from nlo_lab.threads import default_threads
+
+        torch.set_num_threads(default_threads())  # see nlo_lab.threads: one thread unless NLO_LAB_THREADS says otherwise
         return COMMANDS[args.command](args)
     except NloLabError as exc:
         print(f"nlo-lab: error: {exc}", file=sys.stderr)

@@ -57,7 +57,7 @@ def budget(full, test):
 
 
 def setup(seed: int = 0, quiet: bool = False) -> None:
-    """Seed torch, numpy and random; print the mode and which viewer will be used.
+    """Seed torch, numpy and random, use one torch thread; print the mode and the viewer used.
 
     Args:
         seed: the seed of every generator.
@@ -65,9 +65,12 @@ def setup(seed: int = 0, quiet: bool = False) -> None:
     """
     import torch
 
+    from nlo_lab.threads import default_threads
+
     random.seed(seed)
     np.random.seed(seed)
     torch.manual_seed(seed)
+    torch.set_num_threads(default_threads())  # small problems: see nlo_lab.threads
     if not quiet:
         from nlo_lab.viz import static_viewer_requested
 

@@ -19,6 +19,7 @@ from nlo_lab.losses import LossWeights, targets_from_demonstration
 from nlo_lab.metrics import limit_violations, self_collision_frames, tracking_errors
 from nlo_lab.optimize import OptimizeResult, OptimizeSettings, optimize_latent
 from nlo_lab.robots import Robot
+from nlo_lab.threads import single_thread
 from nlo_lab.train import load_pretrained
 from nlo_lab.trajectory import RobotTrajectory
 
@@ -65,10 +66,11 @@ def retarget(
     settings = settings or OptimizeSettings()
     weights = weights or LossWeights()
     model = model if model is not None else load_pretrained(robot)
-    start = time.perf_counter()
-    targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
-    result = optimize_latent(model, robot, targets, settings, weights=weights)
-    seconds = time.perf_counter() - start
+    with single_thread():
+        start = time.perf_counter()
+        targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
+        result = optimize_latent(model, robot, targets, settings, weights=weights)
+        seconds = time.perf_counter() - start
     angles = result.q.detach().cpu().numpy().astype(np.float64)
     trajectory = RobotTrajectory(robot=robot.name, joint_names=list(robot.joint_names), angles=angles, fps=demo.fps)
     out = RetargetResult(trajectory=trajectory, optimization=result, seconds=seconds)

@@ -19,7 +19,6 @@ only the static page, ``None`` none, or pass a meshcat ``Visualizer``.
 
 from __future__ import annotations
 
-import contextlib
 import html
 import time
 from typing import Any, Callable, Mapping
@@ -30,21 +29,11 @@ import torch
 from nlo_lab.errors import NloLabError, SettingsError
 from nlo_lab.losses import TERMS, LossWeights, Targets, targets_from_demonstration
 from nlo_lab.optimize import INITS, OptimizeResult, OptimizeSettings, initial_latent, optimize_latent
+from nlo_lab.threads import single_thread
 
 __all__ = ["ROBOTS", "JointPanel", "RetargetPanel", "single_thread", "svg_convergence"]
 
 ROBOTS = ("yumi", "nao", "pepper")
-
-
-@contextlib.contextmanager
-def single_thread():
-    """One torch thread for the duration: a one-frame problem is faster without thread hand-offs."""
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(n)
 
 
 _PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
