@@ -5,18 +5,20 @@ every problem becomes a :class:`~nlo_lab.errors.RobotDescriptionError` naming
 the file). :class:`KinematicTree` then precomputes, per moving joint, the
 index of its nearest moving ancestor, the fixed transform from that ancestor's
 frame to the joint (fixed joints are folded in), its axis and its mimic rule.
-One forward pass is
+One forward pass (:meth:`KinematicTree.body_poses`) is
 
-1. expand the actuated angles to every moving joint (mimic: ``m * q_src + c``),
-2. one vectorised Rodrigues call for all joint rotations ``(B, M, 3, 3)``,
-3. chain level by level: every joint at the same depth of the moving-joint tree
-   in one batched matmul,
-4. every link = (its anchor's world frame) @ (a constant), one batched matmul.
+1. the angles of every moving joint (mimic: ``m * q_src + c``) as one matmul,
+2. every local transform ``T_parentbody_body = pre @ Rodrigues(axis, theta)``
+   from one matmul on ``[sin theta | cos theta]`` (Rodrigues is linear in sin
+   and cos, so the constants ``pre``, ``pre K``, ``pre K^2`` are folded in),
+3. chaining: at small batch by pointer jumping (``ceil(log2(depth + 1))``
+   batched matmuls over all bodies: per-op overhead dominates there), at large
+   batch level by level (each body composed once: matrix count dominates),
+4. links = (their body's world frame) @ (a constant), one batched matmul.
 
-Frames are chained as 3x4 ``[R | t]`` blocks (one matmul per level) and
-completed to 4x4 only at the end; the joint rotation is folded into
-precomputed constants (``pre_R``, ``pre_R K``, ``pre_R K^2``), so no matmul is
-spent on it.
+The objective does not need every link: :meth:`KinematicTree.map_points` maps
+constant points and directions given in link frames to the world with one
+gather and one matmul after step 3.
 """
 
 from __future__ import annotations
@@ -43,6 +45,8 @@ __all__ = [
 
 MOVING_TYPES = ("revolute", "continuous")
 SUPPORTED_TYPES = MOVING_TYPES + ("fixed",)
+# batch x levels above which FK goes level by level instead of by pointer jumping (measured)
+_JUMP_MAX_WORK = 128
 
 
 # --------------------------------------------------------------------------- rotations
@@ -366,44 +370,80 @@ class KinematicTree:
             "off": np.array([r[2] for r in rules]),
             "axis": np.stack([moving[i].axis for i in order]) if moving else np.zeros((0, 3)),
         }
-        # parent index within the previous level's slice, per level >= 1
-        self._level_parent_local = []
-        for li, (s, e) in enumerate(self.level_slices):
-            if li == 0:
-                self._level_parent_local.append(None)
-                continue
-            ps, _ = self.level_slices[li - 1]
-            self._level_parent_local.append(np.array([self.moving_parent[k] - ps for k in range(s, e)], dtype=np.int64))
+        self._build_schedules()
         self._cache: dict[tuple, dict[str, torch.Tensor]] = {}
+
+    def _build_schedules(self) -> None:
+        """Constants of the fast FK (numpy, float64); see :meth:`body_poses`."""
+        M = len(self.moving_names)
+        n = len(self.actuated)
+        # theta = q @ theta_map + off: mimic expansion as one matmul
+        theta_map = np.zeros((n, M))
+        theta_map[self._np["src"], np.arange(M)] = self._np["mult"]
+        # T_parentbody_body(theta) = pre @ [[R(theta), 0], [0, 1]] with Rodrigues
+        # R = I + sin K + (1 - cos) K^2 = (I + K^2) + sin K - cos K^2, so every local
+        # transform is linear in (sin, cos): local = const + [sin | cos] @ coef.
+        # Body 0 (the root) is the identity and takes no coefficient.
+        const = np.tile(np.eye(4), (1 + M, 1, 1))  # (1+M, 4, 4)
+        coef = np.zeros((2 * M, 1 + M, 4, 4))
+        for k in range(M):
+            a = self._np["axis"][k]
+            K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+            H0, HK, HK2 = np.eye(4), np.zeros((4, 4)), np.zeros((4, 4))
+            H0[:3, :3] += K @ K
+            HK[:3, :3], HK2[:3, :3] = K, K @ K
+            pre = self.moving_pre[k]
+            const[k + 1] = pre @ H0
+            coef[k, k + 1] = pre @ HK
+            coef[M + k, k + 1] = -(pre @ HK2)
+        self._np["theta_map"] = theta_map
+        self._np["local_const"] = const.reshape(-1)
+        self._np["local_coef"] = coef.reshape(2 * M, -1)
+        # Level by level (large batches: every body is composed once). Bodies are
+        # 0 = root, then the moving joints sorted by depth, so a level is a slice.
+        parent_body = np.array([0] + [p + 1 for p in self.moving_parent], dtype=np.int64)  # root's parent: itself
+        self._np["level_parent"] = [  # parent's index within the previous level
+            parent_body[1 + s : 1 + e] - (1 + ps) for (ps, _), (s, e) in zip([(-1, 0)] + self.level_slices, self.level_slices)
+        ]
+        # Pointer jumping (small batches: ceil(log2(depth + 1)) steps instead of
+        # one per level). After step k, body i holds T_{anc}_i with anc its
+        # 2^(k+1)-th ancestor (the root, once the chain is exhausted).
+        jumps, anc = [], parent_body.copy()
+        for _ in range(max(1, math.ceil(math.log2(len(self.level_slices) + 1)))):
+            jumps.append(anc.copy())
+            anc = anc[anc]
+        self._np["jumps"] = jumps
+        self._np["link_body"] = np.array(self.link_body, dtype=np.int64)
 
     @property
     def n_links(self) -> int:
         return len(self.link_names)
 
-    def _consts(self, device: torch.device, dtype: torch.dtype) -> dict[str, torch.Tensor]:
+    @property
+    def n_bodies(self) -> int:
+        """1 + the number of moving joints: the root and the child frame of every moving joint."""
+        return 1 + len(self.moving_names)
+
+    def _consts(self, device: torch.device, dtype: torch.dtype) -> dict:
         key = (device, dtype)
         c = self._cache.get(key)
         if c is None:
             f = lambda a: torch.as_tensor(a, dtype=dtype, device=device)  # noqa: E731
             i = lambda a: torch.as_tensor(a, dtype=torch.long, device=device)  # noqa: E731
-            axis = f(self._np["axis"])  # (M, 3)
-            K = torch.zeros(axis.shape[0], 3, 3, dtype=dtype, device=device)  # cross-product matrices
-            K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
-            K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = axis[:, 2], -axis[:, 1], axis[:, 0]
             c = {
                 "src": i(self._np["src"]),
                 "mult": f(self._np["mult"]),
                 "off": f(self._np["off"]),
-                # pre_R @ Rodrigues(theta) = pre_R + sin * (pre_R K) + (1 - cos) * (pre_R K^2): no matmul per call
-                "pre_R": f(self.moving_pre[:, :3, :3]),
-                "pre_RK": f(self.moving_pre[:, :3, :3]) @ K,
-                "pre_RK2": f(self.moving_pre[:, :3, :3]) @ (K @ K),
-                "pre_t": f(self.moving_pre[:, :3, 3]),
+                "theta_map": f(self._np["theta_map"]),
+                "local_const": f(self._np["local_const"]),
+                "local_coef": f(self._np["local_coef"]),
+                "level_parent": [i(p) for p in self._np["level_parent"]],
+                "jumps": [i(a) for a in self._np["jumps"]],
                 "fixed_body": i([self.link_body[k] for k in self.fixed_links]),
-                "const_A": f(self.link_const[self.fixed_links, :3, :]),  # (F, 3, 4)
-                "keep_t": f([0.0, 0.0, 0.0, 1.0]),
+                "fixed_const": f(self.link_const[self.fixed_links]),  # (F, 4, 4)
                 "link_gather": i(self.link_gather),
-                "level_parent": [None if p is None else i(p) for p in self._level_parent_local],
+                "link_body": i(self._np["link_body"]),
+                "link_const": f(self.link_const),  # (L, 4, 4)
             }
             self._cache[key] = c
         return c
@@ -412,6 +452,43 @@ class KinematicTree:
         """Expand actuated angles ``(..., n)`` to every moving joint ``(..., M)`` (sorted order)."""
         c = self._consts(q.device, q.dtype)
         return q.index_select(-1, c["src"]) * c["mult"] + c["off"]
+
+    def _flat_angles(self, q: torch.Tensor) -> torch.Tensor:
+        """Validate ``q (..., n)`` and flatten it to ``(B, n)`` floats."""
+        n = len(self.actuated)
+        if q.shape[-1] != n:
+            raise ValueError(f"{self.model.name}: expected {n} joint angles in the last dimension, got shape {tuple(q.shape)}")
+        if not torch.is_floating_point(q):
+            q = q.to(torch.get_default_dtype())
+        return q.reshape(-1, n)
+
+    def body_poses(self, q: torch.Tensor) -> torch.Tensor:
+        """World frames of the root and of every moving joint's child frame.
+
+        Args:
+            q: ``(B, n)`` actuated angles [rad].
+
+        Returns:
+            ``(B, 1 + M, 4, 4)``; body 0 is the root, body ``k + 1`` the
+            moving joint :attr:`moving_names` ``[k]``.
+        """
+        B = q.shape[0]
+        c = self._consts(q.device, q.dtype)
+        theta = torch.addmm(c["off"], q, c["theta_map"])  # (B, M)
+        sc = torch.cat([torch.sin(theta), torch.cos(theta)], -1)  # (B, 2M)
+        local = torch.addmm(c["local_const"], sc, c["local_coef"]).view(B, -1, 4, 4)  # (B, 1+M, 4, 4) T_parent_body
+        # Few tiny matmuls cost less than many (per-op overhead) at small batch; at
+        # large batch the matrix count matters, and levels compose each body once.
+        if B * len(self.level_slices) <= _JUMP_MAX_WORK:
+            T = local
+            for anc in c["jumps"]:
+                T = T.index_select(1, anc) @ T
+            return T
+        root, *moving = local.split([1] + [e - s for s, e in self.level_slices], 1)  # split: one cheap backward
+        levels = [root, moving[0]]  # level 0 hangs from the root, whose frame is the identity
+        for A_l, parent in zip(moving[1:], c["level_parent"][1:]):
+            levels.append(levels[-1].index_select(1, parent) @ A_l)
+        return torch.cat(levels, 1)
 
     def forward(self, q: torch.Tensor) -> torch.Tensor:
         """World poses of every link.
@@ -422,40 +499,60 @@ class KinematicTree:
         Returns:
             ``(..., L, 4, 4)`` ``T_root_link`` for every link in :attr:`link_names` order.
         """
-        n = len(self.actuated)
-        if q.shape[-1] != n:
-            raise ValueError(f"{self.model.name}: expected {n} joint angles in the last dimension, got shape {tuple(q.shape)}")
-        if not torch.is_floating_point(q):
-            q = q.to(torch.get_default_dtype())
         lead = q.shape[:-1]
-        q = q.reshape(-1, n)  # (B, n)
-        B = q.shape[0]
+        q = self._flat_angles(q)  # (B, n)
         c = self._consts(q.device, q.dtype)
-        theta = q.index_select(1, c["src"]) * c["mult"] + c["off"]  # (B, M)
-        s, co = torch.sin(theta)[..., None, None], torch.cos(theta)[..., None, None]
-        eye = torch.eye(3, dtype=q.dtype, device=q.device)
-        # (B, M, 3, 3) rotation of T_parentbody_body = pre_R @ Rodrigues(axis, theta)
-        R_local = c["pre_R"] + s * c["pre_RK"] + (1.0 - co) * c["pre_RK2"]
-        # Frames as 3x4 [R | t]: chaining A_w = R_p @ [R_l | t_l] + [0 | t_p] is one matmul.
-        keep_t = c["keep_t"]  # (4,) = (0, 0, 0, 1): picks the parent's translation column
-        A_local = torch.cat([R_local, c["pre_t"][:, :, None].expand(B, -1, -1, -1)], -1)  # (B, M, 3, 4)
-        sizes = [b - a for a, b in self.level_slices]
-        levels = []
-        A_prev = None
-        for li, A_l in enumerate(A_local.split(sizes, 1)):  # split, not slicing: one cheap backward
-            if li == 0:
-                A_w = A_l
-            else:
-                Ap = A_prev.index_select(1, c["level_parent"][li])  # (B, m, 3, 4)
-                A_w = Ap[..., :3] @ A_l + Ap * keep_t
-            levels.append(A_w)
-            A_prev = A_w
-        root = torch.cat([eye, torch.zeros(3, 1, dtype=q.dtype, device=q.device)], -1).expand(B, 1, 3, 4)
-        A_body = torch.cat([root] + levels, 1)  # (B, 1+M, 3, 4)
-        Ab = A_body.index_select(1, c["fixed_body"])  # (B, F, 3, 4)
-        A_fixed = Ab[..., :3] @ c["const_A"] + Ab * keep_t  # (B, F, 3, 4)
-        A = torch.cat([A_body, A_fixed], 1).index_select(1, c["link_gather"])  # (B, L, 3, 4)
-        L = A.shape[1]
-        bottom = torch.tensor([0.0, 0.0, 0.0, 1.0], dtype=q.dtype, device=q.device).expand(B, L, 1, 4)
-        T = torch.cat([A, bottom], -2)  # (B, L, 4, 4)
-        return T.reshape(*lead, L, 4, 4)
+        body = self.body_poses(q)  # (B, 1+M, 4, 4)
+        # Links with a constant offset from their body: one batched matmul; the
+        # others are bodies themselves. Link k is row link_gather[k] of the cat.
+        fixed = body.index_select(1, c["fixed_body"]) @ c["fixed_const"]  # (B, F, 4, 4)
+        T = torch.cat([body, fixed], 1).index_select(1, c["link_gather"])  # (B, L, 4, 4)
+        return T.reshape(*lead, T.shape[1], 4, 4)
+
+    def forward_links(self, q: torch.Tensor, links: torch.Tensor) -> torch.Tensor:
+        """World poses of some links only (the rest of the tree's links are not formed).
+
+        Args:
+            q: ``(..., n)`` actuated angles [rad].
+            links: ``(k,)`` long indices into :attr:`link_names`.
+
+        Returns:
+            ``(..., k, 4, 4)`` ``T_root_link``.
+        """
+        lead = q.shape[:-1]
+        q = self._flat_angles(q)
+        c = self._consts(q.device, q.dtype)
+        links = links.to(device=q.device)
+        body = self.body_poses(q).index_select(1, c["link_body"].index_select(0, links))  # (B, k, 4, 4)
+        T = body @ c["link_const"].index_select(0, links)
+        return T.reshape(*lead, T.shape[1], 4, 4)
+
+    def point_map(self, links: Sequence[str], vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Precompute :meth:`map_points` for homogeneous vectors given in link frames.
+
+        Args:
+            links: ``k`` link names.
+            vectors: ``(k, 4)`` homogeneous coordinates in each link's frame
+                (``w = 1``: a point [m]; ``w = 0``: a direction).
+
+        Returns:
+            ``(body (k,) int64, vectors (k, 4) float64 in the body frames)``.
+        """
+        idx = [self.link_index[n] for n in links]
+        vectors = np.asarray(vectors, dtype=np.float64).reshape(len(idx), 4)
+        body = np.array([self.link_body[i] for i in idx], dtype=np.int64)
+        return body, np.einsum("kij,kj->ki", self.link_const[idx], vectors)
+
+    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor) -> torch.Tensor:
+        """World coordinates of vectors fixed in bodies (see :meth:`point_map`).
+
+        Args:
+            q: ``(B, n)`` actuated angles [rad].
+            body: ``(k,)`` long body indices.
+            vectors: ``(k, 4)`` homogeneous vectors in the body frames.
+
+        Returns:
+            ``(B, k, 3)``: points [m] (``w = 1``) or directions (``w = 0``) in the root frame.
+        """
+        T = self.body_poses(self._flat_angles(q)).index_select(1, body)[..., :3, :]  # (B, k, 3, 4)
+        return (T @ vectors[:, :, None]).squeeze(-1)

@@ -36,6 +36,7 @@ from typing import Optional
 import numpy as np
 import torch
 
+from nlo_lab.collision import segment_distance_ends
 from nlo_lab.errors import DemonstrationError, SettingsError
 from nlo_lab.human.demonstration import FINGERS, SIDES, Demonstration
 
@@ -46,6 +47,7 @@ __all__ = [
     "COLLISION_FORMS",
     "targets_from_demonstration",
     "objective",
+    "Objective",
     "end_effector_loss",
     "orientation_loss",
     "elbow_loss",
@@ -261,6 +263,61 @@ class _RobotConstants:
         self.finger_side = torch.tensor([s for s, *_ in self.fingers], dtype=torch.long, device=device)
         self.finger_index = torch.tensor([f for _, f, *_ in self.fingers], dtype=torch.long, device=device)
         self.margins = torch.as_tensor(robot.collision_margins).to(device=device, dtype=dtype)  # (P,)
+        self._build_point_plan(robot, arms, lengths, dtype, device)
+
+    def _build_point_plan(self, robot, arms, lengths, dtype, device) -> None:
+        """Everything the objective reads from FK as constant vectors in link frames.
+
+        Points (``w = 1``): shoulder, elbow, wrist per side, finger base and tip,
+        capsule end points; directions (``w = 0``): the three columns of each
+        wrist's aligned rotation. ``rows @ points`` then gives the residual rows
+        of the fast objective: ee (2), ori columns (6), elbow (2), finger (K).
+        """
+        links, vecs = [], []
+
+        def add(link: str, xyz, w: float) -> int:
+            links.append(link)
+            vecs.append([*xyz, w])
+            return len(links) - 1
+
+        role = {(r, s): add(getattr(arm, r), (0.0, 0.0, 0.0), 1.0) for s, arm in enumerate(arms) for r in ("shoulder", "elbow", "wrist")}
+        cols = [[add(arm.wrist, np.asarray(arm.wrist_alignment, dtype=np.float64)[:, j], 0.0) for j in range(3)] for arm in arms]
+        fingers = [(add(base, (0.0, 0.0, 0.0), 1.0), add(tip, (0.0, 0.0, 0.0), 1.0)) for *_, base, tip in self.fingers]
+        caps = [[add(cap.link, end, 1.0) for end in (cap.p0, cap.p1)] for cap in robot.spec.capsules]
+        rows = []  # (V, K): each residual row as a signed, scaled combination of points
+        K = len(links)
+
+        def row(entries) -> None:
+            r = np.zeros(K)
+            for k, v in entries:
+                r[k] += v
+            rows.append(r)
+
+        for s in range(2):
+            l_arm = float(lengths[s][0]) + float(lengths[s][1])
+            row([(role["wrist", s], 1.0 / l_arm), (role["shoulder", s], -1.0 / l_arm)])
+        for s in range(2):
+            for j in range(3):
+                row([(cols[s][j], 1.0)])
+        for s in range(2):
+            l_fore = float(lengths[s][1])
+            row([(role["wrist", s], 1.0 / l_fore), (role["elbow", s], -1.0 / l_fore)])
+        for base, tip in fingers:
+            row([(tip, 1.0), (base, -1.0)])
+        body, vectors = robot.tree.point_map(links, np.array(vecs))
+        f = lambda a: torch.as_tensor(a, dtype=dtype, device=device)  # noqa: E731
+        self.point_body = torch.as_tensor(body, dtype=torch.long, device=device)  # (K,)
+        self.point_vectors = f(vectors)  # (K, 4) in body frames
+        self.rows = f(np.array(rows))  # (V, K)
+        n_rows = [2, 6, 2, len(fingers)]  # ee, ori, elbow, finger
+        # -0.5 on finger rows (unit direction), 0 elsewhere (x ** 0 = 1): see Objective
+        self.row_power = f(np.repeat([0.0, 0.0, 0.0, -0.5], n_rows)[:, None])  # (V, 1)
+        self.row_term = f(np.repeat(np.eye(4), n_rows, axis=0))  # (V, 4) row -> term
+        pair_caps = np.array([[robot.spec.capsules.index(robot.spec.capsule(n)) for n in pr] for pr in robot.spec.collision_pairs], dtype=np.int64)
+        cap_pts = np.array(caps, dtype=np.int64).reshape(-1, 2)
+        self.pair_points = torch.as_tensor(cap_pts[pair_caps].reshape(-1), dtype=torch.long, device=device)  # (4P,) a0 a1 b0 b1
+        radii = np.array([c.radius for c in robot.spec.capsules])
+        self.pair_radii = f(radii[pair_caps].sum(-1).reshape(-1))  # (P,) [m]
 
 
 _CONSTANTS: dict[tuple[int, torch.dtype, str], _RobotConstants] = {}
@@ -338,7 +395,10 @@ def elbow_loss(elbow, wrist, fore_length, t_elbow, t_wrist, t_fore_length, mask)
     return _masked_sum((v - v_hat).pow(2).sum(-1), mask)
 
 
-def _unit(v: torch.Tensor, eps: float = 1e-9) -> torch.Tensor:
+_UNIT_EPS = 1e-9  # [m^2] keeps unit vectors of zero-length fingers finite
+
+
+def _unit(v: torch.Tensor, eps: float = _UNIT_EPS) -> torch.Tensor:
     return v / v.pow(2).sum(-1, keepdim=True).add(eps).sqrt()
 
 
@@ -369,10 +429,10 @@ def collision_loss(distances: torch.Tensor, margins: torch.Tensor, form: str = "
         raise SettingsError(f"unknown collision form {form!r}; expected one of {COLLISION_FORMS}")
     if distances.shape[-1] == 0:
         return distances.new_zeros(distances.shape[0])
-    close = distances < margins
     if form == "paper":
-        return _masked_sum(torch.exp(-distances.pow(2)), close)
-    return _masked_sum(((margins - distances) / margins).pow(2), close)
+        return _masked_sum(torch.exp(-distances.pow(2)), distances < margins)
+    # clamp: exactly 0 (and no gradient) at and above d_min, fewer ops than a masked sum
+    return ((margins - distances) / margins).clamp_min(0.0).pow(2).sum(-1)
 
 
 def latent_loss(z: torch.Tensor, sigma: float = 1.0) -> torch.Tensor:
@@ -381,6 +441,65 @@ def latent_loss(z: torch.Tensor, sigma: float = 1.0) -> torch.Tensor:
 
 
 # ---------------------------------------------------------------------- objective
+class Objective:
+    """The objective of :func:`objective` for one robot, one set of targets and weights.
+
+    Everything that does not depend on ``q`` is computed once here (the human
+    side of every term, the masks, the robot's constant point plan), so that a
+    call is one FK and a few batched tensor ops: the latent optimisation calls
+    it every iteration, where per-op overhead dominates at small batch.
+
+    A call maps every needed point and direction to the world at once
+    (:meth:`nlo_lab.kinematics.KinematicTree.map_points`), forms the residual
+    rows of ee, ori (wrist rotation columns), elbow and finger with one matmul,
+    and the capsule pair distances from the same points.
+
+    Args:
+        robot: a loaded ``nlo_lab.robots.Robot``.
+        targets: :class:`Targets` (T frames); its dtype and device are used.
+        weights: :class:`LossWeights`.
+        collision_form: see :func:`collision_loss`.
+    """
+
+    def __init__(self, robot, targets: Targets, weights: LossWeights | None = None, collision_form: str = "hinge"):
+        if collision_form not in COLLISION_FORMS:
+            raise SettingsError(f"unknown collision form {collision_form!r}; expected one of {COLLISION_FORMS}")
+        weights = weights or LossWeights()
+        self.robot, self.n_frames, self.collision_form = robot, len(targets), collision_form
+        t = targets
+        c = self._c = _constants(robot, t.dtype, t.shoulder.device)
+        with torch.no_grad():
+            am = t.arm_mask
+            parts = [
+                (t.wrist - t.shoulder) / t.arm_length[..., None],  # (T, 2, 3) ee
+                t.wrist_rotation.mT.reshape(-1, 6, 3),  # (T, 6, 3) ori: columns of R̂, side-major
+                (t.wrist - t.elbow) / t.fore_length[..., None],  # (T, 2, 3) elbow
+            ]
+            masks = [am[..., 0] & am[..., 2], t.wrist_mask.repeat_interleave(3, dim=1), am[..., 1] & am[..., 2]]
+            if c.fingers:
+                sel = (slice(None), c.finger_side, c.finger_index)
+                parts.append(_unit(t.finger_tip[sel] - t.finger_base[sel]))  # (T, K, 3)
+                masks.append(t.finger_mask[sel])
+            self.goal = torch.cat(parts, 1)  # (T, V, 3)
+            self.mask = torch.cat(masks, 1)  # (T, V) bool
+            self.weights = torch.tensor([getattr(weights, n) for n in TERMS], dtype=t.dtype, device=t.shoulder.device)  # (5,)
+
+    def __call__(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``q (B, n)`` -> ``total (B,)`` and the unweighted terms ``(B, 5)`` in :data:`TERMS` order."""
+        if q.shape[0] != self.n_frames:
+            raise SettingsError(f"q has {q.shape[0]} frames but the targets have {self.n_frames}")
+        c = self._c
+        pts = self.robot.tree.map_points(q, c.point_body, c.point_vectors)  # (B, K, 3)
+        v = c.rows @ pts  # (B, V, 3) residual rows before the goal
+        # finger rows become unit directions: (|v|² + eps)^(-1/2) on them, ^0 = 1 on the others
+        v = v * (v.pow(2).sum(-1, keepdim=True) + _UNIT_EPS).pow(c.row_power)
+        sq = torch.where(self.mask, (v - self.goal).pow(2).sum(-1), 0.0)  # (B, V)
+        ends = pts.index_select(1, c.pair_points).view(q.shape[0], -1, 4, 3)  # (B, P, 4, 3)
+        d = segment_distance_ends(ends) - c.pair_radii  # (B, P) capsule surface distances [m]
+        terms = torch.cat([sq @ c.row_term, collision_loss(d, c.margins, self.collision_form)[:, None]], 1)  # (B, 5)
+        return terms @ self.weights, terms
+
+
 def objective(
     robot,
     q: torch.Tensor,
@@ -406,7 +525,10 @@ def objective(
     weights = weights or LossWeights()
     if len(targets) != q.shape[0]:
         raise SettingsError(f"q has {q.shape[0]} frames but the targets have {len(targets)}")
-    poses = robot.forward_kinematics(q) if poses is None else poses
+    if poses is None:
+        total, terms = Objective(robot, targets, weights, collision_form)(q)
+        return total, dict(zip(TERMS, terms.unbind(1)))
+    # Given poses (every link): the term functions one by one, the reference for Objective.
     c = _constants(robot, q.dtype, q.device)
     pts = robot_points(robot, poses)
     t = targets

@@ -31,7 +31,7 @@ from typing import Mapping
 import numpy as np
 import torch
 
-from nlo_lab.collision import segment_distance
+from nlo_lab.collision import segment_distance_ends
 from nlo_lab.errors import RobotDescriptionError, UnknownRobotError
 from nlo_lab.graph import NODE_ARM, NODE_HAND, Graph
 from nlo_lab.human.demonstration import FINGERS, SIDES
@@ -429,6 +429,7 @@ class Robot:
         self.collision_margins = f(np.array(self.spec.pair_margins))  # (P,) [m]
         self.graph = self._graph64.to(device=device, dtype=dtype)
         self._cap_link_t = torch.as_tensor(self._cap_link, dtype=torch.long, device=device)
+        self._pair_flat_t = torch.as_tensor(self._pair_idx.reshape(-1), dtype=torch.long, device=device)  # (2P,) capsule a, capsule b of each pair
 
     # ----------------------------------------------------------------- API
     @property
@@ -505,11 +506,14 @@ class Robot:
             ``(..., P)`` [m], pairs in :attr:`RobotSpec.collision_pairs` order.
         """
         seg = self.capsule_segments(poses)  # (..., C, 2, 3)
-        idx = torch.as_tensor(self._pair_idx, device=seg.device)
-        a, b = seg.index_select(-3, idx[:, 0]), seg.index_select(-3, idx[:, 1])  # (..., P, 2, 3)
-        r = torch.as_tensor(self._cap_r, dtype=seg.dtype, device=seg.device)
-        d = segment_distance(a[..., 0, :], a[..., 1, :], b[..., 0, :], b[..., 1, :])  # (..., P)
-        return d - r[idx[:, 0]] - r[idx[:, 1]]
+        P = self._pair_idx.shape[0]
+        ends = seg.index_select(-3, self._pair_flat_t.to(seg.device))  # (..., 2P, 2, 3): a, b of every pair
+        ends = ends.reshape(*seg.shape[:-3], P, 4, 3)  # rows a0, a1, b0, b1
+        return segment_distance_ends(ends) - self._pair_radii(seg.dtype, seg.device)
+
+    def _pair_radii(self, dtype: torch.dtype, device) -> torch.Tensor:
+        """``(P,)`` radius of a + radius of b per collision pair [m]."""
+        return torch.as_tensor(self._cap_r[self._pair_idx].sum(-1), dtype=dtype, device=device)
 
     @property
     def reference_q(self) -> torch.Tensor:

@@ -140,3 +140,31 @@ def test_wrong_number_of_angles():
     robot = robot64("nao")
     with pytest.raises(ValueError, match="expected 10 joint angles"):
         robot.forward_kinematics(torch.zeros(2, 9, dtype=torch.float64))
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_pointer_jumping_equals_level_by_level(name, monkeypatch):
+    import nlo_lab.kinematics as kin
+
+    robot = robot64(name)
+    q = random_q(robot, 3, seed=5)
+    monkeypatch.setattr(kin, "_JUMP_MAX_WORK", 10**9)  # always pointer jumping
+    jump = robot.forward_kinematics_tensor(q)
+    monkeypatch.setattr(kin, "_JUMP_MAX_WORK", 0)  # always level by level
+    levels = robot.forward_kinematics_tensor(q)
+    torch.testing.assert_close(jump, levels, atol=1e-12, rtol=0)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_link_subsets_and_mapped_points_equal_full_fk(name):
+    robot = robot64(name)
+    q = random_q(robot, 4, seed=6)
+    T = robot.forward_kinematics_tensor(q)  # (4, L, 4, 4)
+    links = torch.tensor([0, len(robot.link_names) - 1, robot.link_index(robot.arm("left").wrist)])
+    torch.testing.assert_close(robot.tree.forward_links(q, links), T[:, links], atol=1e-12, rtol=0)
+    names = [robot.link_names[int(k)] for k in links]
+    vec = np.array([[0.1, -0.2, 0.3, 1.0], [0.0, 0.0, 1.0, 0.0], [0.05, 0.0, 0.0, 1.0]])  # two points, one direction
+    body, v = robot.tree.point_map(names, vec)
+    got = robot.tree.map_points(q, torch.as_tensor(body), torch.as_tensor(v))  # (4, 3, 3)
+    expected = (T[:, links] @ torch.as_tensor(vec)[:, :, None])[..., :3, 0]
+    torch.testing.assert_close(got, expected, atol=1e-12, rtol=0)

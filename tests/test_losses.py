@@ -180,3 +180,24 @@ def test_targets_from_demonstration_has_no_nan_and_keeps_masks(robot):
     assert not bool(t.arm_mask[1, 0, 2]) and bool(t.arm_mask[0, 0, 2])
     assert t.node_features is not None and t.node_features.shape[0] == 3
     assert len(Targets.cat([t, t.index(slice(0, 2))])) == 5
+
+
+def test_fast_objective_equals_the_term_functions(robot):
+    """Objective (the optimiser's path) = the term-by-term path on full FK poses, values and gradients."""
+    from nlo_lab.human.corpus import sign_corpus
+
+    demo = sign_corpus("test")[0]
+    t = targets_from_demonstration(demo, dtype=torch.float64).index(slice(0, 40))
+    g = torch.Generator().manual_seed(7)
+    q = robot.lower_limits + torch.rand(len(t), robot.n_joints, generator=g, dtype=torch.float64) * (robot.upper_limits - robot.lower_limits)
+    q = q.requires_grad_(True)
+    for form in ("hinge", "paper"):
+        fast, fast_terms = objective(robot, q, t, collision_form=form)
+        ref, ref_terms = objective(robot, q, t, poses=robot.forward_kinematics(q), collision_form=form)
+        for name in TERMS:
+            torch.testing.assert_close(fast_terms[name], ref_terms[name], atol=1e-12, rtol=1e-12)
+        torch.testing.assert_close(fast, ref, atol=1e-10, rtol=1e-12)
+        (g_fast,) = torch.autograd.grad(fast.sum(), q)
+        (g_ref,) = torch.autograd.grad(ref.sum(), q)
+        torch.testing.assert_close(g_fast, g_ref, atol=1e-9, rtol=1e-9)
+    assert float(ref_terms["collision"].detach().max()) > 0, "random poses should include a close capsule pair"
