@@ -70,9 +70,12 @@ def remap_to_limits(a: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -
     Returns:
         ``(..., n)`` joint angles inside the limits.
     """
-    s = torch.tanh(a)
-    q = lower + (upper - lower) * (s + 1.0) * 0.5
-    return torch.clamp(q, min=lower, max=upper)
+    return _remap(a, (lower + upper) * 0.5, (upper - lower) * 0.5, lower, upper)
+
+
+def _remap(a: torch.Tensor, mid: torch.Tensor, half: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+    """:func:`remap_to_limits` with ``mid = (lower + upper)/2``, ``half = (upper - lower)/2`` given."""
+    return torch.clamp(torch.addcmul(mid, half, torch.tanh(a)), min=lower, max=upper)
 
 
 class GraphLayer(nn.Module):
@@ -146,6 +149,71 @@ class GraphLayer(nn.Module):
             nodes = torch.arange(N, device=x.device)
             res = y.index_select(1, col(nodes, 2, node_type))
         return res + agg
+
+
+    def node_major_weights(
+        self, edge_index: torch.Tensor, edge_attr: torch.Tensor, node_type: torch.Tensor, fixed: torch.Tensor | None = None
+    ) -> dict[str, torch.Tensor]:
+        """This layer's weights gathered per edge and per node, for :meth:`forward_node_major`.
+
+        Static edge features, the bias and the contribution of constant input
+        features (``fixed``: the last ``D`` input columns, the same for every
+        sample) are folded into one bias per edge and per node: at inference
+        they cost nothing per call.
+
+        Args:
+            edge_index: ``(2, E)`` source -> target.
+            edge_attr: ``(E, F)`` static edge features.
+            node_type: ``(N,)``.
+            fixed: ``(N, D)`` constant last input columns, or None.
+
+        Returns:
+            ``src, dst (E,)``, ``self (E, C', O)``, ``nbr (E, C', O)``, ``bias (E, 1, O)``,
+            ``skip (N, C', O)`` or None (identity), ``skip_bias (N, 1, O)`` or None;
+            ``C' = C_in - D``.
+        """
+        src, dst = edge_index[0], edge_index[1]
+        C, D = self.in_features, 0 if fixed is None else fixed.shape[-1]
+        t_edge = node_type[dst]  # weights of the receiving node's type
+        w_self, w_nbr, w_edge = self.weight.index_select(0, t_edge).split([C, C, self.edge_features], dim=-1)  # (E, O, .)
+        bias = torch.einsum("ef,eof->eo", edge_attr.to(w_edge.dtype), w_edge) + self.bias.index_select(0, t_edge)  # (E, O)
+        skip = None if self.skip is None else self.skip.index_select(0, node_type)  # (N, O, C)
+        skip_bias = None
+        if fixed is not None:
+            fixed = fixed.to(w_self.dtype)
+            bias = bias + torch.einsum("ed,eod->eo", fixed[dst], w_self[..., C - D :]) + torch.einsum("ed,eod->eo", fixed[src], w_nbr[..., C - D :])
+            if skip is None:  # identity on the variable columns only
+                skip = torch.eye(self.out_features, C, dtype=w_self.dtype, device=w_self.device).expand(len(node_type), -1, -1)
+            skip_bias = torch.einsum("nd,nod->no", fixed, skip[..., C - D :])[:, None]
+            skip = skip[..., : C - D]
+        return {
+            "src": src,
+            "dst": dst,
+            "self": w_self[..., : C - D].mT,
+            "nbr": w_nbr[..., : C - D].mT,
+            "bias": bias[:, None],
+            "skip": None if skip is None else skip.mT,
+            "skip_bias": skip_bias,
+        }
+
+    @staticmethod
+    def forward_node_major(x: torch.Tensor, w: dict[str, torch.Tensor]) -> torch.Tensor:
+        """The layer on node-major features: ``x (N, B, C')`` -> ``(N, B, O)``.
+
+        Same map as :meth:`forward` (with ``w`` from :meth:`node_major_weights`)
+        in a handful of batched matmuls over edges and nodes, which at small
+        batch is what matters (per-op overhead).
+        """
+        msg = torch.baddbmm(w["bias"], x.index_select(0, w["dst"]), w["self"])  # (E, B, O)
+        msg = torch.baddbmm(msg, x.index_select(0, w["src"]), w["nbr"])
+        msg = nn.functional.leaky_relu(msg, LEAKY_SLOPE)
+        if w["skip"] is None:
+            res = x
+        elif w["skip_bias"] is None:
+            res = torch.bmm(x, w["skip"])
+        else:
+            res = torch.baddbmm(w["skip_bias"], x, w["skip"])
+        return res.index_add(0, w["dst"], msg)  # + sum over incoming edges
 
 
 class _GraphBuffers(nn.Module):
@@ -239,13 +307,38 @@ class GraphDecoder(nn.Module):
 
     def forward(self, z: torch.Tensor) -> torch.Tensor:
         """``z (B, N_r, k)`` -> ``q (B, n)`` [rad]."""
+        w = self._weights()
+        x = z.transpose(0, 1)  # (N_r, B, k): node-major, see GraphLayer.forward_node_major
+        for layer, wl in zip(self.layers, w["layers"]):
+            x = layer.forward_node_major(x, wl)
+        return _remap(x[..., 0].T, w["mid"], w["half"], w["lower"], w["upper"])
+
+    def _weights(self) -> dict:
+        """Per-layer node-major weights with the limits folded in.
+
+        Cached while no parameter needs a gradient (inference, latent
+        optimisation); the key holds every parameter's version counter, so an
+        in-place update (an optimiser step, ``load_state_dict``) rebuilds it.
+        """
+        params = list(self.parameters())
+        frozen = not any(p.requires_grad for p in params)
+        key = tuple((p.data_ptr(), p._version, p.dtype, p.device) for p in params) + (self.lower.data_ptr(), self.lower._version)
+        if frozen and getattr(self, "_weights_cache", (None,))[0] == key:
+            return self._weights_cache[1]
         g = self.graph
-        B = z.shape[0]
-        lim = torch.stack([self.lower, self.upper], dim=-1).expand(B, -1, -1)  # (B, N_r, 2)
-        x = torch.cat([z, lim], dim=-1)  # (B, N_r, k+2)
-        for layer in self.layers:
-            x = layer(x, g.edge_index, g.edge_attr, g.node_type)
-        return remap_to_limits(x[..., 0], self.lower, self.upper)
+        fixed = torch.stack([self.lower, self.upper], dim=-1)  # (N_r, 2): constant input columns
+        w = {
+            "layers": [],
+            "mid": (self.lower + self.upper) * 0.5,
+            "half": (self.upper - self.lower) * 0.5,
+            "lower": self.lower,
+            "upper": self.upper,
+        }
+        for i, layer in enumerate(self.layers):
+            w["layers"].append(layer.node_major_weights(g.edge_index, g.edge_attr, g.node_type, fixed if i == 0 else None))
+        if frozen:
+            self._weights_cache = (key, w)
+        return w
 
 
 def _mlp(dims: tuple[int, ...]) -> nn.Sequential:

@@ -158,3 +158,41 @@ def test_small_model_size():
     model = build_model("toy", chain_graph(), LOWER, UPPER, human, 6)
     n = sum(p.numel() for p in model.parameters())
     assert 0 < n < 500_000
+
+
+def _layer_by_layer_decoder(dec: GraphDecoder, z: torch.Tensor) -> torch.Tensor:
+    """The paper's decoder written out: GraphLayer.forward on [z, lower, upper], tanh, remap."""
+    g = dec.graph
+    x = torch.cat([z, torch.stack([dec.lower, dec.upper], -1).expand(z.shape[0], -1, -1)], -1)
+    for layer in dec.layers:
+        x = layer(x, g.edge_index, g.edge_attr, g.node_type)
+    return dec.lower + (dec.upper - dec.lower) * (torch.tanh(x[..., 0]) + 1) / 2
+
+
+@pytest.mark.parametrize("widths", [(32, 16, 1), (5, 5, 1)])  # (5, 5): an identity skip after the first layer
+def test_decoder_fast_path_equals_layer_by_layer(widths):
+    torch.manual_seed(8)
+    g = chain_graph()
+    dec = GraphDecoder(g, LOWER, UPPER, latent_per_node=3, widths=widths).double()
+    z = torch.randn(6, 5, 3, dtype=torch.float64)
+    torch.testing.assert_close(dec(z), _layer_by_layer_decoder(dec, z))
+    # gradients of the parameters (training) agree too
+    grads = torch.autograd.grad(dec(z).square().sum(), list(dec.parameters()))
+    ref = torch.autograd.grad(_layer_by_layer_decoder(dec, z).square().sum(), list(dec.parameters()))
+    for a, b in zip(grads, ref):
+        torch.testing.assert_close(a, b)
+
+
+def test_frozen_decoder_cache_follows_in_place_updates():
+    torch.manual_seed(9)
+    dec = GraphDecoder(chain_graph(), LOWER, UPPER, latent_per_node=3).double()
+    for p in dec.parameters():
+        p.requires_grad_(False)
+    z = torch.randn(2, 5, 3, dtype=torch.float64)
+    first = dec(z)
+    assert dec._weights() is dec._weights()  # frozen: built once
+    with torch.no_grad():
+        dec.layers[0].bias.add_(0.5)  # an optimiser step or load_state_dict
+    second = dec(z)
+    assert not torch.allclose(first, second)
+    torch.testing.assert_close(second, _layer_by_layer_decoder(dec, z))
