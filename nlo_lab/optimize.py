@@ -23,6 +23,7 @@ after a few steps on some clips (Adam's first steps overshoot), 0.1 -> 0.207 m
 from __future__ import annotations
 
 import contextlib
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Optional
@@ -30,7 +31,7 @@ from typing import Callable, Optional
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import COLLISION_FORMS, TERMS, LossWeights, Targets, latent_loss, objective
+from nlo_lab.losses import COLLISION_FORMS, TERMS, LossWeights, Objective, Targets
 
 __all__ = [
     "INITS",
@@ -211,19 +212,49 @@ def initial_latent(model, targets: Targets, settings: OptimizeSettings) -> torch
     return model.latent_mean.to(dtype) + model.latent_std.to(dtype) * noise  # "train-stats"
 
 
+def _select(better: torch.Tensor, new, old):
+    """Per sample ``new`` where ``better (B,)`` else ``old``; tensors ``(B, ...)`` or dicts of them."""
+    if isinstance(new, dict):
+        return {k: _select(better, new[k], old[k]) for k in old}
+    return torch.where(better.view(-1, *([1] * (new.ndim - 1))), new.detach(), old)
+
+
+class _Adam:
+    """Adam on one tensor, the same arithmetic as ``torch.optim.Adam``'s default
+    (single-tensor) step, without the optimiser's per-step bookkeeping (a few
+    hundred microseconds matter when one iteration at batch 1 is about a millisecond)."""
+
+    def __init__(self, x: torch.Tensor, lr: float, betas=(0.9, 0.999), eps: float = 1e-8):
+        self.lr, self.betas, self.eps, self.step = lr, betas, eps, 0
+        self.m, self.v = torch.zeros_like(x), torch.zeros_like(x)
+
+    @torch.no_grad()
+    def update(self, x: torch.Tensor, grad: torch.Tensor) -> None:
+        b1, b2 = self.betas
+        self.step += 1
+        self.m.lerp_(grad, 1 - b1)
+        self.v.mul_(b2).addcmul_(grad, grad, value=1 - b2)
+        bias1, bias2 = 1 - b1**self.step, 1 - b2**self.step
+        denom = (self.v.sqrt() / math.sqrt(bias2)).add_(self.eps)
+        x.addcdiv_(self.m, denom, value=-self.lr / bias1)
+
+
 def _descend(
     params: torch.Tensor,
-    evaluate: Callable[[torch.Tensor], tuple[torch.Tensor, torch.Tensor, dict]],
+    evaluate: Callable[[torch.Tensor], tuple[torch.Tensor, torch.Tensor, torch.Tensor | dict]],
     project: Callable[[torch.Tensor], None] | None,
     iterations: int,
     patience: int,
     lr: float,
     callback,
 ):
-    """Adam on ``params`` (B, ...) with per-sample best tracking and patience."""
+    """Adam on ``params`` (B, ...) with per-sample best tracking and patience.
+
+    ``evaluate(x)`` returns ``loss (B,)``, ``q (B, n)`` and the terms (a ``(B, K)``
+    tensor or a dict of ``(B,)``), all tracked at each sample's best point.
+    """
     x = params.detach().clone().requires_grad_(True)
-    opt = torch.optim.Adam([x], lr=lr)
-    B = x.shape[0]
+    adam = _Adam(x, lr)
     best_loss = best_x = best_q = best_terms = None
     history: list[float] = []
     best_mean, stale, steps = float("inf"), 0, 0
@@ -234,15 +265,12 @@ def _descend(
             history.append(mean)
             if best_loss is None:
                 best_loss, best_x, best_q = loss.detach().clone(), x.detach().clone(), q.detach().clone()
-                best_terms = {k: v.detach().clone() for k, v in terms.items()}
+                best_terms = {k: v.detach().clone() for k, v in terms.items()} if isinstance(terms, dict) else terms.detach().clone()
             else:
                 better = loss < best_loss  # (B,)
-                best_loss = torch.where(better, loss, best_loss)
-                bx = better.view(B, *([1] * (x.ndim - 1)))
-                best_x = torch.where(bx, x.detach(), best_x)
-                best_q = torch.where(better[:, None], q.detach(), best_q)
-                for k in best_terms:
-                    best_terms[k] = torch.where(better, terms[k].detach(), best_terms[k])
+                best_loss, best_x, best_q, best_terms = (
+                    _select(better, new, old) for new, old in ((loss, best_loss), (x, best_x), (q, best_q), (terms, best_terms))
+                )
             if mean < best_mean:
                 best_mean, stale = mean, 0
             else:
@@ -251,9 +279,8 @@ def _descend(
             callback(it, mean)
         if it == iterations or stale >= patience:
             break
-        opt.zero_grad(set_to_none=True)
-        loss.sum().backward()
-        opt.step()
+        (grad,) = torch.autograd.grad(loss.sum(), x)
+        adam.update(x, grad)
         steps += 1
         if project is not None:
             with torch.no_grad():
@@ -296,16 +323,19 @@ def optimize_latent(
     elif z0.shape != (len(targets), *model.latent_shape):
         raise SettingsError(f"z0 must be {(len(targets), *model.latent_shape)}, got {tuple(z0.shape)}")
 
+    loss_fn = Objective(robot, targets, weights, settings.collision_form)
+
     def evaluate(z):
         q = model.decode(z).to(dtype)
-        total, terms = objective(robot, q, targets, weights, collision_form=settings.collision_form)
-        return total + weights.latent * latent_loss(z).to(dtype), q, terms
+        total, terms = loss_fn(q)
+        # + weights.latent * latent_loss(z), in one op
+        return torch.add(total, z.pow(2).flatten(1).sum(1).to(dtype), alpha=weights.latent), q, terms
 
     with _frozen(model):
         z, q, loss, terms, history, steps = _descend(
             z0.to(_model_dtype(model)), evaluate, None, settings.iterations, settings.patience, settings.lr, callback
         )
-    return OptimizeResult(q, z, history, terms, loss, steps, time.perf_counter() - start, init)
+    return OptimizeResult(q, z, history, dict(zip(TERMS, terms.unbind(1))), loss, steps, time.perf_counter() - start, init)
 
 
 def optimize_stream(
@@ -377,8 +407,10 @@ def optimize_joints(
     elif q0.shape != (T, lo.shape[0]):
         raise SettingsError(f"q0 must be {(T, lo.shape[0])}, got {tuple(q0.shape)}")
 
+    loss_fn = Objective(robot, targets, weights, settings.collision_form)
+
     def evaluate(q):
-        total, terms = objective(robot, q, targets, weights, collision_form=settings.collision_form)
+        total, terms = loss_fn(q)
         if settings.limits == "penalty":
             violation = torch.relu(q - hi) + torch.relu(lo - q)
             total = total + settings.penalty * violation.pow(2).sum(-1)
@@ -391,4 +423,5 @@ def optimize_joints(
     _, q, loss, terms, history, steps = _descend(
         q0.to(dtype), evaluate, project, settings.iterations, settings.patience, settings.lr, callback
     )
+    terms = dict(zip(TERMS, terms.unbind(1)))
     return OptimizeResult(q, None, history, terms, loss, steps, time.perf_counter() - start, f"joints-{settings.init}")

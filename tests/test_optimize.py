@@ -173,3 +173,18 @@ def test_float64_end_to_end(setup):
     model64 = new_model(robot).double()
     r = optimize_latent(model64, robot, targets.to(dtype=torch.float64), OptimizeSettings(init="zeros", iterations=3))
     assert r.q.dtype == torch.float64 and r.z.dtype == torch.float64
+
+
+def test_hand_written_adam_equals_torch_adam():
+    from nlo_lab.optimize import _Adam
+
+    g = torch.Generator().manual_seed(10)
+    x0 = torch.randn(4, 3, 2, generator=g, dtype=torch.float64)
+    a, b = x0.clone(), x0.clone().requires_grad_(True)
+    ours, ref = _Adam(a, lr=0.01), torch.optim.Adam([b], lr=0.01)
+    for _ in range(25):
+        grad = torch.randn(4, 3, 2, generator=g, dtype=torch.float64) * 10
+        ours.update(a, grad)
+        b.grad = grad.clone()
+        ref.step()
+    torch.testing.assert_close(a, b.detach(), atol=0, rtol=0)
