@@ -18,35 +18,41 @@ __all__ = ["segment_distance", "segment_distance_ends", "closest_parameters", "c
 _EPS = 1e-12  # [m^2] denominators below this are treated as degenerate
 # rows d1 = a1 - a0, d2 = b1 - b0, r = a0 - b0 of the end points (a0, a1, b0, b1)
 _DIFF = ((-1.0, 1.0, 0.0, 0.0), (0.0, 0.0, -1.0, 1.0), (1.0, 0.0, -1.0, 0.0))
-# the five dot products of Ericson's closed form, as (row, row) pairs of (d1, d2, r)
-_DOT_LEFT, _DOT_RIGHT = (0, 1, 0, 0, 1), (0, 1, 1, 2, 2)  # a = d1.d1, e = d2.d2, b = d1.d2, c = d1.r, f = d2.r
+_CONSTS: dict = {}
+
+
+def _diff_matrix(device) -> torch.Tensor:
+    """``(3, 4)`` float64 :data:`_DIFF` on ``device`` (cached: a new tensor per call costs more than the math at batch 1)."""
+    c = _CONSTS.get(device)
+    if c is None:
+        c = _CONSTS[device] = torch.tensor(_DIFF, dtype=torch.float64, device=device)
+    return c
 
 
 def _closest_st(ends: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """``s, t`` (float64, no gradient) for end points ``(..., 4, 3)`` = (a0, a1, b0, b1)."""
+    """``s, t`` (float64, no gradient) for end points ``(..., 4, 3)`` = (a0, a1, b0, b1).
+
+    Ericson's clamped closed form, written as: ``s`` of the infinite lines
+    (0 when parallel), ``t`` for that ``s`` clamped to [0, 1], then ``s`` again
+    for the clamped ``t`` (the same minimiser, in few batched ops).
+    """
     with torch.no_grad():
-        # float64 here: a*e - b*b cancels badly in float32 for near-parallel segments
-        e64 = ends.detach().to(torch.float64)
-        D = e64.mT @ torch.tensor(_DIFF, dtype=torch.float64, device=e64.device).T  # (..., 3, 3) columns d1, d2, r
-        left = D.index_select(-1, torch.tensor(_DOT_LEFT, device=e64.device))
-        right = D.index_select(-1, torch.tensor(_DOT_RIGHT, device=e64.device))
-        a, e, b, c, f = (left * right).sum(-2).unbind(-1)  # (...) each
+        diff = _diff_matrix(ends.device)
+        # float64 here: a*e - b*b cancels badly in float32 for near-parallel segments.
+        # Coordinates first: (4, 3 * rest), so that everything below is on contiguous planes.
+        E = ends.detach().to(torch.float64).movedim((-2, -1), (0, 1))
+        D = (diff @ E.reshape(4, -1)).view(3, 1, 3, -1)  # (d1, d2, r) x 1 x (x, y, z) x rest
+        G = (D * D.transpose(0, 1)).sum(2)  # (3, 3, rest): every dot product of d1, d2, r
+        a, e, b, c, f = G[0, 0], G[1, 1], G[0, 1], G[0, 2], G[1, 2]
         a_s, e_s = a.clamp_min(_EPS), e.clamp_min(_EPS)
         denom = a * e - b * b  # >= 0, 0 for parallel segments
-        # Parallel (relative to the lengths): any s works; take 0.
-        parallel = (denom <= 1e-10 * a_s * e_s) | (a <= _EPS)
-        s = torch.where(parallel, 0.0, ((b * f - c * e) / denom.clamp_min(_EPS * _EPS)).clamp(0.0, 1.0))
-        t = (b * s + f) / e_s
-        # t outside [0, 1]: clamp it and recompute s for the clamped t.
-        s = torch.where(t < 0.0, (-c / a_s).clamp(0.0, 1.0), torch.where(t > 1.0, ((b - c) / a_s).clamp(0.0, 1.0), s))
-        t = t.clamp(0.0, 1.0)
-        # b is a point: t = 0 and s is the projection of b0 onto a.
-        b_point = e <= _EPS
-        t = torch.where(b_point, 0.0, t)
-        s = torch.where(b_point, (-c / a_s).clamp(0.0, 1.0), s)
-        # a is a point: s = 0 (t was computed for s = 0 above).
-        s = torch.where(a <= _EPS, 0.0, s)
-    return s, t
+        # Parallel (relative to the lengths) or a is a point: any s works; take 0.
+        degenerate = (denom <= 1e-10 * a_s * e_s) | (a <= _EPS)
+        s = ((b * f - c * e) / denom.clamp_min(_EPS * _EPS)).clamp(0.0, 1.0).masked_fill(degenerate, 0.0)
+        t = ((b * s + f) / e_s).clamp(0.0, 1.0)  # b a point: b = f = 0, so t = 0
+        s = ((b * t - c) / a_s).clamp(0.0, 1.0).masked_fill(a <= _EPS, 0.0)
+    shape = ends.shape[:-2]
+    return s.view(shape), t.view(shape)
 
 
 def closest_parameters(a0: torch.Tensor, a1: torch.Tensor, b0: torch.Tensor, b1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -63,6 +69,32 @@ def closest_parameters(a0: torch.Tensor, a1: torch.Tensor, b0: torch.Tensor, b1:
     return s.to(dtype), t.to(dtype)
 
 
+class _SegmentDistance(torch.autograd.Function):
+    """Distance from stacked end points with a hand-written backward.
+
+    By the envelope theorem the gradient is the partial one at the closest
+    points: ``d dist / d end_j = w_j u`` with ``w = (1 - s, s, t - 1, -t)`` and
+    ``u`` the unit vector from the closest point on b to the one on a (0 when
+    they meet). Two ops instead of autograd's chain through every step.
+    """
+
+    @staticmethod
+    def forward(ctx, ends: torch.Tensor) -> torch.Tensor:
+        s, t = _closest_st(ends)
+        w = torch.stack([1.0 - s, s, t - 1.0, -t], -1).to(ends.dtype)  # (..., 4)
+        diff = (ends.mT * w[..., None, :]).sum(-1)  # (..., 3) p - q = sum_j w_j end_j
+        d2 = diff.pow(2).sum(-1)
+        meet = d2 <= _EPS  # sqrt has no gradient at 0: distance and gradient read as 0
+        dist = d2.clamp_min(_EPS).sqrt().masked_fill(meet, 0.0)
+        ctx.save_for_backward(w, (diff / dist.clamp_min(_EPS)[..., None]).masked_fill(meet[..., None], 0.0))
+        return dist
+
+    @staticmethod
+    def backward(ctx, grad: torch.Tensor) -> torch.Tensor:
+        w, u = ctx.saved_tensors
+        return (grad[..., None] * w)[..., :, None] * u[..., None, :]  # (..., 4, 3)
+
+
 def segment_distance_ends(ends: torch.Tensor) -> torch.Tensor:
     """Closest distance between segments given as stacked end points.
 
@@ -72,12 +104,7 @@ def segment_distance_ends(ends: torch.Tensor) -> torch.Tensor:
     Returns:
         ``(...)`` distance [m] (>= 0), as :func:`segment_distance`.
     """
-    s, t = _closest_st(ends)
-    # p - q = (1 - s) a0 + s a1 - (1 - t) b0 - t b1: one weighted sum over the end points
-    w = torch.stack([1.0 - s, s, t - 1.0, -t], -1).to(ends.dtype)  # (..., 4)
-    d2 = (w[..., None] * ends).sum(-2).pow(2).sum(-1)
-    # clamp keeps sqrt's gradient finite when the segments intersect
-    return torch.where(d2 > _EPS, d2.clamp_min(_EPS).sqrt(), 0.0)
+    return _SegmentDistance.apply(ends)
 
 
 def segment_distance(a0: torch.Tensor, a1: torch.Tensor, b0: torch.Tensor, b1: torch.Tensor) -> torch.Tensor:

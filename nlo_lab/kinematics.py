@@ -480,15 +480,25 @@ class KinematicTree:
         # Few tiny matmuls cost less than many (per-op overhead) at small batch; at
         # large batch the matrix count matters, and levels compose each body once.
         if B * len(self.level_slices) <= _JUMP_MAX_WORK:
-            T = local
+            T = local.view(-1, 4, 4)  # (B * (1+M), 4, 4): bmm has less overhead than a 4-d matmul
             for anc in c["jumps"]:
-                T = T.index_select(1, anc) @ T
-            return T
+                T = torch.bmm(T.index_select(0, self._batch_index(c, anc, B)), T)
+            return T.view(B, -1, 4, 4)
         root, *moving = local.split([1] + [e - s for s, e in self.level_slices], 1)  # split: one cheap backward
         levels = [root, moving[0]]  # level 0 hangs from the root, whose frame is the identity
         for A_l, parent in zip(moving[1:], c["level_parent"][1:]):
             levels.append(levels[-1].index_select(1, parent) @ A_l)
         return torch.cat(levels, 1)
+
+    def _batch_index(self, c: dict, body_index: torch.Tensor, B: int) -> torch.Tensor:
+        """``body_index`` applied to each of ``B`` samples of a flat ``(B * (1+M), ...)`` tensor (cached per B)."""
+        if B == 1:
+            return body_index
+        key = ("batch_index", id(body_index), B)
+        if key not in c:
+            offsets = torch.arange(B, device=body_index.device)[:, None] * self.n_bodies
+            c[key] = (body_index + offsets).reshape(-1)
+        return c[key]
 
     def forward(self, q: torch.Tensor) -> torch.Tensor:
         """World poses of every link.
@@ -555,4 +565,4 @@ class KinematicTree:
             ``(B, k, 3)``: points [m] (``w = 1``) or directions (``w = 0``) in the root frame.
         """
         T = self.body_poses(self._flat_angles(q)).index_select(1, body)[..., :3, :]  # (B, k, 3, 4)
-        return (T @ vectors[:, :, None]).squeeze(-1)
+        return (T * vectors[:, None, :]).sum(-1)  # not matmul: B*k tiny matmuls are slow

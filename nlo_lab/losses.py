@@ -310,8 +310,7 @@ class _RobotConstants:
         self.point_vectors = f(vectors)  # (K, 4) in body frames
         self.rows = f(np.array(rows))  # (V, K)
         n_rows = [2, 6, 2, len(fingers)]  # ee, ori, elbow, finger
-        # -0.5 on finger rows (unit direction), 0 elsewhere (x ** 0 = 1): see Objective
-        self.row_power = f(np.repeat([0.0, 0.0, 0.0, -0.5], n_rows)[:, None])  # (V, 1)
+        self.finger_row = torch.as_tensor(np.repeat([False, False, False, True], n_rows)[:, None], device=device)  # (V, 1)
         self.row_term = f(np.repeat(np.eye(4), n_rows, axis=0))  # (V, 4) row -> term
         pair_caps = np.array([[robot.spec.capsules.index(robot.spec.capsule(n)) for n in pr] for pr in robot.spec.collision_pairs], dtype=np.int64)
         cap_pts = np.array(caps, dtype=np.int64).reshape(-1, 2)
@@ -491,8 +490,8 @@ class Objective:
         c = self._c
         pts = self.robot.tree.map_points(q, c.point_body, c.point_vectors)  # (B, K, 3)
         v = c.rows @ pts  # (B, V, 3) residual rows before the goal
-        # finger rows become unit directions: (|v|² + eps)^(-1/2) on them, ^0 = 1 on the others
-        v = v * (v.pow(2).sum(-1, keepdim=True) + _UNIT_EPS).pow(c.row_power)
+        # finger rows become unit directions (as _unit), the others stay
+        v = v * torch.where(c.finger_row, (v.pow(2).sum(-1, keepdim=True) + _UNIT_EPS).rsqrt(), 1.0)
         sq = torch.where(self.mask, (v - self.goal).pow(2).sum(-1), 0.0)  # (B, V)
         ends = pts.index_select(1, c.pair_points).view(q.shape[0], -1, 4, 3)  # (B, P, 4, 3)
         d = segment_distance_ends(ends) - c.pair_radii  # (B, P) capsule surface distances [m]
