@@ -2,7 +2,9 @@
 
 Paper Eq. 10: ``min_{psi,phi} L(D, K(f_psi(f_phi(D)))) + ||f_phi(D)||²/σ²`` over
 per-frame samples of the synthetic training split (``sign_corpus("train")``);
-validation (encoder + decoder, no latent optimisation) on ``sign_corpus("test")``;
+validation (encoder + decoder, no latent optimisation) on sequences held out of
+the training split (:func:`train_validation_split`): the test split stays
+unseen until evaluation, so the checkpoint is not chosen on test data;
 Adam, gradient-norm clip 10, the best validation state kept.
 
 Departures from the paper's settings, measured on this 2-core CPU (see
@@ -29,6 +31,7 @@ from typing import Any
 import torch
 
 from nlo_lab.errors import CheckpointError, NloLabError, SettingsError
+from nlo_lab.human import sign_corpus
 from nlo_lab.losses import COLLISION_FORMS, LossWeights, Targets, latent_loss, objective, targets_from_demonstration
 from nlo_lab.model import MODEL_KINDS, RetargetModel, build_model
 from nlo_lab.paths import CHECKPOINTS_DIR
@@ -126,14 +129,29 @@ def _resolve_robot(robot):
     return robot
 
 
+VALIDATION_EVERY = 6  # every 6th training sequence validates (10 of the 61)
+
+
+def train_validation_split(seed: int = 0) -> tuple[list, list]:
+    """The training split's sequences for fitting and for validation.
+
+    Every :data:`VALIDATION_EVERY`-th sequence of ``sign_corpus("train")`` is
+    held out for validation; ``sign_corpus("test")`` is never looked at.
+    """
+    demos = sign_corpus("train", seed=seed)
+    fit = [d for i, d in enumerate(demos) if i % VALIDATION_EVERY != VALIDATION_EVERY - 1]
+    val = [d for i, d in enumerate(demos) if i % VALIDATION_EVERY == VALIDATION_EVERY - 1]
+    return fit, val
+
+
+def demos_targets(demos, dtype: torch.dtype = torch.float32) -> Targets:
+    """All frames of ``demos`` as one :class:`Targets`."""
+    return Targets.cat([targets_from_demonstration(d, dtype=dtype) for d in demos])
+
+
 def corpus_targets(split: str, dtype: torch.dtype = torch.float32, seed: int = 0) -> Targets:
     """All frames of ``sign_corpus(split)`` as one :class:`Targets`."""
-    try:
-        from nlo_lab.human import sign_corpus
-    except ImportError:  # not re-exported by the package
-        from nlo_lab.human.corpus import sign_corpus
-
-    return Targets.cat([targets_from_demonstration(d, dtype=dtype) for d in sign_corpus(split, seed=seed)])
+    return demos_targets(sign_corpus(split, seed=seed), dtype)
 
 
 def new_model(robot, settings: TrainSettings | None = None, in_features: int | None = None) -> RetargetModel:
@@ -200,7 +218,7 @@ def train_model(
         settings: :class:`TrainSettings`.
         weights: :class:`LossWeights` (defaults of the paper).
         train_data, val_data: :class:`Targets` with encoder features; default the
-            synthetic corpus's train and test splits.
+            two parts of :func:`train_validation_split` (never the test split).
         model: a model to continue training; a new one otherwise.
 
     Returns:
@@ -211,8 +229,11 @@ def train_model(
     robot = _resolve_robot(robot)
     dtype = torch.float32
     robot = robot.to(dtype=dtype)
-    train_data = (train_data or corpus_targets("train")).to(dtype=dtype)
-    val_data = (val_data or corpus_targets("test")).to(dtype=dtype)
+    if train_data is None or val_data is None:
+        fit, val = train_validation_split(settings.seed)
+        train_data = train_data if train_data is not None else demos_targets(fit)
+        val_data = val_data if val_data is not None else demos_targets(val)
+    train_data, val_data = train_data.to(dtype=dtype), val_data.to(dtype=dtype)
     if train_data.node_features is None or val_data.node_features is None:
         raise SettingsError("training needs targets with encoder features (node_features)")
     if len(val_data) > settings.val_frames:  # evenly spaced subset, fixed across runs

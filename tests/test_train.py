@@ -120,3 +120,15 @@ def test_load_pretrained_without_a_checkpoint_says_how_to_make_one(tmp_path, mon
         load_pretrained(nao)
     save_checkpoint(new_model(nao), tmp_path / "nao.pt", nao)
     assert load_pretrained("nao").robot_name == "nao"
+
+
+def test_validation_is_held_out_of_the_training_split_never_the_test_split():
+    from nlo_lab.human import corpus_names
+    from nlo_lab.train import train_validation_split
+
+    fit, val = train_validation_split()
+    fit_names, val_names = {d.name for d in fit}, {d.name for d in val}
+    assert val_names and fit_names
+    assert not fit_names & val_names
+    assert fit_names | val_names == set(corpus_names("train"))
+    assert not val_names & set(corpus_names("test"))
