@@ -36,8 +36,14 @@ browser:
 lab: setup
 	$(VENV)/bin/nlo-lab lab
 
+# Benchmarks print tables; speed.py and quality.py also rewrite their sections of
+# docs/RESULTS.md (quality.py takes about 15 min on 2 cores; QUICK=1 for a short run).
 bench: setup
 	$(PY) benchmarks/fk.py
+	$(PY) benchmarks/frechet.py
+	$(PY) benchmarks/retarget_speed.py
+	$(PY) benchmarks/speed.py --robot yumi
+	$(PY) benchmarks/quality.py --robot yumi $(if $(QUICK),--quick --no-write,)
 
 clean:
 	rm -rf $(VENV) build *.egg-info
