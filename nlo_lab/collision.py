@@ -11,48 +11,73 @@ finite values and gradients.
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 __all__ = ["segment_distance", "segment_distance_ends", "closest_parameters", "capsule_distance"]
 
 _EPS = 1e-12  # [m^2] denominators below this are treated as degenerate
 # rows d1 = a1 - a0, d2 = b1 - b0, r = a0 - b0 of the end points (a0, a1, b0, b1)
-_DIFF = ((-1.0, 1.0, 0.0, 0.0), (0.0, 0.0, -1.0, 1.0), (1.0, 0.0, -1.0, 0.0))
-_CONSTS: dict = {}
+_DIFF = np.array([[-1.0, 1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 1.0], [1.0, 0.0, -1.0, 0.0]])
+_DIFF_T: dict = {}  # device -> _DIFF as a float64 tensor
 
 
-def _diff_matrix(device) -> torch.Tensor:
-    """``(3, 4)`` float64 :data:`_DIFF` on ``device`` (cached: a new tensor per call costs more than the math at batch 1)."""
-    c = _CONSTS.get(device)
-    if c is None:
-        c = _CONSTS[device] = torch.tensor(_DIFF, dtype=torch.float64, device=device)
-    return c
+def _distance_xp(E, diff, xp):
+    """Closest points and distance of segments, in float64, numpy or torch alike (no gradient).
+
+    Ericson's clamped closed form, written as: ``s`` of the infinite lines
+    (0 when parallel or when a is a point), ``t`` for that ``s`` clamped to
+    [0, 1], then ``s`` again for the clamped ``t`` (the same minimiser).
+
+    Args:
+        E: ``(4, 3, n)`` end points a0, a1, b0, b1 (coordinates first: every
+            product below is on contiguous planes).
+        diff: :data:`_DIFF` as an array of ``xp``.
+        xp: ``numpy`` or ``torch``.
+
+    Returns:
+        ``s, t (n,)``, ``w (n, 4)`` with ``p - q = sum_j w_j end_j``, ``dist (n,)``
+        and ``u (n, 3)`` the unit vector ``(p - q)/dist`` (0 where the segments meet).
+    """
+    # float64: a*e - b*b cancels badly in float32 for near-parallel segments
+    D = (diff @ E.reshape(4, -1)).reshape(3, 1, 3, -1)  # (d1, d2, r) x 1 x (x, y, z) x n
+    G = (D * D.swapaxes(0, 1)).sum(2)  # (3, 3, n): every dot product of d1, d2, r
+    a, e, b, c, f = G[0, 0], G[1, 1], G[0, 1], G[0, 2], G[1, 2]
+    a_s, e_s = xp.clip(a, _EPS, None), xp.clip(e, _EPS, None)
+    denom = a * e - b * b  # >= 0, 0 for parallel segments
+    degenerate = (denom <= 1e-10 * a_s * e_s) | (a <= _EPS)  # parallel (relative to the lengths), or a is a point
+    s = xp.where(degenerate, 0.0, xp.clip((b * f - c * e) / xp.clip(denom, _EPS * _EPS, None), 0.0, 1.0))
+    t = xp.clip((b * s + f) / e_s, 0.0, 1.0)  # b a point: b = f = 0, so t = 0
+    s = xp.where(a <= _EPS, 0.0, xp.clip((b * t - c) / a_s, 0.0, 1.0))
+    w = xp.stack([1.0 - s, s, t - 1.0, -t], -1)  # (n, 4)
+    pq = (E * w.T[:, None, :]).sum(0)  # (3, n)
+    d2 = (pq * pq).sum(0)
+    meet = d2 <= _EPS  # sqrt has no gradient at 0: distance and gradient read as 0
+    dist = xp.sqrt(xp.clip(d2, _EPS, None))
+    return s, t, w, xp.where(meet, 0.0, dist), xp.where(meet, 0.0, pq / dist).T
+
+
+def _distance_parts(ends: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    """:func:`_distance_xp` of ``ends (..., 4, 3)``; returns float64 tensors ``(n, ...)``.
+
+    On the CPU the arithmetic runs in numpy: it is some 40 tiny no-grad ops, and
+    numpy's per-op overhead is a fraction of torch's (the objective calls this
+    every iteration, at batch 1 in the live use).
+    """
+    flat = ends.detach().reshape(-1, 4, 3)
+    if flat.device.type == "cpu":
+        E = flat.numpy().transpose(1, 2, 0).astype(np.float64)
+        return tuple(torch.from_numpy(np.ascontiguousarray(x)) for x in _distance_xp(E, _DIFF, np))
+    diff = _DIFF_T.get(flat.device)
+    if diff is None:
+        diff = _DIFF_T[flat.device] = torch.as_tensor(_DIFF, device=flat.device)
+    return _distance_xp(flat.to(torch.float64).permute(1, 2, 0), diff, torch)
 
 
 def _closest_st(ends: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """``s, t`` (float64, no gradient) for end points ``(..., 4, 3)`` = (a0, a1, b0, b1).
-
-    Ericson's clamped closed form, written as: ``s`` of the infinite lines
-    (0 when parallel), ``t`` for that ``s`` clamped to [0, 1], then ``s`` again
-    for the clamped ``t`` (the same minimiser, in few batched ops).
-    """
-    with torch.no_grad():
-        diff = _diff_matrix(ends.device)
-        # float64 here: a*e - b*b cancels badly in float32 for near-parallel segments.
-        # Coordinates first: (4, 3 * rest), so that everything below is on contiguous planes.
-        E = ends.detach().to(torch.float64).movedim((-2, -1), (0, 1))
-        D = (diff @ E.reshape(4, -1)).view(3, 1, 3, -1)  # (d1, d2, r) x 1 x (x, y, z) x rest
-        G = (D * D.transpose(0, 1)).sum(2)  # (3, 3, rest): every dot product of d1, d2, r
-        a, e, b, c, f = G[0, 0], G[1, 1], G[0, 1], G[0, 2], G[1, 2]
-        a_s, e_s = a.clamp_min(_EPS), e.clamp_min(_EPS)
-        denom = a * e - b * b  # >= 0, 0 for parallel segments
-        # Parallel (relative to the lengths) or a is a point: any s works; take 0.
-        degenerate = (denom <= 1e-10 * a_s * e_s) | (a <= _EPS)
-        s = ((b * f - c * e) / denom.clamp_min(_EPS * _EPS)).clamp(0.0, 1.0).masked_fill(degenerate, 0.0)
-        t = ((b * s + f) / e_s).clamp(0.0, 1.0)  # b a point: b = f = 0, so t = 0
-        s = ((b * t - c) / a_s).clamp(0.0, 1.0).masked_fill(a <= _EPS, 0.0)
-    shape = ends.shape[:-2]
-    return s.view(shape), t.view(shape)
+    """``s, t`` (float64, no gradient) for end points ``(..., 4, 3)`` = (a0, a1, b0, b1)."""
+    s, t, *_ = _distance_parts(ends)
+    return s.view(ends.shape[:-2]), t.view(ends.shape[:-2])
 
 
 def closest_parameters(a0: torch.Tensor, a1: torch.Tensor, b0: torch.Tensor, b1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -80,14 +105,9 @@ class _SegmentDistance(torch.autograd.Function):
 
     @staticmethod
     def forward(ctx, ends: torch.Tensor) -> torch.Tensor:
-        s, t = _closest_st(ends)
-        w = torch.stack([1.0 - s, s, t - 1.0, -t], -1).to(ends.dtype)  # (..., 4)
-        diff = (ends.mT * w[..., None, :]).sum(-1)  # (..., 3) p - q = sum_j w_j end_j
-        d2 = diff.pow(2).sum(-1)
-        meet = d2 <= _EPS  # sqrt has no gradient at 0: distance and gradient read as 0
-        dist = d2.clamp_min(_EPS).sqrt().masked_fill(meet, 0.0)
-        ctx.save_for_backward(w, (diff / dist.clamp_min(_EPS)[..., None]).masked_fill(meet[..., None], 0.0))
-        return dist
+        _, _, w, dist, u = (x.to(ends.dtype) for x in _distance_parts(ends))
+        ctx.save_for_backward(w.view(*ends.shape[:-1]), u.view(*ends.shape[:-2], 3))
+        return dist.view(ends.shape[:-2])
 
     @staticmethod
     def backward(ctx, grad: torch.Tensor) -> torch.Tensor:

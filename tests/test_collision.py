@@ -106,3 +106,21 @@ def test_robot_capsule_distances_match_brute_force(name):
             ref, slack = brute_force(*ends, n=301)  # capsules <= 0.3 m: slack <= 1 mm
             ref = ref - caps[na].radius - caps[nb].radius
             assert float(ref) - float(slack) - 1e-12 <= float(d[b, p]) <= float(ref) + 1e-12, (name, na, nb)
+
+
+def test_numpy_and_torch_closed_forms_agree():
+    """The CPU path runs the closed form in numpy; other devices run the same code in torch."""
+    import numpy as np
+
+    from nlo_lab.collision import _DIFF, _distance_xp
+
+    g = torch.Generator().manual_seed(11)
+    ends = torch.randn(200, 4, 3, generator=g, dtype=torch.float64)
+    ends[:20, 1] = ends[:20, 0]  # a is a point
+    ends[20:40, 3] = ends[20:40, 2] + 1e-9  # b is (almost) a point
+    ends[40:60, 2:] = ends[40:60, :2] + torch.tensor([0.0, 0.3, 0.0], dtype=torch.float64)  # parallel
+    E = ends.permute(1, 2, 0)  # (4, 3, n)
+    ours = _distance_xp(E.numpy(), _DIFF, np)
+    ref = _distance_xp(E, torch.as_tensor(_DIFF), torch)
+    for a, b in zip(ours, ref):
+        torch.testing.assert_close(torch.from_numpy(np.ascontiguousarray(a)), b, atol=1e-12, rtol=0)
