@@ -434,7 +434,8 @@ class KinematicTree:
                 "src": i(self._np["src"]),
                 "mult": f(self._np["mult"]),
                 "off": f(self._np["off"]),
-                "theta_map": f(self._np["theta_map"]),
+                "theta_map2": f(np.concatenate([self._np["theta_map"]] * 2, 1)),  # (n, 2M)
+                "off2": f(np.concatenate([self._np["off"], self._np["off"] + math.pi / 2])),  # (2M,)
                 "local_const": f(self._np["local_const"]),
                 "local_coef": f(self._np["local_coef"]),
                 "level_parent": [i(p) for p in self._np["level_parent"]],
@@ -474,8 +475,8 @@ class KinematicTree:
         """
         B = q.shape[0]
         c = self._consts(q.device, q.dtype)
-        theta = torch.addmm(c["off"], q, c["theta_map"])  # (B, M)
-        sc = torch.cat([torch.sin(theta), torch.cos(theta)], -1)  # (B, 2M)
+        # [sin theta | cos theta] as one sin of [theta | theta + pi/2]
+        sc = torch.sin(torch.addmm(c["off2"], q, c["theta_map2"]))  # (B, 2M)
         local = torch.addmm(c["local_const"], sc, c["local_coef"]).view(B, -1, 4, 4)  # (B, 1+M, 4, 4) T_parent_body
         # Few tiny matmuls cost less than many (per-op overhead) at small batch; at
         # large batch the matrix count matters, and levels compose each body once.
