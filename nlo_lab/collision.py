@@ -20,6 +20,7 @@ _EPS = 1e-12  # [m^2] denominators below this are treated as degenerate
 # rows d1 = a1 - a0, d2 = b1 - b0, r = a0 - b0 of the end points (a0, a1, b0, b1)
 _DIFF = np.array([[-1.0, 1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 1.0], [1.0, 0.0, -1.0, 0.0]])
 _DIFF_T: dict = {}  # device -> _DIFF as a float64 tensor
+_NUMPY_MAX_PAIRS = 4096  # measured crossover of the numpy and torch paths on the CPU (1 thread): ~3000 pairs
 
 
 def _distance_xp(E, diff, xp):
@@ -60,12 +61,13 @@ def _distance_xp(E, diff, xp):
 def _distance_parts(ends: torch.Tensor) -> tuple[torch.Tensor, ...]:
     """:func:`_distance_xp` of ``ends (..., 4, 3)``; returns float64 tensors ``(n, ...)``.
 
-    On the CPU the arithmetic runs in numpy: it is some 40 tiny no-grad ops, and
-    numpy's per-op overhead is a fraction of torch's (the objective calls this
-    every iteration, at batch 1 in the live use).
+    On the CPU and for few pairs the arithmetic runs in numpy: it is some 40
+    tiny no-grad ops, and numpy's per-op overhead is a fraction of torch's (the
+    objective calls this every iteration, at batch 1 in the live use); for many
+    pairs torch's kernels are faster.
     """
     flat = ends.detach().reshape(-1, 4, 3)
-    if flat.device.type == "cpu":
+    if flat.device.type == "cpu" and flat.shape[0] <= _NUMPY_MAX_PAIRS:
         E = flat.numpy().transpose(1, 2, 0).astype(np.float64)
         return tuple(torch.from_numpy(np.ascontiguousarray(x)) for x in _distance_xp(E, _DIFF, np))
     diff = _DIFF_T.get(flat.device)
