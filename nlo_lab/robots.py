@@ -26,7 +26,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
 import torch
@@ -476,6 +476,19 @@ class Robot:
         """
         T = self.tree.forward(q)  # (..., L, 4, 4)
         return dict(zip(self.link_names, T.unbind(-3)))
+
+    def forward_kinematics_links(self, q: torch.Tensor, links: Sequence[str]) -> torch.Tensor:
+        """World poses of some links only (cheaper than every link).
+
+        Args:
+            q: ``(..., n)`` actuated angles [rad].
+            links: link names.
+
+        Returns:
+            ``(..., len(links), 4, 4)`` ``T_world_link`` in the order given.
+        """
+        idx = torch.tensor([self.link_index(n) for n in links], dtype=torch.long, device=q.device)
+        return self.tree.forward_links(q, idx)
 
     def capsule_segments(self, poses: Mapping[str, torch.Tensor] | torch.Tensor) -> torch.Tensor:
         """World end points of every capsule axis.

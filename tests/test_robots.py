@@ -352,3 +352,13 @@ def test_collision_pair_of_adjacent_links(tmp_path):
 def test_errors_are_nlo_lab_errors():
     assert issubclass(RobotDescriptionError, NloLabError) and issubclass(UnknownRobotError, NloLabError)
     assert math.isfinite(robot64("nao").zero_pose_lengths("left")[0])
+
+
+def test_forward_kinematics_links_equals_the_full_dict():
+    robot = load_robot("yumi").to(dtype=torch.float64)
+    q = robot.reference_q + 0.1
+    names = [robot.arm("right").wrist, robot.link_names[0], robot.arm("left").elbow]
+    T = robot.forward_kinematics_links(q[None], names)  # (1, 3, 4, 4)
+    full = robot.forward_kinematics(q[None])
+    for k, n in enumerate(names):
+        torch.testing.assert_close(T[:, k], full[n], atol=1e-12, rtol=0)
