@@ -1,7 +1,8 @@
 """A robot's joint trajectory and its files (.npz, .json, .csv).
 
-Writes are atomic: the data goes to a temporary file in the destination folder
-which is then renamed over the target, so a reader never sees half a file.
+Writes are atomic (:mod:`nlo_lab._atomic`): the data goes to a temporary file in the
+destination folder which is then renamed over the target, so a reader never sees half a
+file; the file gets the umask-derived mode of an ordinary ``open``.
 """
 
 from __future__ import annotations
@@ -11,7 +12,6 @@ import io
 import json
 import math
 import os
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from nlo_lab._atomic import atomic_write_bytes
 from nlo_lab.errors import NloLabError
 
 __all__ = ["RobotTrajectory", "TrajectoryError", "FORMAT_VERSION"]
@@ -200,22 +201,9 @@ class RobotTrajectory:
 
 
 def _atomic_write(path: str | os.PathLike, payload: bytes) -> Path:
-    """Write ``payload`` to a temporary file beside ``path``, then rename it into place."""
+    """Write ``payload`` to ``path`` atomically (:mod:`nlo_lab._atomic`); a missing folder is a TrajectoryError."""
     target = Path(path)
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
         raise TrajectoryError(f"{target}: folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(payload)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, target)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return target
+    return atomic_write_bytes(target, payload)

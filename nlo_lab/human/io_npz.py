@@ -10,13 +10,12 @@ Keys: ``format`` (the string ``"nlo_lab.demonstration"``), ``format_version``
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
+from nlo_lab._atomic import atomic_path
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human.demonstration import Demonstration
 from nlo_lab.human.transforms import check_arm_lengths
@@ -54,11 +53,7 @@ def save_npz(demo: Demonstration, path) -> Path:
         raise DemonstrationError(f"meta is not JSON-serialisable: {err}", path=path, field="meta") from None
     arrays = {name: getattr(demo, name) for name in _ARRAYS}
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    except OSError as err:
-        raise DemonstrationError(f"cannot write into the folder ({err})", path=path) from None
-    try:
-        with os.fdopen(fd, "wb") as f:
+        with atomic_path(path) as tmp, open(tmp, "wb") as f:  # a file object: np.savez adds no suffix
             np.savez(
                 f,
                 format=np.array(NPZ_FORMAT),
@@ -68,15 +63,8 @@ def save_npz(demo: Demonstration, path) -> Path:
                 meta_json=np.array(meta_json),
                 **arrays,
             )
-        os.replace(tmp, path)
-    except BaseException as err:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        if isinstance(err, OSError):
-            raise DemonstrationError(f"could not write the archive: {err}", path=path) from None
-        raise
+    except OSError as err:
+        raise DemonstrationError(f"could not write the archive: {err}", path=path) from None
     return path
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import html
 import os
-import tempfile
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, Sequence
@@ -21,6 +20,7 @@ from meshcat import Visualizer
 from meshcat.servers.tree import SceneTree, find_node, walk
 from meshcat.servers.zmqserver import VIEWER_ROOT, create_command
 
+from nlo_lab._atomic import atomic_path
 from nlo_lab.errors import NloLabError
 
 __all__ = ["RecordingWindow", "recording_visualizer", "scene_html", "export_html", "static_html", "iframe_html"]
@@ -132,15 +132,8 @@ def export_html(path: str | os.PathLike, robot: Any, angles: Any, demo: Any = No
     target = Path(path)
     if not target.parent.is_dir():
         raise NloLabError(f"{target}: folder {target.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(page)
-        os.replace(tmp, target)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_path(target) as tmp:
+        tmp.write_text(page, encoding="utf-8")
     return target
 
 
