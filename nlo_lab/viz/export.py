@@ -98,7 +98,16 @@ def recording_visualizer() -> Visualizer:
     return Visualizer(window=RecordingWindow())
 
 
-def static_html(robot: Any, angles: Any, demo: Any = None, fps: float | None = None, layout: str = "side", offset: float | Sequence[float] = 0.9, play: bool = True) -> str:
+def static_html(
+    robot: Any,
+    angles: Any,
+    demo: Any = None,
+    fps: float | None = None,
+    layout: str = "side",
+    offset: float | Sequence[float] | None = None,
+    play: bool = True,
+    human_scale: str = "robot",
+) -> str:
     """The animated robot (and human) scene as one self-contained HTML string.
 
     Args as :func:`export_html`.
@@ -106,29 +115,43 @@ def static_html(robot: Any, angles: Any, demo: Any = None, fps: float | None = N
     from nlo_lab.viz.scene import RetargetScene
 
     vis = recording_visualizer()
-    scene = RetargetScene(vis, robot, angles, demo=demo, layout=layout, offset=offset, fps=fps)
+    scene = RetargetScene(vis, robot, angles, demo=demo, layout=layout, offset=offset, fps=fps, human_scale=human_scale)
     if len(scene) > 1:
         scene.animate(play=play, repetitions=0 if play else 1)
     return vis.static_html()
 
 
-def export_html(path: str | os.PathLike, robot: Any, angles: Any, demo: Any = None, fps: float | None = None, layout: str = "side", offset: float | Sequence[float] = 0.9, play: bool = True) -> Path:
+def export_html(
+    path: str | os.PathLike,
+    robot: Any,
+    angles: Any,
+    demo: Any = None,
+    fps: float | None = None,
+    layout: str = "side",
+    offset: float | Sequence[float] | None = None,
+    play: bool = True,
+    human_scale: str = "robot",
+) -> Path:
     """Write a self-contained animated 3-D view (works offline from ``file://``).
 
     Args:
-        path: the ``.html`` file to write (atomically: temp file beside it, then rename).
+        path: the ``.html`` file to write (atomically, :mod:`nlo_lab._atomic`; mode from the umask).
         robot: a ``nlo_lab.robots.Robot``.
         angles: ``(T, n)`` joint angles [rad].
         demo: optional ``Demonstration`` (same ``T``) shown beside or over the robot.
         fps: animation rate; defaults to the demonstration's, else 30.
         layout: ``"side"`` or ``"overlay"``.
-        offset: side-by-side shift of the human [m] (float along -Y, or (x, y, z)).
+        offset: side-by-side shift of the human [m] (float along -Y, or (x, y, z)); None: just beside the robot.
         play: start playing (looping) when opened; the viewer's Animations panel plays, pauses and scrubs.
+        human_scale: ``"robot"`` (the human mapped into the robot's frame and size, as the metric does)
+            or ``"human"`` (as recorded; side layout only).
+
+    The camera is framed on the robot and human over the whole trajectory, from the front-side.
 
     Returns:
         The written path.
     """
-    page = static_html(robot, angles, demo=demo, fps=fps, layout=layout, offset=offset, play=play)
+    page = static_html(robot, angles, demo=demo, fps=fps, layout=layout, offset=offset, play=play, human_scale=human_scale)
     target = Path(path)
     if not target.parent.is_dir():
         raise NloLabError(f"{target}: folder {target.parent} does not exist")

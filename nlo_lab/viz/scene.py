@@ -1,10 +1,11 @@
-"""meshcat scenes of a robot (from its URDF's primitive visuals) and of the human skeleton.
+"""meshcat scenes of a robot (from its URDF's primitive visuals) and of the robot with its human.
 
 A scene draws its geometry once (``draw``), then moves it: one frame at a time
 (``set_frame``) or as a meshcat animation with one key per frame (``add_to``)
 that the viewer plays and scrubs. Scenes write to any meshcat ``Visualizer``:
 the live one of :mod:`nlo_lab.viz.server` or the in-process recorder of
-:mod:`nlo_lab.viz.export`.
+:mod:`nlo_lab.viz.export`. The human is drawn by :mod:`nlo_lab.viz.human_scene`
+and the camera framed by :mod:`nlo_lab.viz.camera`.
 
 meshcat is Z-up like the body frame (X forward, Y left, Z up) [m].
 """
@@ -19,13 +20,17 @@ from typing import Any, Sequence
 import numpy as np
 
 import meshcat.geometry as g
-from meshcat.animation import Animation, AnimationClip, AnimationTrack
+from meshcat.animation import Animation
 
 from nlo_lab.errors import NloLabError, RobotDescriptionError
+from nlo_lab.viz.camera import CameraView, frame_points, style_viewer
+from nlo_lab.viz.human_scene import HUMAN_COLOURS, HumanScene
+from nlo_lab.viz.tracks import Y_TO_Z, add_pose_tracks, material, matrix_to_quaternion, translation
 
 __all__ = [
     "GROUP_COLOURS",
     "HUMAN_COLOURS",
+    "HUMAN_SCALES",
     "Visual",
     "robot_visuals",
     "link_groups",
@@ -44,13 +49,7 @@ GROUP_COLOURS = {
     "torso": 0x4C72B0,  # blue
     "head": 0x9467BD,  # purple
 }
-HUMAN_COLOURS = {
-    "joint": 0xD62728,  # red
-    "bone": 0x555555,  # dark grey
-    "finger": 0xE377C2,  # pink
-}
-
-_Y_TO_Z = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])  # R_x(+90°): meshcat Y -> URDF Z
+HUMAN_SCALES = ("robot", "human")  # the human mapped to the robot's size and shoulders, or as recorded
 
 
 @dataclass(frozen=True)
@@ -183,68 +182,6 @@ def _robot_arms(robot: Any) -> dict[str, tuple[str, str]] | None:
         return None
 
 
-def matrix_to_quaternion(R: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` to unit quaternions ``(..., 4)`` in (x, y, z, w) order (three.js)."""
-    R = np.asarray(R, dtype=np.float64)
-    m00, m11, m22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
-    tr = m00 + m11 + m22
-    # Four candidate formulas; pick per entry the one with the largest (stable) pivot.
-    cands = np.stack([
-        np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1], 1 + tr], -1),
-        np.stack([1 + m00 - m11 - m22, R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0], R[..., 2, 1] - R[..., 1, 2]], -1),
-        np.stack([R[..., 0, 1] + R[..., 1, 0], 1 - m00 + m11 - m22, R[..., 1, 2] + R[..., 2, 1], R[..., 0, 2] - R[..., 2, 0]], -1),
-        np.stack([R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1], 1 - m00 - m11 + m22, R[..., 1, 0] - R[..., 0, 1]], -1),
-    ], -2)  # (..., 4, 4)
-    pivots = np.stack([1 + tr, 1 + m00 - m11 - m22, 1 - m00 + m11 - m22, 1 - m00 - m11 + m22], -1)
-    best = np.argmax(pivots, axis=-1)
-    q = np.take_along_axis(cands, best[..., None, None], axis=-2)[..., 0, :]
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    return np.where(q[..., 3:4] < 0, -q, q)
-
-
-def _add_track(anim: Animation, path, name: str, jstype: str, values: np.ndarray) -> None:
-    """One keyframe track (one key per frame) for ``path`` in ``anim``."""
-    clip = anim.clips.get(path)
-    if clip is None:
-        clip = anim.clips[path] = AnimationClip(fps=anim.default_framerate)
-    vals = np.asarray(values, dtype=np.float64)
-    clip.tracks[name] = AnimationTrack(name, jstype, frames=list(range(len(vals))), values=vals.tolist())
-
-
-def _add_pose_tracks(anim: Animation, path, T: np.ndarray, scale: np.ndarray | None = None) -> None:
-    """Position and quaternion tracks from ``(F, 4, 4)`` poses; optional ``(F, 3)`` scale."""
-    _add_track(anim, path, "position", "vector3", T[:, :3, 3])
-    _add_track(anim, path, "quaternion", "quaternion", matrix_to_quaternion(T[:, :3, :3]))
-    if scale is not None:
-        _add_track(anim, path, "scale", "vector3", scale)
-
-
-def _material(colour: int, opacity: float = 1.0) -> g.MeshLambertMaterial:
-    return g.MeshLambertMaterial(color=colour, opacity=opacity, transparent=opacity < 1.0)
-
-
-def _translation(offset: Sequence[float]) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, 3] = offset
-    return T
-
-
-def style_viewer(vis, camera: Sequence[float] = (2.0, -0.6, 0.6), background: Sequence[float] = (1.0, 1.0, 1.0)) -> None:
-    """A light background (the group colours stand out) and a camera in front of the robot.
-
-    Args:
-        vis: a meshcat ``Visualizer``.
-        camera: ``(3,)`` camera position in the body frame (X forward, Y left, Z up) [m]; it looks at the origin.
-        background: ``(3,)`` RGB in [0, 1] of the top of the background gradient (the bottom is slightly darker).
-    """
-    top = [float(c) for c in background]
-    vis["/Background"].set_property("top_color", top)
-    vis["/Background"].set_property("bottom_color", [0.85 * c for c in top])
-    x, y, z = (float(c) for c in camera)
-    # The camera lives under a node that turns three.js' Y-up into meshcat's Z-up: (x, y, z) -> (x, z, -y).
-    vis["/Cameras/default/rotated/<object>"].set_property("position", [x, z, -y])
-
-
 # ---------------------------------------------------------------- robot scene
 class RobotScene:
     """A robot drawn from its URDF's primitives and posed by its forward kinematics.
@@ -262,7 +199,7 @@ class RobotScene:
         self.vis = vis
         self.robot = robot
         self.path = path
-        self.origin = _translation(origin)
+        self.origin = translation(origin)
         self.opacity = float(opacity)
         model = _load_urdf(urdf_path_of(robot))
         self.visuals = robot_visuals(model)
@@ -278,14 +215,14 @@ class RobotScene:
             node = root[v.link][f"v{i}"]
             colour = GROUP_COLOURS[self.groups.get(v.link, "torso")]
             if v.kind == "box":
-                node.set_object(g.Box(list(v.size)), _material(colour, self.opacity))
+                node.set_object(g.Box(list(v.size)), material(colour, self.opacity))
                 node.set_transform(v.T_link_visual)
             elif v.kind == "cylinder":
                 radius, length = v.size
-                node.set_object(g.Cylinder(length, radius), _material(colour, self.opacity))
-                node.set_transform(v.T_link_visual @ _Y_TO_Z)
+                node.set_object(g.Cylinder(length, radius), material(colour, self.opacity))
+                node.set_transform(v.T_link_visual @ Y_TO_Z)
             else:
-                node.set_object(g.Sphere(v.size[0]), _material(colour, self.opacity))
+                node.set_object(g.Sphere(v.size[0]), material(colour, self.opacity))
                 node.set_transform(v.T_link_visual)
         return self
 
@@ -293,7 +230,7 @@ class RobotScene:
         """``{link: (F, 4, 4)}`` viewer poses of the drawn links for ``(F, n)`` (or ``(n,)``) angles [rad]."""
         import torch
 
-        q = np.asarray(angles, dtype=np.float64)
+        q = np.array(angles, dtype=np.float64)  # a copy: torch.as_tensor warns on read-only arrays
         if q.ndim == 1:
             q = q[None]
         n = self.robot.n_joints
@@ -322,186 +259,114 @@ class RobotScene:
         """Add one key per frame of ``(T, n)`` angles to ``anim``."""
         root = self.vis[self.path]
         for link, T in self.link_poses(angles).items():
-            _add_pose_tracks(anim, root[link].path, T)
+            add_pose_tracks(anim, root[link].path, T)
 
 
-# ---------------------------------------------------------------- human scene
-def _hold_valid(x: np.ndarray) -> np.ndarray:
-    """Fill NaN points along time with the last (or, before any, the first) valid value."""
-    x = np.array(x, dtype=np.float64)  # (T, ..., 3)
-    flat = x.reshape(x.shape[0], -1, 3)
-    for k in range(flat.shape[1]):
-        ok = np.isfinite(flat[:, k]).all(-1)
-        if not ok.any():
-            continue
-        idx = np.where(ok, np.arange(len(ok)), -1)
-        idx = np.maximum.accumulate(idx)
-        idx[idx < 0] = int(np.argmax(ok))
-        flat[:, k] = flat[idx, k]
-    return flat.reshape(x.shape)
-
-
-def _bone_poses(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Poses ``(F, 4, 4)`` and scales ``(F, 3)`` that stretch a unit Y-cylinder from ``a`` to ``b`` (F, 3)."""
-    d = b - a
-    length = np.linalg.norm(d, axis=-1)  # (F,)
-    y = d / np.maximum(length, 1e-9)[:, None]
-    y[length < 1e-9] = [0.0, 1.0, 0.0]
-    helper = np.where(np.abs(y[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
-    x = np.cross(y, helper)
-    x /= np.linalg.norm(x, axis=-1, keepdims=True)
-    z = np.cross(x, y)
-    T = np.tile(np.eye(4), (len(d), 1, 1))
-    T[:, :3, 0], T[:, :3, 1], T[:, :3, 2] = x, y, z
-    T[:, :3, 3] = 0.5 * (a + b)
-    scale = np.ones((len(d), 3))
-    scale[:, 1] = np.maximum(length, 1e-6)
-    return T, scale
-
-
-class HumanScene:
-    """The human skeleton: arm joints and finger points as spheres, bones as thin cylinders.
-
-    Args:
-        vis: a meshcat ``Visualizer``.
-        demo: the ``Demonstration`` shown.
-        path: the scene-tree folder.
-        offset: ``(3,)`` translation of the body frame in the viewer [m] (side by side layout).
-        mapped: optional ``(T, 2, 3, 3)`` arm positions to show instead of the raw ones
-            (e.g. ``nlo_lab.human.map_to_robot(demo, robot)``); fingers then follow their wrist.
-    """
-
-    def __init__(self, vis, demo: Any, path: str = "human", offset: Sequence[float] = (0.0, 0.0, 0.0), mapped: np.ndarray | None = None):
-        self.vis = vis
-        self.demo = demo
-        self.path = path
-        arms = demo.arm_positions if mapped is None else np.asarray(mapped, dtype=np.float64)
-        fingers = demo.finger_positions.copy()  # (T, 2, 5, 2, 3)
-        if mapped is not None:  # move the hand with its mapped wrist
-            fingers += (arms[:, :, 2] - demo.arm_positions[:, :, 2])[:, :, None, None, :]
-        arms = arms.copy()
-        arms[~demo.arm_mask] = np.nan
-        fingers[~demo.finger_mask] = np.nan
-        off = np.asarray(offset, dtype=np.float64)
-        self.arms = _hold_valid(arms) + off  # (T, 2, 3, 3)
-        self.fingers = _hold_valid(fingers) + off  # (T, 2, 5, 2, 3)
-        self.has_fingers = bool(demo.finger_mask.any())
-
-    def _points(self) -> dict[str, np.ndarray]:
-        pts = {}
-        for s, side in enumerate(("left", "right")):
-            for j, joint in enumerate(("shoulder", "elbow", "wrist")):
-                pts[f"{side}_{joint}"] = self.arms[:, s, j]
-            if self.has_fingers:
-                for f in range(5):
-                    for k, kind in enumerate(("base", "tip")):
-                        pts[f"{side}_f{f}_{kind}"] = self.fingers[:, s, f, k]
-        return pts
-
-    def _bones(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        A = self.arms
-        bones = {"shoulders": (A[:, 0, 0], A[:, 1, 0])}
-        for s, side in enumerate(("left", "right")):
-            bones[f"{side}_upper"] = (A[:, s, 0], A[:, s, 1])
-            bones[f"{side}_fore"] = (A[:, s, 1], A[:, s, 2])
-            if self.has_fingers:
-                for f in range(5):
-                    bones[f"{side}_palm{f}"] = (A[:, s, 2], self.fingers[:, s, f, 0])
-                    bones[f"{side}_finger{f}"] = (self.fingers[:, s, f, 0], self.fingers[:, s, f, 1])
-        return bones
-
-    def draw(self) -> "HumanScene":
-        """Create spheres and bones (hidden if a point is never observed)."""
-        root = self.vis[self.path]
-        for name, p in self._points().items():
-            finger = "_f" in name
-            colour = HUMAN_COLOURS["finger" if finger else "joint"]
-            root["points"][name].set_object(g.Sphere(0.008 if finger else 0.025), _material(colour))
-        for name, (a, b) in self._bones().items():
-            finger = "palm" in name or "finger" in name
-            root["bones"][name].set_object(g.Cylinder(1.0, 0.004 if finger else 0.012), _material(HUMAN_COLOURS["bone"]))
-        self.set_frame(0)
-        return self
-
-    def set_frame(self, t: int) -> None:
-        """Show frame ``t``."""
-        root = self.vis[self.path]
-        for name, p in self._points().items():
-            if np.isfinite(p[t]).all():
-                root["points"][name].set_transform(_translation(p[t]))
-        for name, (a, b) in self._bones().items():
-            if np.isfinite(a[t]).all() and np.isfinite(b[t]).all():
-                T, scale = _bone_poses(a[t:t + 1], b[t:t + 1])
-                root["bones"][name].set_transform(T[0] @ np.diag([*scale[0], 1.0]))
-
-    def add_to(self, anim: Animation) -> None:
-        """Add one key per frame of the demonstration to ``anim``."""
-        root = self.vis[self.path]
-        T_frames = self.arms.shape[0]
-        for name, p in self._points().items():
-            if np.isfinite(p).all():
-                T = np.tile(np.eye(4), (T_frames, 1, 1))
-                T[:, :3, 3] = p
-                _add_pose_tracks(anim, root["points"][name].path, T)
-        for name, (a, b) in self._bones().items():
-            if np.isfinite(a).all() and np.isfinite(b).all():
-                T, scale = _bone_poses(a, b)
-                _add_pose_tracks(anim, root["bones"][name].path, T, scale)
+    def extent_points(self, angles: Any, max_frames: int = 120) -> np.ndarray:
+        """``(N, 3)`` corners of every visual's bounding box over (up to ``max_frames`` evenly spread) frames [m]."""
+        q = np.array(angles, dtype=np.float64)
+        if q.ndim == 1:
+            q = q[None]
+        if len(q) > max_frames:
+            q = q[np.unique(np.linspace(0, len(q) - 1, max_frames).round().astype(int))]
+        poses = self.link_poses(q)
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64)  # (8, 3)
+        chunks = []
+        for v in self.visuals:
+            if v.kind == "box":
+                half = 0.5 * np.asarray(v.size)
+            elif v.kind == "cylinder":
+                half = np.array([v.size[0], v.size[0], 0.5 * v.size[1]])  # URDF cylinders run along Z
+            else:
+                half = np.full(3, v.size[0])
+            local = signs * half  # (8, 3) in the visual's frame
+            T = poses[v.link] @ v.T_link_visual  # (F, 4, 4)
+            chunks.append(np.einsum("fij,kj->fki", T[:, :3, :3], local) + T[:, None, :3, 3])
+        return np.concatenate([c.reshape(-1, 3) for c in chunks])
 
 
 # ------------------------------------------------------------- the two together
 class RetargetScene:
-    """Robot and (optionally) human, side by side or overlaid, one frame or animated.
+    """Robot and (optionally) human, side by side or overlaid, one frame or animated, framed by the camera.
 
     Args:
         vis: a meshcat ``Visualizer``.
         robot: a ``nlo_lab.robots.Robot``.
         angles: ``(T, n)`` robot joint angles [rad].
         demo: optional ``Demonstration`` with the same number of frames.
-        layout: ``"side"`` (human beside the robot) or ``"overlay"`` (human mapped into the robot's frame).
-        offset: side-by-side shift of the human [m]: a float along ``-Y`` (to the robot's right) or an ``(x, y, z)``.
+        layout: ``"side"`` (human beside the robot) or ``"overlay"`` (human mapped onto the robot).
+        offset: side-by-side shift of the human [m]: a float along ``-Y`` (to the robot's right),
+            an ``(x, y, z)``, or ``None`` to put the human just beside the robot (gap: a quarter of the scene's height).
         fps: animation rate; defaults to the demonstration's, else 30.
+        human_scale: ``"robot"`` (the human mapped into the robot's frame and size as the metric does,
+            :func:`nlo_lab.human.map_to_robot`) or ``"human"`` (as recorded; side layout only).
+        camera: ``None`` to frame the whole trajectory (robot and human) from the front-side,
+            or a :class:`~nlo_lab.viz.camera.CameraView`.
     """
 
-    def __init__(self, vis, robot: Any, angles: Any, demo: Any = None, layout: str = "side", offset: float | Sequence[float] = 0.9, fps: float | None = None):
+    def __init__(
+        self,
+        vis,
+        robot: Any,
+        angles: Any,
+        demo: Any = None,
+        layout: str = "side",
+        offset: float | Sequence[float] | None = None,
+        fps: float | None = None,
+        human_scale: str = "robot",
+        camera: CameraView | None = None,
+    ):
         if layout not in ("side", "overlay"):
             raise NloLabError(f"layout must be 'side' or 'overlay', got {layout!r}")
-        q = np.asarray(angles, dtype=np.float64)
+        if human_scale not in HUMAN_SCALES:
+            raise NloLabError(f"human_scale must be one of {HUMAN_SCALES}, got {human_scale!r}")
+        if layout == "overlay" and human_scale != "robot":
+            raise NloLabError("layout='overlay' draws the human in the robot's frame: it needs human_scale='robot'")
+        q = np.array(angles, dtype=np.float64)  # a private, writable copy (set_angles edits it)
         if q.ndim == 1:
             q = q[None]
         if demo is not None and len(demo) != q.shape[0]:
             raise NloLabError(f"angles have {q.shape[0]} frames but the demonstration {demo.name!r} has {len(demo)}")
         self.vis = vis
         self.angles = q
+        self.layout = layout
         self.fps = float(fps if fps is not None else (demo.fps if demo is not None else 30.0))
         if not np.isfinite(self.fps) or self.fps <= 0:
             raise NloLabError(f"fps must be > 0, got {fps!r}")
         self.robot_scene = RobotScene(vis, robot, opacity=0.6 if (layout == "overlay" and demo is not None) else 1.0)
+        self.robot_scene.link_poses(q[:1])  # check the angles' shape before the work below
+        robot_pts = self.robot_scene.extent_points(q)
         self.human_scene = None
         if demo is not None:
-            if layout == "side":
-                off = (0.0, -float(offset), 0.0) if np.isscalar(offset) else tuple(offset)
-                self.human_scene = HumanScene(vis, demo, offset=off)
-            else:
-                from nlo_lab.metrics import _mapped_human
+            mapped = None
+            if human_scale == "robot":
+                from nlo_lab.human import map_to_robot
 
-                self.human_scene = HumanScene(vis, demo, mapped=_mapped_human(demo, robot))
-        style_viewer(vis, camera=self._camera(layout == "side" and demo is not None))
+                mapped = map_to_robot(demo, robot)  # (T, 2, 3, 3), NaN where masked
+            self.human_scene = HumanScene(vis, demo, mapped=mapped, body=layout == "side")
+            if layout == "side":
+                self.human_scene.offset = self._side_offset(offset, robot_pts, self.human_scene.extent_points())
+        pts = robot_pts if self.human_scene is None else np.concatenate([robot_pts, self.human_scene.extent_points()])
+        self.camera = camera if camera is not None else frame_points(pts)
+        style_viewer(vis, camera=self.camera)
         self.robot_scene.draw()
         if self.human_scene is not None:
             self.human_scene.draw()
         self.set_frame(0)
 
+    @staticmethod
+    def _side_offset(offset, robot_pts: np.ndarray, human_pts: np.ndarray) -> np.ndarray:
+        """The human's shift [m]: given, or just to the robot's right (-Y) with a gap of a quarter of the height."""
+        if offset is not None:
+            return np.array([0.0, -float(offset), 0.0]) if np.isscalar(offset) else np.asarray(offset, dtype=np.float64).reshape(3)
+        if len(human_pts) == 0:
+            return np.zeros(3)
+        height = max(float(np.ptp(robot_pts[:, 2])), float(np.ptp(human_pts[:, 2])))
+        gap = 0.25 * height
+        return np.array([0.0, robot_pts[:, 1].min() - human_pts[:, 1].max() - gap, 0.0])
+
     def __len__(self) -> int:
         return int(self.angles.shape[0])
-
-    def _camera(self, side_by_side: bool) -> tuple[float, float, float]:
-        """A camera in front, far enough to see every link (and the human) of frame 0 [m]."""
-        pts = [T[0, :3, 3] for T in self.robot_scene.link_poses(self.angles[:1]).values()]
-        if self.human_scene is not None:
-            pts.extend(self.human_scene.arms[0].reshape(-1, 3))
-        radius = float(np.max(np.linalg.norm(np.asarray(pts), axis=-1)))
-        return (max(1.0, 2.8 * radius), -0.45 if side_by_side else 0.0, 0.2 + 0.3 * radius)
 
     def set_frame(self, t: int) -> None:
         """Show frame ``t`` (robot pose and human skeleton)."""
@@ -513,7 +378,7 @@ class RetargetScene:
 
     def set_angles(self, q: Any, t: int | None = None) -> None:
         """Replace the angles of frame ``t`` (or show ``q`` without storing it if ``t`` is None)."""
-        q = np.asarray(q, dtype=np.float64)
+        q = np.array(q, dtype=np.float64)
         if t is not None:
             self.angles[t] = q
         self.robot_scene.set_pose(q)
