@@ -164,10 +164,18 @@ def test_set_frame_moves_the_robot_to_its_fk(robot):
         scene.set_frame(6)
 
 
+def _clips(page: str) -> dict[str, dict]:
+    return {a["path"]: a["clip"] for c in commands_of(page) if c["type"] == "set_animation" for a in c["animations"]}
+
+
+def _track(clip: dict, name: str) -> list:
+    return [k["value"] for k in next(t for t in clip["tracks"] if t["name"] == "." + name)["keys"]]
+
+
 def test_export_html_is_self_contained_and_animated(tmp_path, robot):
     q = sweep(robot, T=12)
     demo = synthetic_demo(T=12)
-    path = export_html(tmp_path / "viewer.html", robot, q, demo=demo)
+    path = export_html(tmp_path / "viewer.html", robot, q, demo=demo, offset=0.9, human_scale="human")
     page = path.read_text(encoding="utf-8")
     assert [p.name for p in tmp_path.iterdir()] == ["viewer.html"]  # no temporary left
     urls = set(re.findall(r"https?://[^\s\"'<>)\\]*", page))
@@ -176,19 +184,142 @@ def test_export_html_is_self_contained_and_animated(tmp_path, robot):
     cmds = commands_of(page)
     paths = {c["path"] for c in cmds if c["type"] == "set_object"}
     assert any(p.startswith("/meshcat/robot/") for p in paths)
-    assert "/meshcat/human/points/left_wrist" in paths and "/meshcat/human/bones/right_fore" in paths
+    assert {"/meshcat/human/points/left_wrist", "/meshcat/human/bones/right_fore", "/meshcat/human/body/torso", "/meshcat/human/body/head"} <= paths
     anims = [c for c in cmds if c["type"] == "set_animation"]
     assert len(anims) == 1
-    clips = {a["path"]: a["clip"] for a in anims[0]["animations"]}
+    clips = _clips(page)
     assert all(c["fps"] == 25.0 for c in clips.values())
-    wrist_clip = clips["/meshcat/human/points/left_wrist"]
-    pos = next(t for t in wrist_clip["tracks"] if t["name"] == ".position")
-    assert len(pos["keys"]) == 12
-    # side by side: the human is shifted 0.9 m along -Y
-    np.testing.assert_allclose(pos["keys"][5]["value"], demo.arm_positions[5, 0, 2] + [0, -0.9, 0], atol=1e-12)
-    # the unseen right wrist holds its last valid position
-    rpos = next(t for t in clips["/meshcat/human/points/right_wrist"]["tracks"] if t["name"] == ".position")
-    assert rpos["keys"][3]["value"] == rpos["keys"][2]["value"]
+    pos = _track(clips["/meshcat/human/points/left_wrist"], "position")
+    assert len(pos) == 12
+    # side by side, as recorded: the human is shifted 0.9 m along -Y
+    np.testing.assert_allclose(pos[5], demo.arm_positions[5, 0, 2] + [0, -0.9, 0], atol=1e-12)
+    # the unseen right wrist holds its last valid position and is hidden in that frame only
+    right = clips["/meshcat/human/points/right_wrist"]
+    rpos = _track(right, "position")
+    assert rpos[3] == rpos[2]
+    assert _track(right, "visible") == [t != 3 for t in range(12)]
+    assert _track(clips["/meshcat/human/bones/right_fore"], "visible")[3] is False
+    assert "visible" not in {t["name"][1:] for t in clips["/meshcat/human/points/left_wrist"]["tracks"]}  # always seen: no track
+
+
+def test_side_by_side_human_at_robot_scale():
+    from nlo_lab.human import map_to_robot
+
+    robot = load_robot("nao")
+    demo = synthetic_demo(T=6)
+    page = static_html(robot, sweep(robot, T=6), demo=demo, offset=0.5)  # human_scale="robot" is the default
+    clips = _clips(page)
+    mapped = map_to_robot(demo, robot)  # (T, 2, 3, 3)
+    shift = np.array([0.0, -0.5, 0.0])
+    for s, side in enumerate(("left", "right")):
+        for j, joint in enumerate(("shoulder", "elbow")):
+            np.testing.assert_allclose(_track(clips[f"/meshcat/human/points/{side}_{joint}"], "position")[4], mapped[4, s, j] + shift, atol=1e-9)
+        # the hand: the same per-arm factor as the metric's mapping, about the mapped wrist
+        upper, fore = robot.zero_pose_lengths(side)
+        k = (float(upper) + float(fore)) / sum(demo.arm_lengths(side))
+        assert k < 0.6  # NAO's arm is much shorter than the human's: the test would see a wrong factor
+        wrist = mapped[4, s, 2] + shift
+        tip = np.array(_track(clips[f"/meshcat/human/points/{side}_f2_tip"], "position")[4])
+        raw = demo.finger_positions[4, s, 2, 1] - demo.arm_positions[4, s, 2]
+        np.testing.assert_allclose(tip - wrist, k * raw, atol=1e-9)
+    # the head is drawn at the same scale: its radius shrinks with the mean factor
+    objects = {c["path"]: c for c in commands_of(page) if c["type"] == "set_object"}
+    r_robot = objects["/meshcat/human/body/head"]["object"]["geometries"][0]["radius"]
+    r_human = {c["path"]: c for c in commands_of(static_html(robot, sweep(robot, T=6), demo=demo, human_scale="human")) if c["type"] == "set_object"}[
+        "/meshcat/human/body/head"]["object"]["geometries"][0]["radius"]
+    ks = [(sum(float(v) for v in robot.zero_pose_lengths(sd))) / sum(demo.arm_lengths(sd)) for sd in ("left", "right")]
+    assert r_robot == pytest.approx(r_human * np.mean(ks), rel=1e-6)
+
+
+def test_auto_offset_puts_the_human_beside_the_robot(robot):
+    from nlo_lab.viz.scene import RobotScene
+
+    demo = synthetic_demo(T=5)
+    q = sweep(robot, T=5)
+    scene = RetargetScene(recording_visualizer(), robot, q, demo=demo)
+    robot_pts = RobotScene(recording_visualizer(), robot).extent_points(q)
+    human_pts = scene.human_scene.extent_points()
+    gap = robot_pts[:, 1].min() - human_pts[:, 1].max()  # the human is on the robot's right (-Y)
+    height = np.ptp(np.concatenate([robot_pts, human_pts])[:, 2])
+    assert 0.1 * height < gap < 0.5 * height
+
+
+def test_camera_frames_the_whole_scene(robot):
+    """Every drawn point over the trajectory is in view, and the scene fills most of the view's binding dimension."""
+    from nlo_lab.viz.scene import RobotScene
+
+    demo = synthetic_demo(T=8)
+    q = sweep(robot, T=8)
+    for layout in ("side", "overlay"):
+        vis = recording_visualizer()
+        scene = RetargetScene(vis, robot, q, demo=demo, layout=layout)
+        pts = np.concatenate([RobotScene(recording_visualizer(), robot).extent_points(q), scene.human_scene.extent_points()])
+        xy = scene.camera.project(pts)  # (N, 2) in [-1, 1] when in view
+        assert np.abs(xy).max() <= 1.0, f"{layout}: part of the scene is out of view"
+        assert np.abs(xy).max() > 0.75, f"{layout}: the scene fills only {np.abs(xy).max():.0%} of the view"
+        cam, target = np.array(scene.camera.position), np.array(scene.camera.target)
+        look = cam - target
+        assert look[0] > 0 and look[2] > 0 and abs(look[1]) > 0.1 * np.linalg.norm(look), "not from the front, above and the side"
+        # what the viewer receives: content shifted so that the target is the origin meshcat aims at; camera at the offset
+        tree = vis.window.tree
+        root = np.array(umsgpack.unpackb(tree["meshcat"].transform)["matrix"]).reshape(4, 4).T
+        np.testing.assert_allclose(root[:3, 3], -target, atol=1e-12)
+        props = [umsgpack.unpackb(p) for p in tree["Cameras"]["default"]["rotated"]["<object>"].properties]
+        position = [p["value"] for p in props if p["property"] == "position"][-1]
+        np.testing.assert_allclose(position, [look[0], look[2], -look[1]], atol=1e-12)  # Z-up -> three.js Y-up
+
+
+def test_robot_alone_is_framed_and_small_robots_come_closer():
+    distances = {}
+    for name in ROBOTS:
+        robot = load_robot(name)
+        scene = RetargetScene(recording_visualizer(), robot, sweep(robot, T=4))
+        distances[name] = np.linalg.norm(np.subtract(scene.camera.position, scene.camera.target))
+    assert distances["nao"] < distances["pepper"]  # 0.57 m vs 1.2 m tall
+
+
+def test_frame_points_rejects_bad_input():
+    from nlo_lab.viz import frame_points
+
+    with pytest.raises(NloLabError, match="finite"):
+        frame_points(np.full((3, 3), np.nan))
+    with pytest.raises(NloLabError, match="elevation"):
+        frame_points(np.zeros((2, 3)), elevation=90)
+    with pytest.raises(NloLabError, match="fill"):
+        frame_points(np.eye(3), fill=2.0)
+
+
+def test_hidden_points_and_read_only_angles(monkeypatch):
+    import torch
+
+    real_as_tensor = torch.as_tensor
+
+    def strict_as_tensor(x, *args, **kwargs):  # torch warns on read-only arrays, but only once per process
+        assert not (isinstance(x, np.ndarray) and not x.flags.writeable), "a read-only array went to torch.as_tensor"
+        return real_as_tensor(x, *args, **kwargs)
+
+    monkeypatch.setattr(torch, "as_tensor", strict_as_tensor)
+    robot = load_robot("nao")
+    demo = synthetic_demo(T=4)
+    demo.finger_mask[:, 0, 1] = False  # a finger never seen
+    q = sweep(robot, T=4)
+    q.setflags(write=False)  # as RobotTrajectory.angles
+    vis = recording_visualizer()
+    scene = RetargetScene(vis, robot, q, demo=demo, human_scale="human")
+    scene.set_angles(q[2], t=1)  # the scene keeps its own writable copy
+    scene.robot_scene.link_poses(q)
+    node = vis.window.tree["meshcat"]["human"]["points"]["left_f1_tip"]
+    assert [umsgpack.unpackb(p)["value"] for p in node.properties if umsgpack.unpackb(p)["property"] == "visible"] == [False]
+    assert "/meshcat/human/points/left_f1_tip" not in {c["path"] for c in scene.animation().lower()}  # never animated
+    wrist = vis.window.tree["meshcat"]["human"]["points"]["right_wrist"]
+
+    def wrist_visible():
+        return [umsgpack.unpackb(p)["value"] for p in wrist.properties if umsgpack.unpackb(p)["property"] == "visible"][-1]
+
+    scene.set_frame(3)  # the right wrist is masked in frame 3
+    assert wrist_visible() is False
+    scene.set_frame(2)
+    assert wrist_visible() is True
 
 
 def test_overlay_places_human_at_robot_shoulders():
@@ -213,6 +344,10 @@ def test_bad_scene_input():
         static_html(robot, np.zeros((3, 4)))
     with pytest.raises(NloLabError, match="does not exist"):
         export_html("/nonexistent-folder/x.html", robot, sweep(robot, 3))
+    with pytest.raises(NloLabError, match="human_scale"):
+        static_html(robot, sweep(robot, 4), demo=synthetic_demo(T=4), human_scale="giant")
+    with pytest.raises(NloLabError, match="overlay"):
+        static_html(robot, sweep(robot, 4), demo=synthetic_demo(T=4), layout="overlay", human_scale="human")
 
 
 # ------------------------------------------------------------------ live server
