@@ -410,8 +410,15 @@ def test_live_server_binds_loopback_only_and_stops_on_close():
         assert viewer.reachable()
         # the scene round trip through the live server
         robot = load_robot("nao")
-        RetargetScene(viewer.vis, robot, sweep(robot, 3))
-        assert "/meshcat/robot/" in "".join(c["path"] for c in commands_of(viewer.static_html()))
+        scene = RetargetScene(viewer.vis, robot, sweep(robot, 3))
+        cmds = commands_of(viewer.static_html())
+        assert "/meshcat/robot/" in "".join(c["path"] for c in cmds)
+        # the framing reaches the live viewer too: the camera offset and the content shift
+        look = np.subtract(scene.camera.position, scene.camera.target)
+        cam = [c["value"] for c in cmds if c["type"] == "set_property" and c["path"] == "/Cameras/default/rotated/<object>" and c["property"] == "position"]
+        np.testing.assert_allclose(cam[-1], [look[0], look[2], -look[1]], atol=1e-9)
+        root = [c for c in cmds if c["type"] == "set_transform" and c["path"] == "/meshcat"]
+        np.testing.assert_allclose(np.array(root[-1]["matrix"]).reshape(4, 4).T[:3, 3], -np.array(scene.camera.target), atol=1e-6)
         pid = viewer.pid
     assert _wait_gone(pid), "server still running after close()"
     viewer.close()  # idempotent
