@@ -172,15 +172,15 @@ def show_human(demo, *, height: int = 400, live: bool | None = None):
     """An animated 3-D view of a human ``Demonstration`` alone (skeleton and fingers); see :func:`show_view`."""
     from meshcat.animation import Animation
 
-    from nlo_lab.viz import HumanScene, iframe_html, recording_visualizer, style_viewer
+    from nlo_lab.viz import HumanScene, frame_points, iframe_html, recording_visualizer, style_viewer
 
     v = viewer() if live is not False else None
     if v is None and live:
         raise NloLabError("no live viewer could be started (static view requested, or the server did not start)")
     vis = v.vis if v is not None else recording_visualizer()
     vis.delete()
-    style_viewer(vis, camera=(1.2, 0.0, 0.2))
     scene = HumanScene(vis, demo).draw()
+    style_viewer(vis, camera=frame_points(scene.extent_points()))
     if len(demo) > 1:
         anim = Animation(default_framerate=float(demo.fps))
         scene.add_to(anim)

@@ -165,11 +165,13 @@ class JointPanel:
         self._view = _View(view, height)
         self.scene = None
         if self._view.vis is not None:
-            from nlo_lab.viz import RobotScene, style_viewer
+            from nlo_lab.viz import RobotScene, frame_points, style_viewer
 
             self._view.vis.delete()
-            style_viewer(self._view.vis, camera=(1.6, 0.0, 0.4))
             self.scene = RobotScene(self._view.vis, robot).draw()
+            # Frame on the rest pose and both limit extremes, so slider moves mostly stay in view.
+            poses = torch.stack([robot.neutral_q, robot.lower_limits, robot.upper_limits])
+            style_viewer(self._view.vis, camera=frame_points(self.scene.extent_points(poses.numpy())))
         for s in self.sliders.values():
             s.observe(self._update, names="value")
         self.link.observe(self._update, names="value")
