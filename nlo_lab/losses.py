@@ -39,6 +39,7 @@ import torch
 from nlo_lab.collision import segment_distance_ends
 from nlo_lab.errors import DemonstrationError, SettingsError
 from nlo_lab.human.demonstration import FINGERS, SIDES, Demonstration
+from nlo_lab.human.skeleton import edge_features, node_features
 
 __all__ = [
     "LossWeights",
@@ -214,13 +215,7 @@ def targets_from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.f
 
     rot = np.where(demo.wrist_mask[..., None, None], np.nan_to_num(demo.wrist_rotations), np.eye(3))
     lengths = np.array([_sequence_lengths(demo, s) for s in SIDES])  # (2, 2)
-    node_x = edge_x = None
-    try:
-        from nlo_lab.human import edge_features, node_features
-    except ImportError:  # the skeleton graph module is optional for the objective
-        pass
-    else:
-        node_x, edge_x = tensor(node_features(demo)), tensor(edge_features(demo))
+    node_x, edge_x = tensor(node_features(demo)), tensor(edge_features(demo))  # the encoder's inputs
     return Targets(
         shoulder=tensor(demo.arm_positions[:, :, 0]),
         elbow=tensor(demo.arm_positions[:, :, 1]),

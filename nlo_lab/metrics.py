@@ -212,24 +212,9 @@ def _forward(robot, q: np.ndarray) -> dict[str, np.ndarray]:
     return {k: v.detach().cpu().double().numpy() for k, v in _poses_torch(robot, q).items()}
 
 
-def _map_to_robot_fallback(demo: "Demonstration", robot) -> np.ndarray:
-    """DESIGN "Metric": per arm, shoulder-relative, scaled by robot/human arm length, at the robot's shoulder."""
-    out = np.full(demo.arm_positions.shape, np.nan)  # (T, 2, 3, 3)
-    for s, side in enumerate(SIDES):
-        upper, fore = demo.arm_lengths(side)
-        r_upper, r_fore = robot.zero_pose_lengths(side)
-        scale = (float(r_upper) + float(r_fore)) / (upper + fore)
-        shoulder = np.asarray(robot.shoulder_position(side).detach().cpu(), dtype=np.float64)  # (3,)
-        p = demo.arm_positions[:, s]  # (T, 3, 3)
-        out[:, s] = shoulder + scale * (p - p[:, :1])
-    return out
-
-
 def _mapped_human(demo: "Demonstration", robot) -> np.ndarray:
-    try:
-        from nlo_lab.human import map_to_robot  # the human module's own mapping, when present
-    except ImportError:
-        map_to_robot = _map_to_robot_fallback
+    from nlo_lab.human import map_to_robot
+
     mapped = np.asarray(map_to_robot(demo, robot), dtype=np.float64)
     if mapped.shape != (len(demo), 2, 3, 3):
         raise NloLabError(f"map_to_robot returned shape {mapped.shape}, expected {(len(demo), 2, 3, 3)}")
