@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from nlo_lab.errors import NloLabError
+from nlo_lab.human.demonstration import SIDES
 
 if TYPE_CHECKING:  # pragma: no cover
     from nlo_lab.human import Demonstration
@@ -33,7 +34,6 @@ __all__ = [
     "limit_violations",
 ]
 
-SIDES = ("left", "right")
 
 
 def _curve(x: Any, name: str) -> np.ndarray:

@@ -191,25 +191,21 @@ def load_h5_sequences(path) -> list[Demonstration]:
             (named by group/dataset), NaN or inf (with the frame), fps <= 0,
             an arm of zero length.
     """
-    path = Path(path)
-    with _groups(path) as f:
-        names = sorted(k for k in f.keys() if isinstance(f[k], h5py.Group))
-        if not names:
-            raise DemonstrationError("the file holds no sequence group", path=path)
-        try:
-            return [_read_group(f[n], f, path) for n in names]
-        except (OSError, KeyError, RuntimeError) as err:  # truncated / corrupt storage
-            raise DemonstrationError(f"unreadable HDF5 content ({err})", path=path) from None
+    return _read_groups(Path(path), first_only=False)
 
 
 def load_h5_first(path) -> Demonstration:
     """The first sequence (sorted group names) of an HDF5 file in the authors' layout."""
-    path = Path(path)
+    return _read_groups(Path(path), first_only=True)[0]
+
+
+def _read_groups(path: Path, first_only: bool) -> list[Demonstration]:
+    """The sequence groups of ``path`` in sorted order (only the first when ``first_only``)."""
     with _groups(path) as f:
         names = sorted(k for k in f.keys() if isinstance(f[k], h5py.Group))
         if not names:
             raise DemonstrationError("the file holds no sequence group", path=path)
         try:
-            return _read_group(f[names[0]], f, path)
-        except (OSError, KeyError, RuntimeError) as err:
+            return [_read_group(f[n], f, path) for n in names[: 1 if first_only else None]]
+        except (OSError, KeyError, RuntimeError) as err:  # truncated / corrupt storage
             raise DemonstrationError(f"unreadable HDF5 content ({err})", path=path) from None
