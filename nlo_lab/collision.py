@@ -23,6 +23,14 @@ _DIFF_T: dict = {}  # device -> _DIFF as a float64 tensor
 _NUMPY_MAX_PAIRS = 4096  # measured crossover of the numpy and torch paths on the CPU (1 thread): ~3000 pairs
 
 
+# (clamp below, clamp to [0, 1]) per library; np.clip's Python wrapper costs
+# microseconds per call, the ufuncs do not (this runs every optimiser step)
+_CLAMPS = {
+    True: (np.maximum, lambda x: np.minimum(np.maximum(x, 0.0), 1.0)),
+    False: (torch.clamp_min, lambda x: x.clamp(0.0, 1.0)),
+}
+
+
 def _distance_xp(E, diff, xp):
     """Closest points and distance of segments, in float64, numpy or torch alike (no gradient).
 
@@ -44,17 +52,18 @@ def _distance_xp(E, diff, xp):
     D = (diff @ E.reshape(4, -1)).reshape(3, 1, 3, -1)  # (d1, d2, r) x 1 x (x, y, z) x n
     G = (D * D.swapaxes(0, 1)).sum(2)  # (3, 3, n): every dot product of d1, d2, r
     a, e, b, c, f = G[0, 0], G[1, 1], G[0, 1], G[0, 2], G[1, 2]
-    a_s, e_s = xp.clip(a, _EPS, None), xp.clip(e, _EPS, None)
+    lo, unit = _CLAMPS[xp is np]
+    a_s, e_s = lo(a, _EPS), lo(e, _EPS)
     denom = a * e - b * b  # >= 0, 0 for parallel segments
     degenerate = (denom <= 1e-10 * a_s * e_s) | (a <= _EPS)  # parallel (relative to the lengths), or a is a point
-    s = xp.where(degenerate, 0.0, xp.clip((b * f - c * e) / xp.clip(denom, _EPS * _EPS, None), 0.0, 1.0))
-    t = xp.clip((b * s + f) / e_s, 0.0, 1.0)  # b a point: b = f = 0, so t = 0
-    s = xp.where(a <= _EPS, 0.0, xp.clip((b * t - c) / a_s, 0.0, 1.0))
+    s = xp.where(degenerate, 0.0, unit((b * f - c * e) / lo(denom, _EPS * _EPS)))
+    t = unit((b * s + f) / e_s)  # b a point: b = f = 0, so t = 0
+    s = xp.where(a <= _EPS, 0.0, unit((b * t - c) / a_s))
     w = xp.stack([1.0 - s, s, t - 1.0, -t], -1)  # (n, 4)
     pq = (E * w.T[:, None, :]).sum(0)  # (3, n)
     d2 = (pq * pq).sum(0)
     meet = d2 <= _EPS  # sqrt has no gradient at 0: distance and gradient read as 0
-    dist = xp.sqrt(xp.clip(d2, _EPS, None))
+    dist = xp.sqrt(lo(d2, _EPS))
     return s, t, w, xp.where(meet, 0.0, dist), xp.where(meet, 0.0, pq / dist).T
 
 

@@ -554,16 +554,76 @@ class KinematicTree:
         body = np.array([self.link_body[i] for i in idx], dtype=np.int64)
         return body, np.einsum("kij,kj->ki", self.link_const[idx], vectors)
 
-    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor) -> torch.Tensor:
+    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor, analytic: bool = True) -> torch.Tensor:
         """World coordinates of vectors fixed in bodies (see :meth:`point_map`).
 
         Args:
             q: ``(B, n)`` actuated angles [rad].
             body: ``(k,)`` long body indices.
             vectors: ``(k, 4)`` homogeneous vectors in the body frames.
+            analytic: when ``q`` needs a gradient, compute it in closed form
+                (:class:`_MapPoints`, first derivatives only); False lets
+                autograd differentiate the FK (the reference, and for
+                higher derivatives).
 
         Returns:
             ``(B, k, 3)``: points [m] (``w = 1``) or directions (``w = 0``) in the root frame.
         """
-        T = self.body_poses(self._flat_angles(q)).index_select(1, body)[..., :3, :]  # (B, k, 3, 4)
+        q = self._flat_angles(q)
+        if analytic and q.requires_grad and torch.is_grad_enabled():
+            return _MapPoints.apply(q, self, body, vectors)
+        T = self.body_poses(q).index_select(1, body)[..., :3, :]  # (B, k, 3, 4)
         return (T * vectors[:, None, :]).sum(-1)  # not matmul: B*k tiny matmuls are slow
+
+    def _moved_by(self, body: torch.Tensor) -> torch.Tensor:
+        """``(M, k)`` 0/1: moving joint ``j`` moves body ``body[i]`` (it is its child frame or an ancestor's)."""
+        key = ("moved_by", body.device, tuple(body.tolist()))
+        c = self._cache.get(key)
+        if c is None:
+            parent = [0] + [p + 1 for p in self.moving_parent]  # body -> parent body (root: itself)
+            D = np.zeros((len(self.moving_names), len(body)))
+            for i, b in enumerate(body.tolist()):
+                while b != 0:
+                    D[b - 1, i] = 1.0
+                    b = parent[b]
+            c = self._cache[key] = torch.as_tensor(D, device=body.device)
+        return c
+
+
+class _MapPoints(torch.autograd.Function):
+    """:meth:`KinematicTree.map_points` with the gradient written out.
+
+    For a revolute joint ``j`` with world axis ``a_j`` through ``o_j``, a point
+    ``p`` it moves has ``dp/dθ_j = a_j × (p - o_j)`` and a direction ``v`` has
+    ``a_j × v``. So ``dL/dθ_j = a_j · (Σ_i p_i × g_i - o_j × Σ_i w_i g_i)`` over
+    the vectors the joint moves (``w`` = 1 for points, 0 for directions), then
+    ``dL/dq = dL/dθ @ theta_mapᵀ`` through the mimic expansion. A dozen batched
+    ops instead of autograd's chain through every pose product; the forward
+    runs without recording a graph. First derivatives only.
+    """
+
+    @staticmethod
+    def forward(ctx, q, tree: "KinematicTree", body, vectors):
+        with torch.no_grad():
+            poses = tree.body_poses(q)  # (B, 1+M, 4, 4)
+            pts = (poses.index_select(1, body)[..., :3, :] * vectors[:, None, :]).sum(-1)  # (B, k, 3)
+        ctx.tree, ctx.body = tree, body
+        ctx.save_for_backward(poses, pts, vectors)
+        return pts
+
+    @staticmethod
+    def backward(ctx, g):
+        poses, pts, vectors = ctx.saved_tensors
+        tree = ctx.tree
+        c = tree._consts(g.device, g.dtype)
+        M = len(tree.moving_names)
+        D = tree._moved_by(ctx.body).to(g.dtype)  # (M, k)
+        axis = c.get("axis")
+        if axis is None:
+            axis = c["axis"] = torch.as_tensor(tree._np["axis"], dtype=g.dtype, device=g.device)  # (M, 3)
+        R, o = poses[:, 1:, :3, :3], poses[:, 1:, :3, 3]  # (B, M, 3, 3), (B, M, 3)
+        a = (R @ axis[:, :, None]).squeeze(-1)  # (B, M, 3) world axes
+        s1 = D @ torch.linalg.cross(pts, g)  # (B, M, 3)
+        s0 = D @ (g * vectors[:, 3:])  # points only
+        dtheta = (a * (s1 - torch.linalg.cross(o, s0))).sum(-1)  # (B, M)
+        return dtheta @ c["theta_map2"][:, :M].T, None, None, None

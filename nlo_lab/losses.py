@@ -38,6 +38,7 @@ import torch
 
 from nlo_lab.collision import segment_distance_ends
 from nlo_lab.errors import DemonstrationError, SettingsError
+from nlo_lab.fused_objective import PointTerms, point_terms
 from nlo_lab.human.demonstration import FINGERS, SIDES, Demonstration
 from nlo_lab.human.skeleton import edge_features, node_features
 
@@ -56,6 +57,7 @@ __all__ = [
     "collision_loss",
     "latent_loss",
     "robot_points",
+    "elbow_position_loss",
 ]
 
 TERMS = ("ee", "ori", "elbow", "finger", "collision")
@@ -389,6 +391,30 @@ def elbow_loss(elbow, wrist, fore_length, t_elbow, t_wrist, t_fore_length, mask)
     return _masked_sum((v - v_hat).pow(2).sum(-1), mask)
 
 
+def elbow_position_loss(robot, poses: dict, targets: "Targets") -> torch.Tensor:
+    """``sum_side ||(e - s)/l - (ê - ŝ)/l̂||²``: the elbow measured like the end effector.
+
+    Not one of the paper's terms and not in :data:`TERMS`: training uses it as a
+    fading shaping term (``TrainSettings.elbow_shaping``) so the model settles in
+    the arm configuration whose elbow sits where the human's does; the elbow
+    direction term alone leaves YuMi's elbow in a far basin (measured in
+    ``nlo_lab/train.py``'s docstring).
+
+    Args:
+        robot: the robot; poses: its FK (link -> ``(B, 4, 4)``); targets: ``B`` frames.
+
+    Returns:
+        ``(B,)``; arms whose shoulder or elbow is masked contribute 0.
+    """
+    some = next(iter(poses.values()))
+    c = _constants(robot, some.dtype, some.device)
+    pts = robot_points(robot, poses)
+    t = targets
+    return end_effector_loss(
+        pts["shoulder"], pts["elbow"], c.arm_length, t.shoulder, t.elbow, t.arm_length, t.arm_mask[..., 0] & t.arm_mask[..., 1]
+    )
+
+
 _UNIT_EPS = 1e-9  # [m^2] keeps unit vectors of zero-length fingers finite
 
 
@@ -453,9 +479,19 @@ class Objective:
         targets: :class:`Targets` (T frames); its dtype and device are used.
         weights: :class:`LossWeights`.
         collision_form: see :func:`collision_loss`.
+        fused: compute the terms from the FK points in numpy with a hand-written
+            backward (:mod:`nlo_lab.fused_objective`, ~3x faster at batch 1);
+            ``None`` = on the CPU; ``False`` = torch ops (the reference).
     """
 
-    def __init__(self, robot, targets: Targets, weights: LossWeights | None = None, collision_form: str = "hinge"):
+    def __init__(
+        self,
+        robot,
+        targets: Targets,
+        weights: LossWeights | None = None,
+        collision_form: str = "hinge",
+        fused: bool | None = None,
+    ):
         if collision_form not in COLLISION_FORMS:
             raise SettingsError(f"unknown collision form {collision_form!r}; expected one of {COLLISION_FORMS}")
         weights = weights or LossWeights()
@@ -477,6 +513,14 @@ class Objective:
             self.goal = torch.cat(parts, 1)  # (T, V, 3)
             self.mask = torch.cat(masks, 1)  # (T, V) bool
             self.weights = torch.tensor([getattr(weights, n) for n in TERMS], dtype=t.dtype, device=t.shoulder.device)  # (5,)
+        if fused is None:
+            fused = t.shoulder.device.type == "cpu"
+        self._plan = None
+        if fused:
+            self._plan = PointTerms(
+                c.rows.numpy(), c.finger_row[:, 0].numpy(), c.row_term.argmax(1).numpy(), self.goal.numpy(), self.mask.numpy(),
+                c.pair_points.numpy(), c.pair_radii.numpy(), c.margins.numpy(), collision_form,
+            )
 
     def __call__(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``q (B, n)`` -> ``total (B,)`` and the unweighted terms ``(B, 5)`` in :data:`TERMS` order."""
@@ -484,6 +528,9 @@ class Objective:
             raise SettingsError(f"q has {q.shape[0]} frames but the targets have {self.n_frames}")
         c = self._c
         pts = self.robot.tree.map_points(q, c.point_body, c.point_vectors)  # (B, K, 3)
+        if self._plan is not None:
+            terms = point_terms(pts, self._plan)  # (B, 5)
+            return terms @ self.weights, terms
         v = c.rows @ pts  # (B, V, 3) residual rows before the goal
         # finger rows become unit directions (as _unit), the others stay
         v = v * torch.where(c.finger_row, (v.pow(2).sum(-1, keepdim=True) + _UNIT_EPS).rsqrt(), 1.0)

@@ -201,3 +201,50 @@ def test_fast_objective_equals_the_term_functions(robot):
         (g_ref,) = torch.autograd.grad(ref.sum(), q)
         torch.testing.assert_close(g_fast, g_ref, atol=1e-9, rtol=1e-9)
     assert float(ref_terms["collision"].detach().max()) > 0, "random poses should include a close capsule pair"
+
+
+@pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
+def test_fused_numpy_terms_equal_the_torch_ops(robot, dtype):
+    """Objective's numpy path (hand-written backward) = its torch-ops path, values and gradients."""
+    from nlo_lab.human.corpus import sign_corpus
+    from nlo_lab.losses import Objective
+
+    r = robot.to(dtype=dtype)
+    t = targets_from_demonstration(sign_corpus("test")[1], dtype=dtype)  # every frame: some random pose brings capsules close
+    g = torch.Generator().manual_seed(3)
+    q = (r.lower_limits + torch.rand(len(t), r.n_joints, generator=g, dtype=dtype) * (r.upper_limits - r.lower_limits)).requires_grad_(True)
+    tol = {"atol": 1e-9, "rtol": 1e-9} if dtype == torch.float64 else {"atol": 2e-4, "rtol": 2e-5}
+    for form in ("hinge", "paper"):
+        fused, fused_terms = Objective(r, t, collision_form=form, fused=True)(q)
+        ref, ref_terms = Objective(r, t, collision_form=form, fused=False)(q)
+        torch.testing.assert_close(fused_terms, ref_terms, **tol)
+        (g_fused,) = torch.autograd.grad(fused.sum(), q)
+        (g_ref,) = torch.autograd.grad(ref.sum(), q)
+        torch.testing.assert_close(g_fused, g_ref, atol=tol["atol"] * float(g_ref.abs().max()), rtol=tol["rtol"])
+    assert float(ref_terms[:, 4].detach().max()) > 0, "random poses should include a close capsule pair"
+
+
+def test_fused_objective_passes_gradcheck():
+    from nlo_lab.losses import Objective
+
+    robot = load_robot("yumi").to(dtype=torch.float64)
+    q = random_feasible_pose(robot, 2, seed=11)
+    t = targets_from_demonstration(demonstration_from_robot(robot, q), dtype=torch.float64)
+    start = (q + 0.3).clamp(robot.lower_limits, robot.upper_limits).requires_grad_(True)
+    obj = Objective(robot, t, fused=True)
+    torch.autograd.gradcheck(lambda x: obj(x)[0], (start,), eps=1e-6, atol=1e-4)
+
+
+def test_elbow_position_loss_is_zero_at_the_robot_own_pose_and_grows_when_the_elbow_moves(robot):
+    from nlo_lab.losses import elbow_position_loss
+
+    q = random_feasible_pose(robot, 3, seed=4)
+    t = exact_targets(robot, q)
+    torch.testing.assert_close(elbow_position_loss(robot, robot.forward_kinematics(q), t), torch.zeros(3, dtype=torch.float64), atol=1e-20, rtol=0)
+    moved = dataclasses.replace(t, elbow=t.elbow + torch.tensor([0.0, 0.0, 0.05], dtype=torch.float64))
+    assert (elbow_position_loss(robot, robot.forward_kinematics(q), moved) > 1e-4).all()
+    # a masked elbow contributes nothing
+    mask = t.arm_mask.clone()
+    mask[:, :, 1] = False
+    hidden = dataclasses.replace(moved, arm_mask=mask)
+    assert float(elbow_position_loss(robot, robot.forward_kinematics(q), hidden).abs().max()) == 0.0
