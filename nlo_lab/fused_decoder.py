@@ -9,7 +9,7 @@ returns the gradient with respect to ``z`` only (the weights are frozen).
 
 Per layer, on node-major features ``x (N, B, C)``:
 ``m_e = b_e + x_dst W_self,e + x_src W_nbr,e`` per edge, ``a = LeakyReLU(m)``,
-``y = x S + s + A_dst a`` (``A_dst (N, E)`` sums the messages into their
+``y = x S + s + A_dst a``; the last layer's ``y`` plus the rest offset goes through tanh (``A_dst (N, E)`` sums the messages into their
 receiving node). Backward: ``g_m = (A_dstᵀ g_y) * LeakyReLU'(m)``,
 ``g_x = g_y Sᵀ + A_dst (g_m W_selfᵀ) + A_src (g_m W_nbrᵀ)``.
 
@@ -59,6 +59,7 @@ class DecoderPlan:
             })  # fmt: skip
         self.mid, self.half = _np(weights["mid"]), _np(weights["half"])
         self.lower, self.upper = _np(weights["lower"]), _np(weights["upper"])
+        self.rest_pre = _np(weights["rest_pre"])
 
     def forward(self, z: np.ndarray):
         """``z (B, N, k)`` -> ``q (B, N)`` and what the backward needs."""
@@ -77,7 +78,7 @@ class DecoderPlan:
             y = res + (L["a_dst"] @ a.reshape(E, B * O)).reshape(-1, B, O)
             saved.append((x.shape[-1], m))
             x = y
-        t = np.tanh(x[..., 0].T)  # (B, N)
+        t = np.tanh(x[..., 0].T + self.rest_pre)  # (B, N)
         pre = self.mid + self.half * t
         q = np.minimum(np.maximum(pre, self.lower), self.upper)
         return q, (saved, t, pre)

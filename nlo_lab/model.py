@@ -84,6 +84,18 @@ def _remap(a: torch.Tensor, mid: torch.Tensor, half: torch.Tensor, lower: torch.
     return torch.clamp(torch.addcmul(mid, half, torch.tanh(a)), min=lower, max=upper)
 
 
+def rest_preactivation(rest: torch.Tensor | None, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+    """``(n,)`` offset before tanh so that a zero network output decodes to ``rest``.
+
+    ``atanh((rest - mid) / half)``, kept within ``atanh(±0.9)`` so that the start
+    is never in tanh's flat tail; zeros (the limits' midpoint) without ``rest``.
+    """
+    if rest is None:
+        return torch.zeros_like(lower, dtype=torch.float32)
+    u = ((rest.detach().float() - (lower + upper) / 2) / ((upper - lower) / 2).clamp_min(1e-9)).clamp(-0.9, 0.9)
+    return torch.atanh(u)
+
+
 class GraphLayer(nn.Module):
     """One residual message-passing layer with per-node-type weights.
 
@@ -282,6 +294,10 @@ class GraphDecoder(nn.Module):
         upper: ``(n,)`` upper limits [rad].
         latent_per_node: ``k``.
         widths: per-node widths (paper: 32, 16, 1; the last must be 1).
+        rest: ``(n,)`` angles [rad] decoded when the layers output 0 (the
+            robot's neutral pose); None: the limits' midpoint, as the paper's
+            remap. Training starts there, and the arm configuration it starts
+            in is the one it keeps (see :func:`rest_preactivation`).
     """
 
     def __init__(
@@ -291,6 +307,7 @@ class GraphDecoder(nn.Module):
         upper: torch.Tensor,
         latent_per_node: int = 4,
         widths: tuple[int, ...] = (32, 16, 1),
+        rest: torch.Tensor | None = None,
     ):
         super().__init__()
         if widths[-1] != 1:
@@ -302,6 +319,7 @@ class GraphDecoder(nn.Module):
         self.latent_per_node = latent_per_node
         self.register_buffer("lower", lower.detach().float().clone(), persistent=False)
         self.register_buffer("upper", upper.detach().float().clone(), persistent=False)
+        self.register_buffer("rest_pre", rest_preactivation(rest, self.lower, self.upper))  # (n,), saved in checkpoints
         edge_f = robot_graph.edge_attr.shape[-1]
         dims = (latent_per_node + 2, *widths)
         self.layers = nn.ModuleList(GraphLayer(a, b, edge_f) for a, b in zip(dims[:-1], dims[1:]))
@@ -322,9 +340,8 @@ class GraphDecoder(nn.Module):
     def preactivation(self, z: torch.Tensor) -> torch.Tensor:
         """``z (B, N_r, k)`` -> ``a (B, n)``, the values before tanh (``q = remap(a)``).
 
-        Training reads them to keep the decoder out of tanh's flat tails
-        (``TrainSettings.saturation``): a joint pinned at a limit passes no
-        gradient, neither in training nor to the latent at inference.
+        Useful to see saturation: a joint whose ``a`` sits in tanh's flat tail is
+        pinned at its limit and passes no gradient, in training or to the latent.
         """
         return self._preactivation(z, self._weights())
 
@@ -336,7 +353,7 @@ class GraphDecoder(nn.Module):
         x = z.transpose(0, 1)  # (N_r, B, k): node-major, see GraphLayer.forward_node_major
         for layer, wl in zip(self.layers, w["layers"]):
             x = layer.forward_node_major(x, wl)
-        return x[..., 0].T
+        return x[..., 0].T + w["rest_pre"]
 
     def _weights(self) -> dict:
         """Per-layer node-major weights with the limits folded in.
@@ -347,7 +364,9 @@ class GraphDecoder(nn.Module):
         """
         params = list(self.parameters())
         frozen = not any(p.requires_grad for p in params)
-        key = tuple((p.data_ptr(), p._version, p.dtype, p.device) for p in params) + (self.lower.data_ptr(), self.lower._version)
+        key = tuple((p.data_ptr(), p._version, p.dtype, p.device) for p in params) + tuple(
+            (b.data_ptr(), b._version) for b in (self.lower, self.rest_pre)
+        )
         if frozen and getattr(self, "_weights_cache", (None,))[0] == key:
             return self._weights_cache[1]
         g = self.graph
@@ -358,6 +377,7 @@ class GraphDecoder(nn.Module):
             "half": (self.upper - self.lower) * 0.5,
             "lower": self.lower,
             "upper": self.upper,
+            "rest_pre": self.rest_pre,
         }
         for i, layer in enumerate(self.layers):
             w["layers"].append(layer.node_major_weights(g.edge_index, g.edge_attr, g.node_type, fixed if i == 0 else None))
@@ -412,12 +432,14 @@ class MLPDecoder(nn.Module):
         upper: torch.Tensor,
         latent_per_node: int = 4,
         widths: tuple[int, ...] = (128, 64),
+        rest: torch.Tensor | None = None,
     ):
         super().__init__()
         n = robot_graph.num_nodes
         self.n_nodes, self.latent_per_node = n, latent_per_node
         self.register_buffer("lower", lower.detach().float().clone(), persistent=False)
         self.register_buffer("upper", upper.detach().float().clone(), persistent=False)
+        self.register_buffer("rest_pre", rest_preactivation(rest, self.lower, self.upper))
         self.net = _mlp((n * (latent_per_node + 2), *widths, n))
 
     @property
@@ -433,7 +455,7 @@ class MLPDecoder(nn.Module):
         """``z (B, N_r, k)`` -> ``a (B, n)`` before tanh (see :meth:`GraphDecoder.preactivation`)."""
         B = z.shape[0]
         lim = torch.stack([self.lower, self.upper], dim=-1).expand(B, -1, -1)
-        return self.net(torch.cat([z, lim], dim=-1).flatten(1))
+        return self.net(torch.cat([z, lim], dim=-1).flatten(1)) + self.rest_pre
 
     def remap(self, a: torch.Tensor) -> torch.Tensor:
         """``a (B, n)`` -> ``q (B, n)`` inside the limits."""
@@ -490,6 +512,7 @@ def build_model(
     edge_features: int = 3,
     kind: str = "graph",
     latent_per_node: int = 4,
+    rest: torch.Tensor | None = None,
 ) -> RetargetModel:
     """Build an untrained :class:`RetargetModel`.
 
@@ -502,6 +525,7 @@ def build_model(
         edge_features: width of ``edge_features(demo)``.
         kind: ``"graph"`` (the paper) or ``"mlp"`` (the ablation).
         latent_per_node: ``k`` of ``z (B, N_r, k)``.
+        rest: ``(n,)`` the decoder's rest angles (``robot.neutral_q``); None: midpoint.
 
     Raises:
         SettingsError: unknown kind or a non-positive latent size.
@@ -513,7 +537,7 @@ def build_model(
     enc_cls, dec_cls = (GraphEncoder, GraphDecoder) if kind == "graph" else (MLPEncoder, MLPDecoder)
     n_r = robot_graph.num_nodes
     encoder = enc_cls(human_graph, in_features, edge_features, n_r, latent_per_node)
-    decoder = dec_cls(robot_graph, lower, upper, latent_per_node)
+    decoder = dec_cls(robot_graph, lower, upper, latent_per_node, rest=rest)
     config = {
         "kind": kind,
         "latent_per_node": int(latent_per_node),

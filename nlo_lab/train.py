@@ -32,15 +32,7 @@ import torch
 
 from nlo_lab.errors import CheckpointError, NloLabError, SettingsError
 from nlo_lab.human import sign_corpus
-from nlo_lab.losses import (
-    COLLISION_FORMS,
-    LossWeights,
-    Targets,
-    elbow_position_loss,
-    latent_loss,
-    objective,
-    targets_from_demonstration,
-)
+from nlo_lab.losses import COLLISION_FORMS, LossWeights, Targets, latent_loss, objective, targets_from_demonstration
 from nlo_lab.model import MODEL_KINDS, RetargetModel, build_model
 from nlo_lab.paths import CHECKPOINTS_DIR
 
@@ -49,7 +41,6 @@ __all__ = [
     "TrainSettings",
     "TrainResult",
     "train_model",
-    "shaping_weight",
     "corpus_targets",
     "new_model",
     "save_checkpoint",
@@ -59,7 +50,7 @@ __all__ = [
     "main",
 ]
 
-CHECKPOINT_FORMAT_VERSION = 1
+CHECKPOINT_FORMAT_VERSION = 2  # 2: the decoder's rest offset (decoder.rest_pre) is part of the state
 
 
 @dataclass(frozen=True)
@@ -78,19 +69,6 @@ class TrainSettings:
         val_every: steps between validations (and at the end of every epoch).
         val_frames: at most this many evenly spaced test frames are validated.
         collision_form: see :func:`nlo_lab.losses.collision_loss`.
-        elbow_shaping: start weight of a training-only elbow *position* term
-            (:func:`elbow_position_loss`); 0 switches it off. It decays
-            linearly to 0 at ``shaping_fraction`` of training, so the model
-            ends on the paper's objective alone.
-        shaping_fraction: share of the training steps over which the shaping
-            term fades out.
-        saturation: weight of ``sum relu(|a| - saturation_at)²`` on the
-            decoder's values ``a`` before tanh (training only; 0: off). A joint
-            whose ``a`` sits in tanh's flat tail is pinned at its limit and
-            passes no gradient: without this term YuMi's left joint 2 ended at
-            its limit in every test frame.
-        saturation_at: where the penalty starts (tanh(2.5) = 0.987 of the
-            half range: the limits stay reachable).
         progress: show a tqdm progress bar.
     """
 
@@ -105,10 +83,6 @@ class TrainSettings:
     val_every: int = 200
     val_frames: int = 1500
     collision_form: str = "hinge"
-    elbow_shaping: float = 1000.0
-    shaping_fraction: float = 0.5
-    saturation: float = 10.0
-    saturation_at: float = 2.5
     progress: bool = True
 
     def __post_init__(self) -> None:
@@ -122,14 +96,6 @@ class TrainSettings:
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise SettingsError(f"{name} must be finite and > 0, got {v!r}")
-        if not isinstance(self.elbow_shaping, (int, float)) or not math.isfinite(self.elbow_shaping) or self.elbow_shaping < 0:
-            raise SettingsError(f"elbow_shaping must be finite and >= 0, got {self.elbow_shaping!r}")
-        for name in ("saturation", "saturation_at"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise SettingsError(f"{name} must be finite and >= 0, got {v!r}")
-        if not isinstance(self.shaping_fraction, (int, float)) or not 0 < self.shaping_fraction <= 1:
-            raise SettingsError(f"shaping_fraction must be in (0, 1], got {self.shaping_fraction!r}")
         if self.kind not in MODEL_KINDS:
             raise SettingsError(f"unknown model kind {self.kind!r}; expected one of {MODEL_KINDS}")
         if self.collision_form not in COLLISION_FORMS:
@@ -208,42 +174,15 @@ def new_model(robot, settings: TrainSettings | None = None, in_features: int | N
         edge_features=int(human.edge_attr.shape[-1]),
         kind=settings.kind,
         latent_per_node=settings.latent_per_node,
+        rest=robot.neutral_q,
     )
 
 
-def _batch_loss(
-    model, robot, batch: Targets, weights: LossWeights, form: str, shaping: float = 0.0, saturation: tuple[float, float] = (0.0, 0.0)
-) -> torch.Tensor:
-    """Per-frame Eq. 10: objective of the decoded encoder latent + ``||z||²/σ²`` -> ``(B,)``.
-
-    Training-only additions: ``shaping * elbow_position_loss`` and, with
-    ``saturation = (weight, at)``, ``weight * sum relu(|a| - at)²`` on the
-    decoder's pre-tanh values.
-    """
-    z = model.encode(batch.node_features, batch.edge_features)
-    pre = model.decoder.preactivation(z)  # (B, n)
-    q = model.decoder.remap(pre).to(robot.lower_limits.dtype)
-    extra = 0.0
-    if saturation[0] > 0:
-        extra = saturation[0] * torch.relu(pre.abs() - saturation[1]).pow(2).sum(-1).to(q.dtype)
-    if shaping > 0:
-        poses = robot.forward_kinematics(q)  # one FK for the objective and the shaping term
-        total, _ = objective(robot, q, batch, weights, poses=poses, collision_form=form)
-        total = total + shaping * elbow_position_loss(robot, poses, batch)
-    else:
-        total, _ = objective(robot, q, batch, weights, collision_form=form)
-    return total + weights.latent * latent_loss(z) + extra
-
-
-def shaping_weight(settings: TrainSettings, step: int, total_steps: int) -> float:
-    """The elbow-shaping weight at ``step`` of ``total_steps``: linear fade to 0 at ``shaping_fraction``.
-
-    By steps, not wall clock, so that a seed reproduces a run exactly; a run
-    cut short by ``max_seconds`` may end with some shaping left, and the
-    checkpoint is chosen on the paper's objective alone either way.
-    """
-    progress = step / max(total_steps, 1)
-    return settings.elbow_shaping * max(0.0, 1.0 - progress / settings.shaping_fraction)
+def _batch_loss(model, robot, batch: Targets, weights: LossWeights, form: str) -> torch.Tensor:
+    """Per-frame Eq. 10: objective of the decoded encoder latent + ``||z||²/σ²`` -> ``(B,)``."""
+    q, z = model(batch.node_features, batch.edge_features)
+    total, _ = objective(robot, q.to(robot.lower_limits.dtype), batch, weights, collision_form=form)
+    return total + weights.latent * latent_loss(z)
 
 
 @torch.no_grad()
@@ -323,9 +262,7 @@ def train_model(
         order = torch.randperm(n, generator=gen)
         for b in range(steps_per_epoch):
             batch = train_data.index(order[b * settings.batch_size : (b + 1) * settings.batch_size])
-            shaping = shaping_weight(settings, step, total_steps)
-            saturation = (settings.saturation, settings.saturation_at)
-            loss = _batch_loss(model, robot, batch, weights, settings.collision_form, shaping, saturation).mean()
+            loss = _batch_loss(model, robot, batch, weights, settings.collision_form).mean()
             opt.zero_grad(set_to_none=True)
             loss.backward()
             torch.nn.utils.clip_grad_norm_(model.parameters(), settings.clip)
@@ -481,9 +418,6 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--kind", default=d.kind, choices=MODEL_KINDS)
     p.add_argument("--latent-per-node", type=int, default=d.latent_per_node)
     p.add_argument("--max-seconds", type=float, default=d.max_seconds)
-    p.add_argument("--saturation", type=float, default=d.saturation, help="weight of the training-only penalty on pre-tanh values beyond --saturation-at")
-    p.add_argument("--saturation-at", type=float, default=d.saturation_at)
-    p.add_argument("--elbow-shaping", type=float, default=d.elbow_shaping, help="start weight of the training-only elbow position term (0: off)")
     p.add_argument("--threads", type=int, default=1, help="torch threads (1 avoids oversubscription)")
     p.add_argument("--out", default=None, help="checkpoint file (default assets/checkpoints/NAME.pt)")
     p.add_argument("--quiet", action="store_true")
@@ -497,9 +431,6 @@ def main(argv: list[str] | None = None) -> int:
         kind=args.kind,
         latent_per_node=args.latent_per_node,
         max_seconds=args.max_seconds,
-        elbow_shaping=args.elbow_shaping,
-        saturation=args.saturation,
-        saturation_at=args.saturation_at,
         progress=not args.quiet,
     )
     robot = _resolve_robot(args.robot)

@@ -166,7 +166,7 @@ def _layer_by_layer_decoder(dec: GraphDecoder, z: torch.Tensor) -> torch.Tensor:
     x = torch.cat([z, torch.stack([dec.lower, dec.upper], -1).expand(z.shape[0], -1, -1)], -1)
     for layer in dec.layers:
         x = layer(x, g.edge_index, g.edge_attr, g.node_type)
-    return dec.lower + (dec.upper - dec.lower) * (torch.tanh(x[..., 0]) + 1) / 2
+    return dec.lower + (dec.upper - dec.lower) * (torch.tanh(x[..., 0] + dec.rest_pre) + 1) / 2
 
 
 @pytest.mark.parametrize("widths", [(32, 16, 1), (5, 5, 1)])  # (5, 5): an identity skip after the first layer
@@ -205,7 +205,8 @@ def test_frozen_decoder_numpy_path_equals_torch_values_and_latent_gradients(widt
     from nlo_lab.model import FUSED_MAX_BATCH
 
     torch.manual_seed(10)
-    dec = GraphDecoder(chain_graph(), LOWER, UPPER, latent_per_node=3, widths=widths).to(dtype)
+    rest = LOWER + 0.3 * (UPPER - LOWER)  # a rest offset, as trained models have
+    dec = GraphDecoder(chain_graph(), LOWER, UPPER, latent_per_node=3, widths=widths, rest=rest).to(dtype)
     for p in dec.parameters():
         p.requires_grad_(False)
     z = (3 * torch.randn(FUSED_MAX_BATCH, 5, 3, dtype=dtype)).requires_grad_(True)  # 3σ: some joints near a limit
@@ -229,3 +230,20 @@ def test_preactivation_then_remap_is_the_decoder():
         assert a.shape == (4, 5)
         torch.testing.assert_close(dec.remap(a), dec(z))
         torch.testing.assert_close(dec.remap(a), remap_to_limits(a, LOWER, UPPER))
+
+
+@pytest.mark.parametrize("cls", [GraphDecoder, MLPDecoder])
+def test_a_silent_decoder_outputs_its_rest_pose(cls):
+    """With every weight zero the decoder returns ``rest`` (within the ±0.9 clamp of the remap), else the midpoint."""
+    rest = torch.tensor([1.0, -2.4, 0.0, 0.2, 4.9])  # the second and last lie beyond 0.9 of the half range
+    dec = cls(chain_graph(), LOWER, UPPER, latent_per_node=3, rest=rest)
+    plain = cls(chain_graph(), LOWER, UPPER, latent_per_node=3)
+    with torch.no_grad():
+        for d in (dec, plain):
+            for p in d.parameters():
+                p.zero_()
+    z = torch.randn(2, 5, 3)
+    mid, half = (LOWER + UPPER) / 2, (UPPER - LOWER) / 2
+    expected = torch.minimum(torch.maximum(rest, mid - 0.9 * half), mid + 0.9 * half)
+    torch.testing.assert_close(dec(z), expected.expand(2, -1), atol=1e-5, rtol=1e-5)
+    torch.testing.assert_close(plain(z), mid.expand(2, -1), atol=1e-6, rtol=0)

@@ -134,40 +134,12 @@ def test_validation_is_held_out_of_the_training_split_never_the_test_split():
     assert not val_names & set(corpus_names("test"))
 
 
-@pytest.mark.parametrize(
-    "kwargs, word",
-    [({"elbow_shaping": -1.0}, "elbow_shaping"), ({"shaping_fraction": 0.0}, "shaping_fraction"),
-     ({"saturation": float("nan")}, "saturation"), ({"saturation_at": -1.0}, "saturation_at")],
-)
-def test_training_only_terms_settings_are_validated(kwargs, word):
-    with pytest.raises(SettingsError, match=word):
-        TrainSettings(**kwargs)
-
-
-def test_elbow_shaping_fades_linearly_to_zero():
-    s = TrainSettings(elbow_shaping=800.0, shaping_fraction=0.5)
-    assert train_mod.shaping_weight(s, 0, 1000) == pytest.approx(800.0)
-    assert train_mod.shaping_weight(s, 250, 1000) == pytest.approx(400.0)
-    assert train_mod.shaping_weight(s, 500, 1000) == 0.0
-    assert train_mod.shaping_weight(s, 900, 1000) == 0.0
-
-
-def test_training_only_terms_add_exactly_their_formulas(nao, pose_data):
-    from nlo_lab.losses import LossWeights, elbow_position_loss
-
-    train, _ = pose_data
-    torch.manual_seed(3)
-    model = train_mod.new_model(nao, TrainSettings(), in_features=int(train.node_features.shape[-1]))
-    batch = train.index(slice(0, 8))
-    w = LossWeights()
-    base = train_mod._batch_loss(model, nao, batch, w, "hinge")
-    with torch.no_grad():
-        z = model.encode(batch.node_features, batch.edge_features)
-        a = model.decoder.preactivation(z)
-        q = model.decoder.remap(a)
-    at = float(a.abs().median())  # half the values beyond it: the penalty is active
-    sat = train_mod._batch_loss(model, nao, batch, w, "hinge", saturation=(7.0, at))
-    atol = 8 * torch.finfo(torch.float32).eps * float(base.abs().max())  # float32 totals of ~1e3
-    torch.testing.assert_close(sat - base, 7.0 * torch.relu(a.abs() - at).pow(2).sum(-1), rtol=1e-4, atol=atol)
-    shaped = train_mod._batch_loss(model, nao, batch, w, "hinge", shaping=300.0)
-    torch.testing.assert_close(shaped - base, 300.0 * elbow_position_loss(nao, nao.forward_kinematics(q), batch), rtol=1e-4, atol=atol)
+def test_new_models_start_at_the_robot_neutral_pose_and_checkpoints_keep_it(tmp_path, nao):
+    model = new_model(nao)
+    rest = model.decoder.rest_pre
+    assert float(rest.abs().max()) > 0.1, "the neutral pose is not the limits' midpoint"
+    torch.testing.assert_close(model.decoder.remap(rest[None]), nao.neutral_q[None].clamp(
+        (nao.lower_limits + nao.upper_limits) / 2 - 0.9 * (nao.upper_limits - nao.lower_limits) / 2,
+        (nao.lower_limits + nao.upper_limits) / 2 + 0.9 * (nao.upper_limits - nao.lower_limits) / 2), atol=1e-5, rtol=1e-5)
+    loaded = load_checkpoint(save_checkpoint(model, tmp_path / "nao.pt", nao), nao)
+    torch.testing.assert_close(loaded.decoder.rest_pre, rest)
