@@ -6,6 +6,11 @@ collision pairs as in the paper's equations (Sec. "Problem Statement"):
 * ``ee``: end effector, ``sum_side ||p/l - p̂/l̂||²`` with ``p`` the wrist position
   relative to the shoulder, ``l`` the robot's zero-pose upper + fore arm length,
   ``l̂`` the demonstrator's upper + fore arm length (median over the sequence).
+  The robot's shoulder is a point fixed to its body: the shoulder link's
+  position at the reference pose (``robot.shoulder_position``), where the metric
+  places the human shoulder too. YuMi's shoulder link (link 2) sits off joint
+  1's axis and swings by up to 6 cm; measuring from it, the optimum put the
+  wrist that far from where the metric scores it.
 * ``ori``: ``sum_side ||R_wrist R_align - R̂||_F²``; ``R_align`` is the spec's
   per-arm ``wrist_alignment`` (robot wrist link -> human wrist convention).
 * ``elbow``: ``sum_side ||(w - e)/l_fore - (ŵ - ê)/l̂_fore||²``.
@@ -57,7 +62,6 @@ __all__ = [
     "collision_loss",
     "latent_loss",
     "robot_points",
-    "elbow_position_loss",
 ]
 
 TERMS = ("ee", "ori", "elbow", "finger", "collision")
@@ -246,6 +250,8 @@ class _RobotConstants:
         self.elbow = [a.elbow for a in arms]
         self.wrist = [a.wrist for a in arms]
         self.align = torch.stack([torch.as_tensor(a.wrist_alignment) for a in arms]).to(device=device, dtype=dtype)  # (2,3,3)
+        # the shoulder: fixed to the body, at the shoulder link's reference-pose position
+        self.shoulder_ref = torch.stack([robot.shoulder_position(s_) for s_ in SIDES]).to(device=device, dtype=dtype)  # (2, 3)
         lengths = [robot.zero_pose_lengths(s) for s in SIDES]
         self.arm_length = torch.tensor([float(u) + float(f) for u, f in lengths], dtype=dtype, device=device)  # (2,)
         self.fore_length = torch.tensor([float(f) for _, f in lengths], dtype=dtype, device=device)  # (2,)
@@ -277,7 +283,9 @@ class _RobotConstants:
             vecs.append([*xyz, w])
             return len(links) - 1
 
-        role = {(r, s): add(getattr(arm, r), (0.0, 0.0, 0.0), 1.0) for s, arm in enumerate(arms) for r in ("shoulder", "elbow", "wrist")}
+        role = {(r, s): add(getattr(arm, r), (0.0, 0.0, 0.0), 1.0) for s, arm in enumerate(arms) for r in ("elbow", "wrist")}
+        for s in range(2):  # a point on the root body: the fixed shoulder
+            role["shoulder", s] = add(robot.tree.model.root, self.shoulder_ref[s].double().cpu().numpy(), 1.0)
         cols = [[add(arm.wrist, np.asarray(arm.wrist_alignment, dtype=np.float64)[:, j], 0.0) for j in range(3)] for arm in arms]
         fingers = [(add(base, (0.0, 0.0, 0.0), 1.0), add(tip, (0.0, 0.0, 0.0), 1.0)) for *_, base, tip in self.fingers]
         caps = [[add(cap.link, end, 1.0) for end in (cap.p0, cap.p1)] for cap in robot.spec.capsules]
@@ -335,7 +343,7 @@ def robot_points(robot, poses: dict) -> dict[str, torch.Tensor]:
     """The robot's role points from FK poses.
 
     Returns:
-        ``shoulder``, ``elbow``, ``wrist`` ``(B, 2, 3)``, ``wrist_rotation``
+        ``shoulder`` (the fixed reference point), ``elbow``, ``wrist`` ``(B, 2, 3)``, ``wrist_rotation``
         ``(B, 2, 3, 3)`` (aligned to the human wrist convention), and
         ``finger_base``, ``finger_tip`` ``(B, K, 3)`` for the robot's K fingers
         (K = 0 without hands).
@@ -344,7 +352,7 @@ def robot_points(robot, poses: dict) -> dict[str, torch.Tensor]:
     c = _constants(robot, some.dtype, some.device)
     B = some.shape[0]
     out = {
-        "shoulder": torch.stack([_pos(poses, l) for l in c.shoulder], dim=1),
+        "shoulder": c.shoulder_ref.expand(B, 2, 3),  # fixed to the body (module docstring)
         "elbow": torch.stack([_pos(poses, l) for l in c.elbow], dim=1),
         "wrist": torch.stack([_pos(poses, l) for l in c.wrist], dim=1),
         "wrist_rotation": torch.stack([poses[l][..., :3, :3] for l in c.wrist], dim=1) @ c.align,
@@ -389,30 +397,6 @@ def elbow_loss(elbow, wrist, fore_length, t_elbow, t_wrist, t_fore_length, mask)
     v = (wrist - elbow) / fore_length[..., None]
     v_hat = (t_wrist - t_elbow) / t_fore_length[..., None]
     return _masked_sum((v - v_hat).pow(2).sum(-1), mask)
-
-
-def elbow_position_loss(robot, poses: dict, targets: "Targets") -> torch.Tensor:
-    """``sum_side ||(e - s)/l - (ê - ŝ)/l̂||²``: the elbow measured like the end effector.
-
-    Not one of the paper's terms and not in :data:`TERMS`: training uses it as a
-    fading shaping term (``TrainSettings.elbow_shaping``) so the model settles in
-    the arm configuration whose elbow sits where the human's does; the elbow
-    direction term alone leaves YuMi's elbow in a far basin (measured in
-    ``nlo_lab/train.py``'s docstring).
-
-    Args:
-        robot: the robot; poses: its FK (link -> ``(B, 4, 4)``); targets: ``B`` frames.
-
-    Returns:
-        ``(B,)``; arms whose shoulder or elbow is masked contribute 0.
-    """
-    some = next(iter(poses.values()))
-    c = _constants(robot, some.dtype, some.device)
-    pts = robot_points(robot, poses)
-    t = targets
-    return end_effector_loss(
-        pts["shoulder"], pts["elbow"], c.arm_length, t.shoulder, t.elbow, t.arm_length, t.arm_mask[..., 0] & t.arm_mask[..., 1]
-    )
 
 
 _UNIT_EPS = 1e-9  # [m^2] keeps unit vectors of zero-length fingers finite

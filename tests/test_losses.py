@@ -233,18 +233,3 @@ def test_fused_objective_passes_gradcheck():
     start = (q + 0.3).clamp(robot.lower_limits, robot.upper_limits).requires_grad_(True)
     obj = Objective(robot, t, fused=True)
     torch.autograd.gradcheck(lambda x: obj(x)[0], (start,), eps=1e-6, atol=1e-4)
-
-
-def test_elbow_position_loss_is_zero_at_the_robot_own_pose_and_grows_when_the_elbow_moves(robot):
-    from nlo_lab.losses import elbow_position_loss
-
-    q = random_feasible_pose(robot, 3, seed=4)
-    t = exact_targets(robot, q)
-    torch.testing.assert_close(elbow_position_loss(robot, robot.forward_kinematics(q), t), torch.zeros(3, dtype=torch.float64), atol=1e-20, rtol=0)
-    moved = dataclasses.replace(t, elbow=t.elbow + torch.tensor([0.0, 0.0, 0.05], dtype=torch.float64))
-    assert (elbow_position_loss(robot, robot.forward_kinematics(q), moved) > 1e-4).all()
-    # a masked elbow contributes nothing
-    mask = t.arm_mask.clone()
-    mask[:, :, 1] = False
-    hidden = dataclasses.replace(moved, arm_mask=mask)
-    assert float(elbow_position_loss(robot, robot.forward_kinematics(q), hidden).abs().max()) == 0.0
