@@ -259,8 +259,8 @@ def report(robot, args, notes, ev, t1_png, abl, t3) -> str:
             f"### Initialisation ablation (first {n} test sequences)",
             "",
             "Mean Fréchet distance [m] (and summed wall time [s]) after each budget of Adam steps;"
-            " every budget is a separate run with no early stop. Joint-space optimisation from the middle of the"
-            " limits at the same budgets for reference.",
+            " every budget is a separate run with no early stop. Joint-space optimisation from the neutral"
+            " pose at the same budgets for reference.",
             "",
             "| initialisation | " + " | ".join(f"{b} it" for b in budgets) + " |",
             "|---|" + "---|" * len(budgets),

@@ -19,7 +19,7 @@ Measured in one run:
    (said so in the report).
 4. **Ratio to joint-space optimisation**: per test sequence, the method (encoder +
    100 latent iterations) gives a mean objective ``L*`` (no latent term); joint-space
-   optimisation (same objective, from the middle of the limits) runs until its mean
+   optimisation (same objective, from the neutral pose) runs until its mean
    objective reaches ``L*`` or ``--joint-cap`` iterations; the report gives the time
    ratio, and the joint-space objective at the method's wall time (equal budget).
 
@@ -214,7 +214,7 @@ def main(argv=None) -> int:
         "### Against joint-space optimisation (same objective)",
         "",
         f"The method (encoder + up to 100 latent iterations, patience 5) reaches a mean objective L* per sequence; joint-space"
-        f" Adam (lr 0.05, from the middle of the limits, clamped) runs until its mean objective ≤ L* or {args.joint_cap}"
+        f" Adam (lr 0.05, from the neutral pose, clamped) runs until its mean objective ≤ L* or {args.joint_cap}"
         " iterations. 'At equal time' = joint-space mean objective when it has used the method's wall time.",
         "",
         "| sequence | frames | method [s] | L* | joint space to reach L* [s] | ratio | joint-space iterations | joint-space objective at equal time | joint-space lowest objective (time) |",

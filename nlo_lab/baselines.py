@@ -9,8 +9,8 @@ training of a network excluded):
 * ``latent_encoder``: the method: encoder initialisation + latent optimisation.
 * ``encoder_only``: the encoder's latent decoded, no optimisation (the paper's 'Init').
 * ``latent_random``: latent optimisation from ``N(0, random_sigma²)``.
-* ``joint_space``: Adam on the angles themselves, same objective, clamped to the limits
-  (:func:`nlo_lab.optimize.optimize_joints`).
+* ``joint_space``: Adam on the angles themselves, same objective, clamped to the limits,
+  from the robot's neutral pose (:func:`nlo_lab.optimize.optimize_joints`).
 * ``nn_supervised``: a feed-forward network from the human node features to the
   angles, trained supervised on joint-space optimisation results over the
   training split (the paper's 'NN'); trained once per settings, cached in memory

@@ -67,7 +67,7 @@ def test_latent_optimisation_lowers_the_objective(nao, setup, init):
     with torch.no_grad():
         start, _ = objective(nao, model.decode(z0), targets, weights)
         start = start + latent_loss(z0)
-    result = optimize_latent(model, nao, targets, OptimizeSettings(init=init, iterations=40), weights=weights)
+    result = optimize_latent(model, nao, targets, OptimizeSettings(init=init, iterations=100), weights=weights)  # the default budget
     assert result.history[0] == pytest.approx(float(start.mean()), rel=1e-5)
     assert min(result.history) < 0.7 * result.history[0]
     assert (result.loss <= start + 1e-6).all()  # the best point is kept per frame
@@ -163,8 +163,15 @@ def test_joint_space_baseline(nao, setup, limits):
     assert min(r.history) < 0.7 * r.history[0]
     if limits == "clamp":
         assert (r.q >= nao.lower_limits).all() and (r.q <= nao.upper_limits).all()
-    mid = optimize_joints(nao, targets, JointOptimizeSettings(iterations=0))
-    torch.testing.assert_close(mid.q, ((nao.lower_limits + nao.upper_limits) / 2).expand(len(targets), -1))
+    starts = {
+        "neutral": nao.neutral_q,  # the default
+        "midpoint": (nao.lower_limits + nao.upper_limits) / 2,
+        "zeros": torch.zeros_like(nao.lower_limits).clamp(nao.lower_limits, nao.upper_limits),
+    }
+    assert JointOptimizeSettings().init == "neutral"
+    for init, q0 in starts.items():
+        start = optimize_joints(nao, targets, JointOptimizeSettings(iterations=0, init=init))
+        torch.testing.assert_close(start.q, q0.expand(len(targets), -1))
 
 
 def test_float64_end_to_end(setup):

@@ -60,7 +60,8 @@ def shares(**w):
 # ## Joint-space optimisation of one frame
 #
 # The obvious approach: gradient descent (Adam) on the angles `q` themselves. Joint limits are kept by
-# clamping after each step (projected gradient).
+# clamping after each step (projected gradient). It starts from the robot's collision-free neutral pose
+# (`JointOptimizeSettings(init="neutral")`, the default).
 
 # %%
 from nlo_lab.optimize import JointOptimizeSettings, optimize_joints
@@ -68,7 +69,7 @@ from nlo_lab.viz import plot_convergence
 ITERS = budget(300, 30)
 res = optimize_joints(robot, one, JointOptimizeSettings(iterations=ITERS, patience=ITERS))
 print(f"loss {res.history[0]:.1f} -> {res.history[-1]:.2f} in {res.iterations} steps, {res.seconds * 1000:.0f} ms")
-plot_convergence({"joint space, from the limits' midpoint": res.history});
+plot_convergence({"joint space, from the neutral pose": res.history});
 
 # %%
 from nlo_lab.notebook import show_robot
