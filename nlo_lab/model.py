@@ -362,7 +362,9 @@ class GraphDecoder(nn.Module):
         optimisation); the key holds every parameter's version counter, so an
         in-place update (an optimiser step, ``load_state_dict``) rebuilds it.
         """
-        params = list(self.parameters())
+        params = self.__dict__.get("_param_list")
+        if params is None:  # the module tree is fixed after __init__; walking it costs ~40 us per call
+            params = self.__dict__["_param_list"] = list(self.parameters())
         frozen = not any(p.requires_grad for p in params)
         key = tuple((p.data_ptr(), p._version, p.dtype, p.device) for p in params) + tuple(
             (b.data_ptr(), b._version) for b in (self.lower, self.rest_pre)
