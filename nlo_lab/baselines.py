@@ -476,7 +476,9 @@ def _cache_key(robot, settings: SupervisedSettings, data: Targets) -> str:
         "lower": [round(float(v), 6) for v in robot.lower_limits],
         "upper": [round(float(v), 6) for v in robot.upper_limits],
         "settings": asdict(settings),
-        "version": 1,
+        # 2: labels from the neutral start with the fixed-shoulder end-effector term; bump on any
+        # change to the objective or to optimize_joints, or stale labels are reused
+        "version": 2,
     }
     return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:16]
 
