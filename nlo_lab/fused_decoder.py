@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 import torch
+from torch.autograd.function import once_differentiable
 
 __all__ = ["DecoderPlan", "decode_fused"]
 
@@ -107,6 +108,7 @@ class _DecodeFn(torch.autograd.Function):
         return torch.from_numpy(np.ascontiguousarray(q, dtype=plan.dtype))
 
     @staticmethod
+    @once_differentiable  # a second derivative raises instead of coming out wrong
     def backward(ctx, grad: torch.Tensor):
         gz = ctx.plan.backward(grad.detach().numpy(), ctx.state)
         return torch.from_numpy(np.ascontiguousarray(gz, dtype=ctx.plan.dtype)), None

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 import torch
+from torch.autograd.function import once_differentiable
 
 from nlo_lab.collision import _DIFF, _distance_xp
 
@@ -125,6 +126,7 @@ class _PointTermsFn(torch.autograd.Function):
         return torch.from_numpy(terms)
 
     @staticmethod
+    @once_differentiable  # a second derivative raises instead of coming out wrong
     def backward(ctx, grad: torch.Tensor):
         g = grad.detach().numpy().astype(ctx.saved[0].dtype, copy=False)
         return torch.from_numpy(ctx.plan.backward(g, ctx.saved)), None

@@ -31,6 +31,7 @@ from typing import Sequence
 
 import numpy as np
 import torch
+from torch.autograd.function import once_differentiable
 
 from nlo_lab.errors import RobotDescriptionError
 
@@ -612,6 +613,7 @@ class _MapPoints(torch.autograd.Function):
         return pts
 
     @staticmethod
+    @once_differentiable  # a second derivative raises instead of coming out wrong
     def backward(ctx, g):
         poses, pts, vectors = ctx.saved_tensors
         tree = ctx.tree
