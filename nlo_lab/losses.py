@@ -250,7 +250,6 @@ class _RobotConstants:
     def __init__(self, robot, dtype: torch.dtype, device):
         self.robot = robot
         arms = [robot.arm(s) for s in SIDES]
-        self.shoulder = [a.shoulder for a in arms]
         self.elbow = [a.elbow for a in arms]
         self.wrist = [a.wrist for a in arms]
         self.align = torch.stack([torch.as_tensor(a.wrist_alignment) for a in arms]).to(device=device, dtype=dtype)  # (2,3,3)
