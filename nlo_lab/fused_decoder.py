@@ -9,8 +9,8 @@ returns the gradient with respect to ``z`` only (the weights are frozen).
 
 Per layer, on node-major features ``x (N, B, C)``:
 ``m_e = b_e + x_dst W_self,e + x_src W_nbr,e`` per edge, ``a = LeakyReLU(m)``,
-``y = x S + s + A_dst a``; the last layer's ``y`` plus the rest offset goes through tanh (``A_dst (N, E)`` sums the messages into their
-receiving node). Backward: ``g_m = (A_dstᵀ g_y) * LeakyReLU'(m)``,
+``y = x S + s + A_dst a`` (``A_dst (N, E)`` sums the messages into their
+receiving node); the last layer's ``y`` plus the rest offset goes through tanh. Backward: ``g_m = (A_dstᵀ g_y) * LeakyReLU'(m)``,
 ``g_x = g_y Sᵀ + A_dst (g_m W_selfᵀ) + A_src (g_m W_nbrᵀ)``.
 
 The torch ops stay the reference (training, other devices); the tests compare
@@ -34,7 +34,7 @@ class DecoderPlan:
     """Numpy copies of a decoder's node-major weights (``GraphDecoder._weights()``).
 
     Args:
-        weights: the decoder's weight dict (``layers``, ``mid``, ``half``, ``lower``, ``upper``).
+        weights: the decoder's weight dict (``layers``, ``mid``, ``half``, ``lower``, ``upper``, ``rest_pre``).
         n_nodes: robot graph nodes ``N``.
         slope: the LeakyReLU negative slope.
     """

@@ -32,7 +32,7 @@ from nlo_lab.collision import _DIFF, _distance_xp
 
 __all__ = ["PointTerms", "point_terms"]
 
-_UNIT_EPS = 1e-9  # [m^2] as nlo_lab.losses._UNIT_EPS
+_UNIT_EPS = 1e-9  # [m^2] keeps unit vectors of zero-length fingers finite (losses uses it too)
 
 
 class PointTerms:
@@ -54,8 +54,7 @@ class PointTerms:
         self.rows = np.ascontiguousarray(rows)
         self.rows_t = np.ascontiguousarray(self.rows.T)
         self.fingers = np.flatnonzero(finger_row)
-        self.row_term = np.asarray(row_term, dtype=np.int64)
-        self.term_of_row = np.eye(4, dtype=self.rows.dtype)[self.row_term]  # (V, 4)
+        self.term_of_row = np.eye(4, dtype=self.rows.dtype)[np.asarray(row_term, dtype=np.int64)]  # (V, 4)
         self.goal = np.ascontiguousarray(goal)
         self.mask = np.asarray(mask, dtype=bool)[..., None]  # (T, V, 1)
         self.pair_points = np.asarray(pair_points, dtype=np.int64)

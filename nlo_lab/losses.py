@@ -43,7 +43,7 @@ import torch
 
 from nlo_lab.collision import segment_distance_ends
 from nlo_lab.errors import DemonstrationError, SettingsError
-from nlo_lab.fused_objective import PointTerms, point_terms
+from nlo_lab.fused_objective import _UNIT_EPS, PointTerms, point_terms
 from nlo_lab.human.demonstration import FINGERS, SIDES, Demonstration
 from nlo_lab.human.skeleton import edge_features, node_features
 
@@ -402,7 +402,6 @@ def elbow_loss(elbow, wrist, fore_length, t_elbow, t_wrist, t_fore_length, mask)
     return _masked_sum((v - v_hat).pow(2).sum(-1), mask)
 
 
-_UNIT_EPS = 1e-9  # [m^2] keeps unit vectors of zero-length fingers finite
 
 
 def _unit(v: torch.Tensor, eps: float = _UNIT_EPS) -> torch.Tensor:
