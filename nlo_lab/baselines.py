@@ -468,13 +468,14 @@ def cache_dir() -> Path:
 
 
 def _cache_key(robot, settings: SupervisedSettings, data: Targets) -> str:
-    """Robot joints and limits, settings and the training frames' content (a changed corpus is a new key)."""
+    """Robot joints, limits and collision margins, settings and the training frames' content (a changed corpus is a new key)."""
     ident = {
         "data": hashlib.sha256(data.node_features.detach().cpu().float().numpy().tobytes()).hexdigest(),
         "robot": robot.name,
         "joints": list(robot.joint_names),
         "lower": [round(float(v), 6) for v in robot.lower_limits],
         "upper": [round(float(v), 6) for v in robot.upper_limits],
+        "margins": [round(float(v), 6) for v in robot.collision_margins],
         "settings": asdict(settings),
         # 2: labels from the neutral start with the fixed-shoulder end-effector term; bump on any
         # change to the objective or to optimize_joints, or stale labels are reused

@@ -398,8 +398,23 @@ def test_capsules_and_pairs_are_well_formed(spec, urdf):
         assert la != lb and parents.get(la) != lb and parents.get(lb) != la, (a, b)
         if a != "body":
             assert a[0] != b[0], f"pair {a}/{b} is within one arm"
-    assert spec["collision_margin"] == {"default": 0.1, "l_hand/r_hand": 0.15}
+    assert spec["collision_margin"] == {"default": 0.01, "l_hand/r_hand": 0.06}
     assert ["l_hand", "r_hand"] in spec["collision_pairs"]
+
+
+def test_margins_start_the_collision_term_at_the_reference_axis_distance(spec):
+    """The reference implementation's d_min (0.1 m, 0.15 m hand-hand) is a threshold on
+    the distance between the two links' axis segments; ours are surface distances, so
+    margin + both radii must land on it (within the 0.01 m of one shared default)."""
+    radius = {c["name"]: c["radius"] for c in spec["capsules"]}
+    margins = spec["collision_margin"]
+    for a, b in spec["collision_pairs"]:
+        margin = margins.get(f"{a}/{b}", margins.get(f"{b}/{a}", margins["default"]))
+        if a == "body":  # not in the reference (it checked arm against arm only)
+            assert margin == pytest.approx(0.01)
+            continue
+        axis = 0.15 if {a, b} == {"l_hand", "r_hand"} else 0.1
+        assert abs(margin + radius[a] + radius[b] - axis) <= 0.01 + 1e-9, (a, b, margin)
 
 
 def test_neutral_pose_is_collision_free_and_within_limits(poser, spec, urdf):

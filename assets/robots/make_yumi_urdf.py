@@ -490,7 +490,7 @@ def build() -> tuple[str, dict]:
         "arms": arms,
         "capsules": capsules(),
         "collision_pairs": collision_pairs(),
-        "collision_margin": {"default": 0.1, "l_hand/r_hand": 0.15},
+        "collision_margin": {"default": 0.01, "l_hand/r_hand": 0.06},
         "neutral_pose": neutral_pose(),
     }
     header = (
