@@ -10,8 +10,9 @@ robot's zero-pose arm length l = upper + fore): over 8 random poses x 2 arms,
 the median wrist error <= 5 % of l and the median elbow error <= 10 % of l, and
 the optimisation lowers the objective to below a tenth of its start.
 Random poses are drawn in the middle 60 % of every joint range (margin 20 %),
-collision-free; they are far outside the training distribution of the encoder
-(human signing), so the budget is 300 iterations with patience 20 (lr 0.03).
+with every checked capsule pair at least 20 % of the arm length apart (see
+`robot_targets.random_feasible_pose`); they are far outside the training
+distribution of the encoder (human signing), so the budget is 300 iterations with patience 20 (lr 0.03).
 """
 
 from __future__ import annotations
