@@ -222,7 +222,7 @@ def latent_random(robot, demo, settings: BaselineSettings | None = None, *, mode
 
 
 def joint_space(robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResult:
-    """Adam on the angles (from the middle of the limits), same objective, clamped to the limits."""
+    """Adam on the angles from the robot's neutral pose (``JointOptimizeSettings`` default), same objective, clamped to the limits."""
     s = settings or BaselineSettings()
     start = time.perf_counter()
     targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)

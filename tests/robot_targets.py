@@ -9,22 +9,17 @@ from nlo_lab.human.demonstration import FINGERS, SIDES, Demonstration
 from nlo_lab.losses import robot_points
 
 
-def random_feasible_pose(robot, n: int, seed: int, margin: float = 0.15, tries: int = 50, clearance: float = 0.2) -> torch.Tensor:
+def random_feasible_pose(robot, n: int, seed: int, margin: float = 0.15, tries: int = 50) -> torch.Tensor:
     """``(n, n_joints)`` random angles inside the limits, shrunk by ``margin`` of each
-    range, with every checked capsule pair at least ``max(d_min, clearance x arm
-    length)`` apart. The clearance keeps the poses out of near-contact, where the
-    targets are exactly reachable but a local optimiser started elsewhere can be
-    held back by the collision term: tests here check tracking, not that."""
+    range, without self-collision (pairs at least their d_min apart)."""
     gen = torch.Generator().manual_seed(seed)
     lo, hi = robot.lower_limits, robot.upper_limits
-    arm = float(sum(sum(robot.zero_pose_lengths(side)) for side in SIDES)) / len(SIDES)
-    apart = robot.collision_margins.clamp_min(clearance * arm)
     out = []
     for _ in range(tries):
         u = torch.rand(4 * n, robot.n_joints, generator=gen, dtype=torch.float64).to(lo.dtype)
         q = lo + (hi - lo) * (margin + (1 - 2 * margin) * u)
         d = robot.capsule_distances(robot.forward_kinematics(q))
-        ok = (d >= apart).all(-1)
+        ok = (d >= robot.collision_margins).all(-1)
         out.extend(q[ok])
         if len(out) >= n:
             return torch.stack(out[:n])

@@ -6,13 +6,20 @@ wrist and elbow positions. Retargeting is neural latent optimisation with the
 shipped checkpoint (encoder initialisation, Adam on z, decoder frozen).
 
 Stated tolerance (positions relative to the shoulder, as a fraction of the
-robot's zero-pose arm length l = upper + fore): over 8 random poses x 2 arms,
+robot's zero-pose arm length l = upper + fore): over 48 random poses x 2 arms,
 the median wrist error <= 5 % of l and the median elbow error <= 10 % of l, and
 the optimisation lowers the objective to below a tenth of its start.
 Random poses are drawn in the middle 60 % of every joint range (margin 20 %),
-with every checked capsule pair at least 20 % of the arm length apart (see
-`robot_targets.random_feasible_pose`); they are far outside the training
-distribution of the encoder (human signing), so the budget is 300 iterations with patience 20 (lr 0.03).
+collision-free (every checked pair at least its d_min apart); they are far
+outside the training distribution of the encoder (human signing), so the budget
+is 300 iterations with patience 20 (lr 0.03).
+
+Why 48 poses and a median: not every random pose is recovered. NAO recovers
+nearly all of them exactly, Pepper about 85-90 %, YuMi (7 joints per arm and
+wide wrist ranges) about 60-70 % within 5 % of l; the rest end in a local
+minimum (measured over seeds 7-10: YuMi's median wrist error 0.023-0.033 l,
+elbow 0.064-0.075 l). With 8 poses, swapping a single pose moved YuMi's
+median across the tolerance, so 8 was a coin toss, not a test.
 """
 
 from __future__ import annotations
@@ -39,7 +46,7 @@ def _relative(robot, q):
 def test_round_trip_recovers_wrist_and_elbow(name):
     robot = load_robot(name)
     model = load_pretrained(robot)
-    q = random_feasible_pose(robot, 8, seed=7, margin=0.2)
+    q = random_feasible_pose(robot, 48, seed=7, margin=0.2)
     targets = targets_from_demonstration(demonstration_from_robot(robot, q))
     result = optimize_latent(model, robot, targets, OptimizeSettings(init="encoder", iterations=300, patience=20, lr=0.03))
     assert min(result.history) < 0.1 * result.history[0]
