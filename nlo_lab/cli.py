@@ -57,6 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="folder for trajectory.npz, trajectory.csv and viewer.html")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--seed", type=int, default=0, help="seed of the random initialisation")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal)")
 
     p = sub.add_parser("train", help="train the encoder and decoder of a robot on the synthetic corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
@@ -123,7 +124,7 @@ def cmd_retarget(args) -> int:
     settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed)
     robot = load_robot(args.robot)
     demo = _load_input(args.input)
-    result = retarget(demo, robot, settings=settings, weights=weights)
+    result = retarget(demo, robot, settings=settings, weights=weights, progress=not args.quiet and sys.stderr.isatty())
     if args.out:
         _write_outputs(Path(args.out), result, demo, robot)
     if args.json:

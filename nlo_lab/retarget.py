@@ -7,7 +7,9 @@ the trajectory, and the metric of DESIGN.md ("Metric").
 
 from __future__ import annotations
 
+import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -50,6 +52,7 @@ def retarget(
     settings: OptimizeSettings | None = None,
     weights: LossWeights | None = None,
     model=None,
+    progress: bool = False,
 ) -> RetargetResult:
     """Retarget a whole demonstration to ``robot`` by neural latent optimisation.
 
@@ -59,6 +62,8 @@ def retarget(
         settings: initialisation strategy, iteration budget, ... (defaults: encoder, 100).
         weights: loss weights (defaults of the paper).
         model: a trained model for this robot; the shipped checkpoint when omitted.
+        progress: show a progress bar of the optimisation's iterations on stderr
+            (the command line turns it on for a terminal: long clips take seconds).
 
     Returns:
         A :class:`RetargetResult` with the trajectory and the quality figures.
@@ -69,13 +74,34 @@ def retarget(
     with single_thread():
         start = time.perf_counter()
         targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
-        result = optimize_latent(model, robot, targets, settings, weights=weights)
+        with _progress_bar(progress, settings.iterations, f"retarget {len(demo)} frames to {robot.name}") as callback:
+            result = optimize_latent(model, robot, targets, settings, weights=weights, callback=callback)
         seconds = time.perf_counter() - start
     angles = result.q.detach().cpu().numpy().astype(np.float64)
     trajectory = RobotTrajectory(robot=robot.name, joint_names=list(robot.joint_names), angles=angles, fps=demo.fps)
     out = RetargetResult(trajectory=trajectory, optimization=result, seconds=seconds)
     out.summary = summary(demo, robot, out)
     return out
+
+
+@contextmanager
+def _progress_bar(show: bool, iterations: int, desc: str):
+    """A callback ``(iteration, mean_loss)`` that advances a tqdm bar, or None."""
+    if not show:
+        yield None
+        return
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=iterations + 1, desc=desc, unit="it", file=sys.stderr, leave=False)
+
+    def callback(iteration: int, loss: float) -> None:
+        bar.update(1)
+        bar.set_postfix(loss=f"{loss:.3g}", refresh=False)
+
+    try:
+        yield callback
+    finally:
+        bar.close()
 
 
 def summary(demo: Demonstration, robot: Robot, result: RetargetResult) -> dict[str, Any]:

@@ -116,3 +116,51 @@ def test_console_script_runs_as_module():
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
+
+
+class _Terminal:
+    """A stderr that says it is a terminal and keeps what is written."""
+
+    def __init__(self):
+        self.text = ""
+
+    def isatty(self):
+        return True
+
+    def write(self, s):
+        self.text += s
+        return len(s)
+
+    def flush(self):
+        pass
+
+
+@pytest.mark.parametrize("quiet", [False, True])
+def test_retarget_progress_bar_on_a_terminal_unless_quiet(monkeypatch, capsys, quiet):
+    from nlo_lab.human import corpus_names
+
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    argv = ["retarget", f"demo:{corpus_names('test')[0]}", "--robot", "nao", "--iters", "3", "--json"] + (["--quiet"] if quiet else [])
+    assert main(argv) == 0
+    assert json.loads(capsys.readouterr().out.strip())["robot"] == "nao"  # stdout stays pure JSON
+    if quiet:
+        assert term.text == ""
+    else:
+        assert "retarget" in term.text and "to nao" in term.text and "it" in term.text, term.text
+
+
+def test_retarget_progress_bar_leaves_the_result_unchanged(capsys):
+    from nlo_lab.human import corpus_clip, corpus_names
+    from nlo_lab.optimize import OptimizeSettings
+    from nlo_lab.retarget import retarget
+    from nlo_lab.robots import load_robot
+
+    robot, demo = load_robot("nao"), corpus_clip(corpus_names("test")[1])
+    settings = OptimizeSettings(iterations=4, patience=10)
+    quiet = retarget(demo, robot, settings=settings)
+    shown = retarget(demo, robot, settings=settings, progress=True)
+    err = capsys.readouterr().err
+    assert f"retarget {len(demo)} frames to nao" in err
+    assert shown.optimization.iterations == quiet.optimization.iterations == 4
+    assert np.array_equal(shown.trajectory.angles, quiet.trajectory.angles)
