@@ -36,8 +36,8 @@ browser:
 lab: setup
 	$(VENV)/bin/nlo-lab lab
 
-# Benchmarks print tables; speed.py and quality.py also rewrite their sections of
-# docs/RESULTS.md (quality.py takes about 15 min on 2 cores; QUICK=1 for a short run).
+# Benchmarks print tables; speed.py, quality.py and headroom.py also rewrite their sections of
+# docs/RESULTS.md (quality.py takes about 15 min on 2 cores, headroom.py 3; QUICK=1 for a short run).
 bench: setup
 	$(PY) benchmarks/fk.py
 	$(PY) benchmarks/frechet.py
@@ -45,6 +45,7 @@ bench: setup
 	$(PY) benchmarks/panel.py
 	$(PY) benchmarks/speed.py --robot yumi
 	$(PY) benchmarks/quality.py --robot yumi $(if $(QUICK),--quick --no-write,)
+	$(PY) benchmarks/headroom.py --robot yumi $(if $(QUICK),--limit 3 --no-write,)
 
 clean:
 	rm -rf $(VENV) build *.egg-info
