@@ -42,8 +42,7 @@ import results_doc  # noqa: E402
 
 from nlo_lab.baselines import BaselineSettings, run_method  # noqa: E402
 from nlo_lab.human import map_to_robot, sign_corpus  # noqa: E402
-from nlo_lab.human.demonstration import SIDES  # noqa: E402
-from nlo_lab.losses import collision_loss, targets_from_demonstration  # noqa: E402
+from nlo_lab.losses import collision_loss, robot_points, targets_from_demonstration  # noqa: E402
 from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.optimize import JointOptimizeSettings, optimize_joints  # noqa: E402
 from nlo_lab.robots import load_robot  # noqa: E402
@@ -51,14 +50,6 @@ from nlo_lab.train import load_pretrained  # noqa: E402
 
 COLUMNS = ("encoder_only", "latent_encoder", "objective optimum", "metric oracle")
 LR = 0.01  # rad per Adam step for both joint-space refinements
-
-
-def _arm_points(robot, poses) -> torch.Tensor:
-    """``(B, 2, 2, 3)``: side x (elbow, wrist) positions [m]."""
-    return torch.stack(
-        [torch.stack([poses[robot.arm(s).elbow][..., :3, 3], poses[robot.arm(s).wrist][..., :3, 3]], dim=1) for s in SIDES],
-        dim=1,
-    )
 
 
 def metric_oracle(robot, demo, q0: np.ndarray, steps: int) -> np.ndarray:
@@ -71,7 +62,9 @@ def metric_oracle(robot, demo, q0: np.ndarray, steps: int) -> np.ndarray:
     opt = torch.optim.Adam([q], lr=LR)
     for _ in range(steps):
         poses = robot.forward_kinematics(q)
-        err = ((_arm_points(robot, poses) - human).pow(2).sum(-1) * seen).sum((1, 2))  # (T,) [m²]
+        pts = robot_points(robot, poses)
+        arm = torch.stack([pts["elbow"], pts["wrist"]], dim=2)  # (T, 2, 2, 3): side x (elbow, wrist) [m]
+        err = ((arm - human).pow(2).sum(-1) * seen).sum((1, 2))  # (T,) [m²]
         loss = (1000.0 * err + 1000.0 * collision_loss(robot.capsule_distances(poses), robot.collision_margins)).sum()
         opt.zero_grad()
         loss.backward()
