@@ -15,7 +15,7 @@ outside the training distribution of the encoder (human signing), so the budget
 is 300 iterations with patience 20 (lr 0.03).
 
 Why 48 poses and a median: not every random pose is recovered. NAO recovers
-nearly all of them exactly, Pepper about 85-90 %, YuMi (7 joints per arm and
+nearly all of them exactly, Pepper about 80-90 %, YuMi (7 joints per arm and
 wide wrist ranges) about 60-70 % within 5 % of l; the rest end in a local
 minimum (measured over seeds 7-10: YuMi's median wrist error 0.023-0.033 l,
 elbow 0.064-0.075 l). With 8 poses, swapping a single pose moved YuMi's
