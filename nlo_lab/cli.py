@@ -48,8 +48,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="nlo-lab", description="Kinematic motion retargeting by neural latent optimisation.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    p = sub.add_parser("retarget", help="retarget a recording (.pose, .h5, .npz or demo:NAME) to a robot")
-    p.add_argument("input", metavar="INPUT", help="a .pose/.h5/.npz file, or demo:NAME for a clip of the embedded corpus")
+    p = sub.add_parser("retarget", help="retarget a recording (.pose, .h5, .npz, a video or demo:NAME) to a robot")
+    p.add_argument("input", metavar="INPUT",
+                   help="a .pose/.h5/.npz file, a video (.mp4/.mov/.webm/.avi), or demo:NAME for a clip of the embedded corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
     p.add_argument("--init", default="encoder", choices=INITS, help="initialisation of the latent code (default: encoder)")
     p.add_argument("--iters", type=_positive_int, default=100, help="latent optimisation budget (default: 100)")
@@ -58,6 +59,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--seed", type=int, default=0, help="seed of the random initialisation")
     p.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal)")
+    p.add_argument("--save-pose", metavar="FILE", default=None,
+                   help="video input: also keep MediaPipe Holistic's landmarks as this .pose file")
+    p.add_argument("--threads", type=_positive_int, default=None,
+                   help="video input: cores for the pose estimation, at most (default: NLO_LAB_THREADS, else 1)")
 
     p = sub.add_parser("train", help="train the encoder and decoder of a robot on the synthetic corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
@@ -86,6 +91,43 @@ def _load_input(text: str):
     if text.startswith("demo:"):
         return corpus_clip(text[len("demo:"):])
     return load_demonstration(text)
+
+
+def _is_video(text: str) -> bool:
+    from nlo_lab.human.io_video import VIDEO_SUFFIXES
+
+    return not text.startswith("demo:") and Path(text).suffix.lower() in VIDEO_SUFFIXES
+
+
+def _check_save_pose(args) -> Path | None:
+    """``--save-pose`` is checked before the (slow) pose estimation, written after everything else."""
+    if args.save_pose is None:
+        return None
+    if not _is_video(args.input):
+        raise UsageError("nlo-lab retarget: --save-pose needs a video INPUT (.mp4, .mov, .webm or .avi)")
+    path = Path(args.save_pose)
+    if path.suffix.lower() != ".pose":
+        raise UsageError(f"nlo-lab retarget: --save-pose FILE must end in .pose, got {args.save_pose!r}")
+    if path.is_dir():
+        raise UsageError(f"nlo-lab retarget: --save-pose {args.save_pose!r} is a folder")
+    if not path.resolve().parent.is_dir():
+        raise UsageError(f"nlo-lab retarget: --save-pose: the folder {str(path.parent)!r} does not exist")
+    return path
+
+
+def _load_video(args, progress: bool):
+    """A video's demonstration and its landmarks; warnings become one ``nlo-lab: warning:`` line each."""
+    import warnings
+
+    from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration
+
+    video = estimate_pose(args.input, threads=args.threads, progress=progress)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        demo = pose_to_demonstration(video)
+    for w in caught:
+        print(f"nlo-lab: warning: {w.message}", file=sys.stderr)
+    return demo, video
 
 
 def _write_outputs(out_dir: Path, result, demo, robot) -> None:
@@ -123,10 +165,22 @@ def cmd_retarget(args) -> int:
     weights = LossWeights.from_string(args.weights) if args.weights else LossWeights()
     settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed)
     robot = load_robot(args.robot)
-    demo = _load_input(args.input)
-    result = retarget(demo, robot, settings=settings, weights=weights, progress=not args.quiet and sys.stderr.isatty())
+    save_pose = _check_save_pose(args)
+    progress = not args.quiet and sys.stderr.isatty()
+    video = None
+    if _is_video(args.input):
+        demo, video = _load_video(args, progress)
+    else:
+        demo = _load_input(args.input)
+    result = retarget(demo, robot, settings=settings, weights=weights, progress=progress)
+    if video is not None:
+        result.summary["pose_seconds"] = round(video.seconds, 4)
     if args.out:
         _write_outputs(Path(args.out), result, demo, robot)
+    if save_pose is not None:
+        from nlo_lab._atomic import atomic_write_bytes
+
+        atomic_write_bytes(save_pose, video.to_bytes())
     if args.json:
         print(json.dumps(result.summary))
     else:
@@ -134,6 +188,8 @@ def cmd_retarget(args) -> int:
         _print_summary(result.summary)
         if args.out:
             print(f"wrote {args.out}/trajectory.npz, trajectory.csv, viewer.html")
+        if save_pose is not None:
+            print(f"wrote {save_pose}")
     return 0
 
 

@@ -9,10 +9,12 @@ from nlo_lab.human.demonstration import Demonstration
 from nlo_lab.human.io_h5 import load_h5_first, load_h5_sequences
 from nlo_lab.human.io_npz import load_npz, save_npz
 from nlo_lab.human.io_pose import load_pose
+from nlo_lab.human.io_video import VIDEO_SUFFIXES, load_video
 
 __all__ = ["SUFFIXES", "load_demonstration", "save_npz", "load_h5_sequences"]
 
-SUFFIXES = {".npz": load_npz, ".pose": load_pose, ".h5": load_h5_first, ".hdf5": load_h5_first}
+SUFFIXES = {".npz": load_npz, ".pose": load_pose, ".h5": load_h5_first, ".hdf5": load_h5_first,
+            **{suffix: load_video for suffix in VIDEO_SUFFIXES}}
 
 
 def load_demonstration(path) -> Demonstration:
@@ -21,7 +23,9 @@ def load_demonstration(path) -> Demonstration:
     - ``.npz``: the package's own archive (:func:`save_npz`);
     - ``.pose``: a MediaPipe Holistic recording (:func:`nlo_lab.human.io_pose.load_pose`);
     - ``.h5`` / ``.hdf5``: the authors' HDF5 layout; returns the FIRST sequence
-      (sorted group names) only; use :func:`load_h5_sequences` for all of them.
+      (sorted group names) only; use :func:`load_h5_sequences` for all of them;
+    - ``.mp4`` / ``.mov`` / ``.webm`` / ``.avi``: a video, through MediaPipe Holistic
+      (:func:`nlo_lab.human.io_video.load_video`; needs the ``video`` extra).
 
     Readers never write anything.
 
