@@ -36,7 +36,7 @@ browser:
 lab: setup
 	$(VENV)/bin/nlo-lab lab
 
-# Benchmarks print tables; speed.py, quality.py and headroom.py also rewrite their sections of
+# Benchmarks print tables; speed.py, quality.py, headroom.py and video.py also rewrite their sections of
 # docs/RESULTS.md (quality.py takes about 15 min on 2 cores, headroom.py 3; QUICK=1 for a short run).
 bench: setup
 	$(PY) benchmarks/fk.py
@@ -46,6 +46,7 @@ bench: setup
 	$(PY) benchmarks/speed.py --robot yumi
 	$(PY) benchmarks/quality.py --robot yumi $(if $(QUICK),--quick --no-write,)
 	$(PY) benchmarks/headroom.py --robot yumi $(if $(QUICK),--limit 3 --no-write,)
+	$(PY) benchmarks/video.py $(if $(QUICK),--repeats 1 --no-cli --no-write,)
 
 clean:
 	rm -rf $(VENV) build *.egg-info
