@@ -48,8 +48,9 @@ def main() -> None:
     info = video_info(SAMPLE)
     duration = info["frames"] / info["fps"]
     cores = len(os.sched_getaffinity(0))
+    load = os.getloadavg()[0]  # the machine may be shared: say how busy it was
     print(f"{SAMPLE.name}: {info['frames']} frames, {info['width']}x{info['height']}, {info['fps']:.2f} fps, "
-          f"{duration:.2f} s of video; {cores} cores available")
+          f"{duration:.2f} s of video; {cores} cores available, load average {load:.1f}")
 
     t0 = time.perf_counter()
     import pose_format.utils.holistic  # noqa: F401  (mediapipe's import, paid once per process)
@@ -110,6 +111,7 @@ def main() -> None:
         f"- video: `assets/recordings/{SAMPLE.name}` ({info['frames']} frames, {info['width']}x{info['height']}, "
         f"{info['fps']:.2f} fps, {duration:.2f} s); MediaPipe Holistic 0.10.21 through pose-format, model complexity 1",
         f"- importing mediapipe: {import_seconds:.2f} s, once per process (not in the figures below)",
+        f"- load average (1 min) at the start: {load:.1f} on {cores} cores (other work shares this machine)",
         "",
         f"### Pose estimation (median of {args.repeats})",
         "",
