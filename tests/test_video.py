@@ -268,3 +268,12 @@ def test_cli_save_pose_checked_before_the_work(argv, needle, capsys):
     code = main(["retarget", *argv, "--robot", "nao"])
     _, err = capsys.readouterr()
     assert_one_line_error(code, err, "--save-pose", needle)
+
+
+def test_progress_bar_counts_the_frames(tmp_path, capsys):
+    clip = write_clip(tmp_path / "clip.mp4", sample_frames(3))
+    estimate_pose(clip, progress=True)
+    err = capsys.readouterr().err
+    assert "pose estimation clip.mp4" in err and "3/3" in err
+    estimate_pose(clip, progress=False)
+    assert capsys.readouterr().err == ""
