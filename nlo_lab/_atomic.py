@@ -1,4 +1,4 @@
-"""Atomic file writes: a temporary file beside the target, renamed over it on success.
+"""Atomic writes: a temporary file (or folder, for a set of files) beside the target, renamed over it on success.
 
 A reader never sees half a file, a failed write leaves nothing behind (and an
 older file at the target untouched), and the file gets the mode a plain
@@ -8,12 +8,27 @@ older file at the target untouched), and the file gets the mode a plain
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import errno
 import os
+import re
+import secrets
+import shutil
+import signal
 import tempfile
 from pathlib import Path
 from typing import Iterator
 
-__all__ = ["atomic_path", "atomic_write_bytes", "current_umask"]
+from nlo_lab.errors import OutputError
+
+__all__ = [
+    "atomic_path",
+    "atomic_write_bytes",
+    "current_umask",
+    "check_output_place",
+    "output_set",
+    "stale_temp_folders",
+]
 
 
 def current_umask() -> int:
@@ -65,3 +80,182 @@ def atomic_write_bytes(path: str | os.PathLike, payload: bytes) -> Path:
     with atomic_path(path) as tmp:
         tmp.write_bytes(payload)
     return Path(path)
+
+
+# ----------------------------------------------------------------------------- output sets
+# A set of files (e.g. trajectory.npz, .csv, viewer.html) that must appear together or
+# not at all. It is built in a temporary folder beside the target folder and swapped in
+# with renames: a reader of the target sees the whole old set or the whole new one.
+TEMP_TAG = ".nlo-lab-tmp-"  # temporary folders are named .{target}.nlo-lab-tmp-{pid}-{random}
+_TEMP_RE = re.compile(r"^\.(?P<target>.*)\.nlo-lab-tmp-(?P<pid>\d+)-[0-9a-f]{8}$")
+_RENAME_EXCHANGE = 2  # linux/fs.h
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's live process
+        return True
+    return True
+
+
+def stale_temp_folders(target: str | os.PathLike) -> list[Path]:
+    """Temporary folders of ``target`` whose writer is gone (killed, e.g. by SIGKILL)."""
+    target = Path(os.path.abspath(target))
+    found = []
+    try:
+        entries = list(os.scandir(target.parent))
+    except OSError:
+        return []
+    for entry in entries:
+        m = _TEMP_RE.match(entry.name)
+        if m and m["target"] == target.name and int(m["pid"]) != os.getpid() and not _alive(int(m["pid"])):
+            if entry.is_dir(follow_symlinks=False):
+                found.append(Path(entry.path))
+    return found
+
+
+def check_output_place(target: str | os.PathLike, names: tuple[str, ...]) -> Path:
+    """Refuse a target folder that cannot take the set ``names``; returns its absolute path.
+
+    Refused: a target that exists but is not a folder (a file, ``/dev/null``), a path
+    below a file, the current folder or one of its parents, a folder holding an entry
+    of the set that is not a plain file or holding a sub-folder or other non-file (the
+    swap carries plain files over; it cannot carry folders), or a place we may not write.
+
+    Raises:
+        OutputError: naming the target and the reason.
+    """
+    raw = Path(target)
+    target = Path(os.path.realpath(raw))
+    if target == Path(target.anchor):
+        raise OutputError(f"{raw} is the root folder")
+    if Path(os.getcwd()).is_relative_to(target):
+        raise OutputError(f"{raw} is the current folder or one of its parents; choose a folder of its own")
+    if os.path.lexists(target):
+        if not target.is_dir():
+            raise OutputError(f"{raw} exists and is not a folder")
+        for entry in os.scandir(target):
+            if not entry.is_file(follow_symlinks=False):
+                what = "an entry of the output set" if entry.name in names else "an entry that cannot be carried over"
+                raise OutputError(f"{raw} holds {entry.name!r}, {what} that is not a plain file")
+        writable = target.parent
+    else:
+        writable = target.parent
+        while not os.path.lexists(writable):
+            writable = writable.parent
+        if not writable.is_dir():
+            raise OutputError(f"{raw} lies below {writable}, which is not a folder")
+    if not os.access(writable, os.W_OK | os.X_OK):
+        raise OutputError(f"no permission to write in {writable}")
+    return target
+
+
+def _fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two paths in one step (Linux ``renameat2(RENAME_EXCHANGE)``); False where unsupported."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    AT_FDCWD = -100
+    if renameat2(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP):  # old kernel, or a file system without it
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
+def _commit(tmp: Path, target: Path, names: tuple[str, ...]) -> None:
+    """Make ``tmp`` (holding the new set) the target folder, keeping the target's other files."""
+    for name in os.listdir(tmp):
+        with open(tmp / name, "rb") as fh:
+            os.fsync(fh.fileno())
+    _fsync_dir(tmp)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        os.rename(tmp, target)  # no target yet (or an empty one): one rename
+        _fsync_dir(target.parent)
+        return
+    except OSError as err:
+        if err.errno not in (errno.EEXIST, errno.ENOTEMPTY):
+            raise
+    for entry in os.scandir(target):  # carry the other plain files over (hard links: no copy)
+        if entry.name not in names and entry.is_file(follow_symlinks=False):
+            try:
+                os.link(entry.path, tmp / entry.name)
+            except OSError:
+                shutil.copy2(entry.path, tmp / entry.name)
+    if not _exchange(tmp, target):  # no atomic swap here: the target is briefly absent, never mixed
+        aside = target.parent / f".{target.name}{TEMP_TAG}{os.getpid()}-{secrets.token_hex(4)}"
+        os.rename(target, aside)
+        os.rename(tmp, target)
+        tmp = aside
+    _fsync_dir(target.parent)
+    shutil.rmtree(tmp, ignore_errors=True)  # the old set
+
+
+@contextlib.contextmanager
+def output_set(target: str | os.PathLike, names: tuple[str, ...]) -> Iterator[Path]:
+    """Yield an empty temporary folder; on success its files replace the set in ``target``.
+
+    Write every file of the set (``names``) into the yielded folder. On normal exit
+    the folder is swapped in with renames: ``target`` then holds the new set and the
+    other plain files it held before. On any exception (including
+    ``KeyboardInterrupt``) the temporary folder is removed and nothing changes.
+    Signals are blocked while the swap runs, so an interrupt lands before or after
+    it, never half-way. Temporary folders of ``target`` left by a killed run are
+    removed first.
+
+    Raises:
+        OutputError: see :func:`check_output_place`.
+        OSError: writing failed (full disk, permissions); nothing is left behind.
+    """
+    target = check_output_place(target, names)
+    for stale in stale_temp_folders(target):
+        shutil.rmtree(stale, ignore_errors=True)
+    parent = target.parent
+    parent.mkdir(parents=True, exist_ok=True)
+    tmp = parent / f".{target.name}{TEMP_TAG}{os.getpid()}-{secrets.token_hex(4)}"
+    os.mkdir(tmp)
+    try:
+        yield tmp
+        missing = [n for n in names if not (tmp / n).is_file()]
+        if missing:
+            raise RuntimeError(f"the output set lacks {missing}")  # a bug of the caller
+        blocked = _block_signals()
+        try:
+            _commit(tmp, target, names)
+        finally:
+            _unblock_signals(blocked)
+    finally:
+        blocked = _block_signals()
+        try:
+            shutil.rmtree(tmp, ignore_errors=True)
+        finally:
+            _unblock_signals(blocked)
+
+
+_BLOCKED = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+def _block_signals():
+    if hasattr(signal, "pthread_sigmask"):
+        return signal.pthread_sigmask(signal.SIG_BLOCK, _BLOCKED)
+    return None
+
+
+def _unblock_signals(previous) -> None:
+    if previous is not None:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)

@@ -1,26 +1,36 @@
 """The ``nlo-lab`` command (DESIGN.md, "Command line": a contract).
 
-Bad input ends with exit status 2 and one line on stderr that names what is
-wrong and where; never a traceback, never a partial output left behind.
+One error path: every failure the command meets (input files, flags, output
+places, disk, permissions, memory) ends with exit status 2 and one line on stderr
+that names what is wrong and where, with names taken from files escaped
+(:func:`nlo_lab.errors.escape`). Only a bug of nlo_lab itself gives a traceback
+(exit 1). Warnings, ours and the libraries', go through one channel: one line
+each (``nlo-lab: warning: ...``), silenced by ``--quiet``. SIGTERM, SIGHUP and
+SIGINT end the run with exit 128+signal after the clean-up ran: the outputs of
+``retarget --out`` appear as a whole set or not at all (:func:`nlo_lab._atomic.output_set`).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
-import shutil
+import signal
 import sys
-import tempfile
+import threading
+import warnings
 from pathlib import Path
 
-from nlo_lab.errors import NloLabError
+from nlo_lab.errors import Interrupted, NloLabError, escape
 
 __all__ = ["main", "build_parser"]
 
 ROBOTS = ("yumi", "nao", "pepper")
 INITS = ("encoder", "random", "train-stats", "zeros")
 DEMO_CLIP = "demo:introduction_06"  # "HELLO, NAME, STUDENT" (133 frames at 20 fps)
+OUTPUT_FILES = ("trajectory.npz", "trajectory.csv", "viewer.html")  # the set `retarget --out` writes
+MAX_SEED = 2**32 - 1  # numpy's and torch's generators both take it
 
 
 class UsageError(NloLabError):
@@ -43,6 +53,19 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _ranged_int(lo: int, hi: int):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"must be in [{lo}, {hi}], got {text}")
+        return value
+
+    return parse
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``nlo-lab`` (exposed for the docs and the tests)."""
     parser = _Parser(prog="nlo-lab", description="Kinematic motion retargeting by neural latent optimisation.")
@@ -57,8 +80,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--weights", default=None, help="loss weights, e.g. ee=1000,ori=100,elbow=100,finger=100,collision=1000")
     p.add_argument("--out", default=None, help="folder for trajectory.npz, trajectory.csv and viewer.html")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random initialisation")
-    p.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal)")
+    p.add_argument("--seed", type=_ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal), no warnings")
     p.add_argument("--save-pose", metavar="FILE", default=None,
                    help="video input: also keep MediaPipe Holistic's landmarks as this .pose file")
     p.add_argument("--threads", type=_positive_int, default=None,
@@ -68,8 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
     p.add_argument("--epochs", type=_positive_int, default=None, help="passes over the training frames")
     p.add_argument("--out", default=None, help="checkpoint path (default: assets/checkpoints/NAME.pt)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--seed", type=_ranged_int(0, MAX_SEED), default=0)
+    p.add_argument("--quiet", action="store_true", help="no progress bar, no warnings")
 
     p = sub.add_parser("evaluate", help="compare the method with the baselines on a corpus split")
     p.add_argument("--robot", required=True)
@@ -80,7 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("demo", help="retarget a clip of the embedded test split to YuMi and print the summary")
 
     p = sub.add_parser("lab", help="open JupyterLab on the notebooks")
-    p.add_argument("--port", type=int, default=8888)
+    p.add_argument("--port", type=_ranged_int(1, 65535), default=8888)
     return parser
 
 
@@ -116,36 +139,23 @@ def _check_save_pose(args) -> Path | None:
 
 
 def _load_video(args, progress: bool):
-    """A video's demonstration and its landmarks; warnings become one ``nlo-lab: warning:`` line each."""
-    import warnings
-
+    """A video's demonstration and its landmarks (warnings go to the one channel of :func:`main`)."""
     from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration
 
     video = estimate_pose(args.input, threads=args.threads, progress=progress)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        demo = pose_to_demonstration(video)
-    for w in caught:
-        print(f"nlo-lab: warning: {w.message}", file=sys.stderr)
-    return demo, video
+    return pose_to_demonstration(video), video
 
 
 def _write_outputs(out_dir: Path, result, demo, robot) -> None:
-    """Write all three files to a temporary folder, then move them in place."""
+    """Write the set into a temporary folder beside ``out_dir``, then swap it in (all or nothing)."""
+    from nlo_lab._atomic import output_set
     from nlo_lab.viz import export_html
 
-    out_dir = out_dir.resolve()
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
-    try:
+    with output_set(out_dir, OUTPUT_FILES) as tmp:
         result.trajectory.save_npz(tmp / "trajectory.npz")
         result.trajectory.save_csv(tmp / "trajectory.csv")
         export_html(tmp / "viewer.html", robot, result.trajectory.angles, demo=demo, fps=demo.fps)
-        out_dir.mkdir(exist_ok=True)
-        for name in ("trajectory.npz", "trajectory.csv", "viewer.html"):
-            os.replace(tmp / name, out_dir / name)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        _raise_pending_signal()  # a signal an import swallowed still ends the run, before the swap
 
 
 def _print_summary(summary: dict) -> None:
@@ -157,11 +167,14 @@ def _print_summary(summary: dict) -> None:
 
 
 def cmd_retarget(args) -> int:
+    from nlo_lab._atomic import check_output_place
     from nlo_lab.losses import LossWeights
     from nlo_lab.optimize import OptimizeSettings
     from nlo_lab.retarget import retarget
     from nlo_lab.robots import load_robot
 
+    if args.out:
+        check_output_place(args.out, OUTPUT_FILES)  # refused before any work starts
     weights = LossWeights.from_string(args.weights) if args.weights else LossWeights()
     settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed)
     robot = load_robot(args.robot)
@@ -182,14 +195,14 @@ def cmd_retarget(args) -> int:
 
         atomic_write_bytes(save_pose, video.to_bytes())
     if args.json:
-        print(json.dumps(result.summary))
+        print(json.dumps(result.summary, allow_nan=False))  # retarget() refuses non-finite figures
     else:
-        print(f"retargeted {demo.name or args.input} ({len(demo)} frames) to {robot.name}:")
-        _print_summary(result.summary)
+        print(f"retargeted {escape(demo.name or args.input)} ({len(demo)} frames) to {escape(robot.name)}:")
+        _print_summary({k: escape(v) if isinstance(v, str) else v for k, v in result.summary.items()})
         if args.out:
-            print(f"wrote {args.out}/trajectory.npz, trajectory.csv, viewer.html")
+            print(f"wrote {escape(args.out)}/trajectory.npz, trajectory.csv, viewer.html")
         if save_pose is not None:
-            print(f"wrote {save_pose}")
+            print(f"wrote {escape(save_pose)}")
     return 0
 
 
@@ -249,25 +262,92 @@ COMMANDS = {
 }
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run ``nlo-lab``; returns the exit status (0 ok, 2 bad input)."""
+# ----------------------------------------------------------------------------- the one error path
+_TERMINATING = ("SIGTERM", "SIGHUP", "SIGINT")
+_pending: list[int] = []  # signals received, even those some library's `except BaseException` swallowed
+
+
+def _on_signal(signum, frame):
+    _pending.append(signum)
+    raise Interrupted(signum)
+
+
+def _raise_pending_signal() -> None:
+    if _pending:
+        raise Interrupted(_pending[0])
+
+
+@contextlib.contextmanager
+def _signals_raise():
+    """SIGTERM, SIGHUP and SIGINT raise :class:`Interrupted` (so ``finally`` blocks clean up)."""
+    if threading.current_thread() is not threading.main_thread():  # handlers only install there
+        yield
+        return
+    previous = {}
+    for name in _TERMINATING:
+        if hasattr(signal, name):
+            sig = getattr(signal, name)
+            previous[sig] = signal.signal(sig, _on_signal)
+    _pending.clear()
     try:
-        args = build_parser().parse_args(argv)
-        import torch
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
-        from nlo_lab.threads import default_threads
 
-        torch.set_num_threads(default_threads())  # see nlo_lab.threads: one thread unless NLO_LAB_THREADS says otherwise
-        return COMMANDS[args.command](args)
-    except NloLabError as exc:
-        print(f"nlo-lab: error: {exc}", file=sys.stderr)
-        return 2
-    except FileNotFoundError as exc:
-        print(f"nlo-lab: error: file not found: {exc.filename}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("nlo-lab: interrupted", file=sys.stderr)
-        return 130
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"nlo-lab: warning: {escape(message)} ({category.__name__})", file=sys.stderr)
+
+
+@contextlib.contextmanager
+def _one_warning_channel(quiet: bool):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore" if quiet else "default")  # "default": once per place
+        warnings.showwarning = _show_warning
+        yield
+
+
+def _error(message) -> int:
+    print(f"nlo-lab: error: {escape(message)}", file=sys.stderr)
+    return 2
+
+
+def _os_error(exc: OSError) -> str:
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    where = exc.filename if exc.filename is not None else None
+    return f"{reason}: {where}" if where is not None else reason
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``nlo-lab``; returns the exit status (0 ok, 2 bad input or a fault, 128+N on signal N)."""
+    with _signals_raise():
+        try:
+            args = build_parser().parse_args(argv)
+            with _one_warning_channel(getattr(args, "quiet", False)):
+                import torch
+
+                from nlo_lab.threads import default_threads
+
+                torch.set_num_threads(default_threads())  # see nlo_lab.threads: one thread unless NLO_LAB_THREADS says otherwise
+                status = COMMANDS[args.command](args)
+                _raise_pending_signal()
+                return status
+        except NloLabError as exc:
+            return _error(exc)
+        except FileNotFoundError as exc:
+            return _error(f"file not found: {exc.filename}")
+        except MemoryError:
+            return _error("out of memory (the input is too large for this machine; try a shorter recording)")
+        except OSError as exc:  # disk full, permissions, I/O errors: the environment, not a bug
+            return _error(_os_error(exc))
+        except Interrupted as exc:
+            name = signal.Signals(exc.signum).name
+            print(f"nlo-lab: interrupted by {name}", file=sys.stderr)
+            return 128 + exc.signum
+        except KeyboardInterrupt:
+            print("nlo-lab: interrupted by SIGINT", file=sys.stderr)
+            return 128 + signal.SIGINT
 
 
 if __name__ == "__main__":

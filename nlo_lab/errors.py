@@ -14,6 +14,9 @@ __all__ = [
     "DemonstrationError",
     "CheckpointError",
     "SettingsError",
+    "OutputError",
+    "Interrupted",
+    "escape",
 ]
 
 
@@ -59,3 +62,35 @@ class CheckpointError(NloLabError):
 
 class SettingsError(NloLabError, ValueError):
     """A setting out of range (a negative weight, zero iterations, an unknown init)."""
+
+
+class OutputError(NloLabError):
+    """An output place that cannot take the results (a file, blocking entries, no permission)."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A termination signal (SIGTERM, SIGHUP) turned into an exception, so clean-up code runs.
+
+    A ``KeyboardInterrupt`` (what SIGINT raises), so every ``except KeyboardInterrupt``
+    and ``finally`` that cleans up after Ctrl-C also cleans up after ``kill``.
+    """
+
+    def __init__(self, signum: int):
+        self.signum = int(signum)
+        super().__init__(f"signal {self.signum}")
+
+
+def escape(text) -> str:
+    """``text`` with every character a terminal could act on written as an escape.
+
+    Names taken from files (HDF5 groups, ``.pose`` points, file names) reach error
+    messages; escaped, a crafted name can neither add lines nor send terminal codes.
+    """
+    out = []
+    for ch in str(text):
+        if ch.isprintable():
+            out.append(ch)
+        else:
+            code = ord(ch)
+            out.append({"\n": "\\n", "\r": "\\r", "\t": "\\t"}.get(ch) or (f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}"))
+    return "".join(out)

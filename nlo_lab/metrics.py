@@ -3,7 +3,8 @@
 * :func:`frechet_distance`: exact discrete Fréchet distance, computed along
   anti-diagonals of the coupling table with numpy (every cell of an
   anti-diagonal depends only on the two previous anti-diagonals), so the Python
-  loop runs ``n + m - 1`` times instead of ``n * m``.
+  loop runs ``n + m - 1`` times instead of ``n * m``, and memory is linear:
+  three diagonals and the distances of one, never the ``n x m`` table.
 * :func:`velocity_error` / :func:`acceleration_error`: mean norm of the
   difference of finite-difference derivatives.
 * :func:`tracking_errors`: wrist and elbow Fréchet distances after mapping the
@@ -108,15 +109,12 @@ def frechet_distance(P: Any, Q: Any) -> float:
     if p.shape[0] > q.shape[0]:  # shorter curve on the rows: shorter diagonals
         p, q = q, p
     n, m = p.shape[0], q.shape[0]
-    # Squared distances: max/min commute with the monotone sqrt, taken once at the end.
-    D = np.zeros((n, m))  # (n, m) [unit²]
-    for c in range(p.shape[1]):  # per coordinate: no (n, m, d) temporary
-        diff = np.subtract.outer(p[:, c], q[:, c])
-        diff *= diff
-        D += diff
+    # Squared distances, one anti-diagonal at a time (never the (n, m) table: linear
+    # memory); max/min commute with the monotone sqrt, taken once at the end.
+    q_rev = np.ascontiguousarray(q[::-1])  # cell (i, k - i) pairs p[i] with q_rev[m - 1 - k + i]
     if n == 1 or m == 1:
-        return float(math.sqrt(D.max()))
-    flat = D.ravel()  # cell (i, k - i) sits at k + i * (m - 1)
+        diff = p[:, None, :] - q[None, :, :]
+        return float(math.sqrt(np.einsum("ijc,ijc->ij", diff, diff).max()))
     inf = np.inf
     # Three rotating buffers over rows, padded at index 0 with the row "-1" (inf).
     prev2 = np.full(n + 1, inf)
@@ -124,11 +122,16 @@ def frechet_distance(P: Any, Q: Any) -> float:
     prev1 = np.full(n + 1, inf)
     cur = np.full(n + 1, inf)
     tmp = np.empty(n)
+    diff = np.empty((n, p.shape[1]))
+    dk_buf = np.empty(n)
     for k in range(n + m - 1):
         lo = k - m + 1 if k >= m else 0
         hi = k if k < n else n - 1
-        dk = flat[k + lo * (m - 1): k + hi * (m - 1) + 1: m - 1]  # (hi - lo + 1,)
-        t = tmp[: hi - lo + 1]
+        L = hi - lo + 1
+        d = diff[:L]
+        np.subtract(p[lo: hi + 1], q_rev[m - 1 - k + lo: m - k + hi], out=d)
+        dk = np.einsum("ic,ic->i", d, d, out=dk_buf[:L])  # (L,) squared distances on diagonal k
+        t = tmp[:L]
         np.minimum(prev1[lo: hi + 1], prev1[lo + 1: hi + 2], out=t)  # up, left
         np.minimum(t, prev2[lo: hi + 1], out=t)  # diagonal
         np.maximum(dk, t, out=cur[lo + 1: hi + 2])

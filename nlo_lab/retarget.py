@@ -16,16 +16,24 @@ from typing import Any
 import numpy as np
 import torch
 
+from nlo_lab.errors import SettingsError
 from nlo_lab.human import Demonstration
-from nlo_lab.losses import LossWeights, targets_from_demonstration
+from nlo_lab.losses import LossWeights, Targets, targets_from_demonstration
 from nlo_lab.metrics import limit_violations, self_collision_frames, tracking_errors
-from nlo_lab.optimize import OptimizeResult, OptimizeSettings, optimize_latent
+from nlo_lab.optimize import OptimizeResult, OptimizeSettings, initial_latent, optimize_latent
 from nlo_lab.robots import Robot
 from nlo_lab.threads import single_thread
 from nlo_lab.train import load_pretrained
 from nlo_lab.trajectory import RobotTrajectory
 
-__all__ = ["RetargetResult", "retarget", "summary"]
+__all__ = ["CHUNK_FRAMES", "RetargetResult", "retarget", "summary"]
+
+# Frames optimised together. Frames are independent (per-frame losses, per-frame Adam),
+# so chunks only bound memory: the autograd graph of one step holds about 0.3 MB per
+# frame, so 1000 frames take a few hundred MB however long the recording is
+# (benchmarks/long_recording.py). The one coupling is the patience stop, which looks
+# at the mean loss of the frames optimised together (here: of one chunk).
+CHUNK_FRAMES = 1000
 
 
 @dataclass
@@ -53,6 +61,7 @@ def retarget(
     weights: LossWeights | None = None,
     model=None,
     progress: bool = False,
+    chunk_frames: int | None = CHUNK_FRAMES,
 ) -> RetargetResult:
     """Retarget a whole demonstration to ``robot`` by neural latent optimisation.
 
@@ -64,19 +73,34 @@ def retarget(
         model: a trained model for this robot; the shipped checkpoint when omitted.
         progress: show a progress bar of the optimisation's iterations on stderr
             (the command line turns it on for a terminal: long clips take seconds).
+        chunk_frames: optimise at most this many frames at once (bounded memory,
+            see :data:`CHUNK_FRAMES`); None for the whole recording in one batch.
 
     Returns:
         A :class:`RetargetResult` with the trajectory and the quality figures.
+
+    Raises:
+        DemonstrationError: ``demo`` is not (or no longer) valid: NaN where its mask
+            says valid, a wrist rotation that is not a rotation, fps out of range.
+        SettingsError: the loss became NaN or infinite (e.g. absurd weights).
     """
+    demo.validate()  # again: the arrays may have changed since the demonstration was built
     settings = settings or OptimizeSettings()
     weights = weights or LossWeights()
+    if chunk_frames is not None and (isinstance(chunk_frames, bool) or not isinstance(chunk_frames, int) or chunk_frames < 1):
+        raise SettingsError(f"chunk_frames must be a whole number >= 1 or None, got {chunk_frames!r}")
     model = model if model is not None else load_pretrained(robot)
     with single_thread():
         start = time.perf_counter()
         targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
-        with _progress_bar(progress, settings.iterations, f"retarget {len(demo)} frames to {robot.name}") as callback:
-            result = optimize_latent(model, robot, targets, settings, weights=weights, callback=callback)
+        size = len(targets) if chunk_frames is None else chunk_frames
+        bounds = [(a, min(a + size, len(targets))) for a in range(0, len(targets), size)]
+        desc = f"retarget {len(demo)} frames to {robot.name}"
+        with _progress_bar(progress, (settings.iterations + 1) * len(bounds), desc) as callback:
+            result = _optimize_chunks(model, robot, targets, settings, weights, bounds, callback)
         seconds = time.perf_counter() - start
+    if not all(np.isfinite(result.history)) or not bool(torch.isfinite(result.loss).all()):
+        raise SettingsError("the loss became NaN or infinite (are the loss weights absurdly large?)")
     angles = result.q.detach().cpu().numpy().astype(np.float64)
     trajectory = RobotTrajectory(robot=robot.name, joint_names=list(robot.joint_names), angles=angles, fps=demo.fps)
     out = RetargetResult(trajectory=trajectory, optimization=result, seconds=seconds)
@@ -84,15 +108,45 @@ def retarget(
     return out
 
 
+def _optimize_chunks(model, robot, targets: Targets, settings, weights, bounds, callback) -> OptimizeResult:
+    """:func:`optimize_latent` over frame ranges ``bounds``, joined into one result.
+
+    ``history`` is the frame-weighted mean over chunks (a chunk that stopped early
+    contributes its last value), ``iterations`` the most steps any chunk took.
+    """
+    if len(bounds) == 1:
+        return optimize_latent(model, robot, targets, settings, weights=weights, callback=callback)
+    # random starts are drawn for the whole recording at once: chunking leaves them unchanged
+    z_all = None if settings.init in ("encoder", "zeros") else initial_latent(model, targets, settings)
+    parts = []
+    for a, b in bounds:
+        part = targets.index(slice(a, b))
+        z0 = initial_latent(model, part, settings) if z_all is None else z_all[a:b]
+        parts.append(optimize_latent(model, robot, part, settings, weights=weights, z0=z0, callback=callback))
+    n = max(len(r.history) for r in parts)
+    T = len(targets)
+    history = [sum(r.history[min(i, len(r.history) - 1)] * len(r.q) for r in parts) / T for i in range(n)]
+    return OptimizeResult(
+        q=torch.cat([r.q for r in parts]),
+        z=torch.cat([r.z for r in parts]),
+        history=history,
+        terms={k: torch.cat([r.terms[k] for r in parts]) for k in parts[0].terms},
+        loss=torch.cat([r.loss for r in parts]),
+        iterations=max(r.iterations for r in parts),
+        seconds=sum(r.seconds for r in parts),
+        init=settings.init,
+    )
+
+
 @contextmanager
-def _progress_bar(show: bool, iterations: int, desc: str):
+def _progress_bar(show: bool, total: int, desc: str):
     """A callback ``(iteration, mean_loss)`` that advances a tqdm bar, or None."""
     if not show:
         yield None
         return
     from tqdm.auto import tqdm
 
-    bar = tqdm(total=iterations + 1, desc=desc, unit="it", file=sys.stderr, leave=False)
+    bar = tqdm(total=total, desc=desc, unit="it", file=sys.stderr, leave=False)
 
     def callback(iteration: int, loss: float) -> None:
         bar.update(1)

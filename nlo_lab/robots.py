@@ -203,8 +203,10 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
     """
     path = _resolve(name_or_path)
     try:
-        data = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise RobotDescriptionError(f"{path}: not a text file (a robot spec is UTF-8 JSON)") from None
+    except (json.JSONDecodeError, RecursionError) as e:
         raise RobotDescriptionError(f"{path}: malformed JSON ({e})") from None
     if not isinstance(data, dict):
         raise RobotDescriptionError(f"{path}: the spec must be a JSON object")
@@ -263,8 +265,12 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
             raise RobotDescriptionError(f"{path}: collision_pairs[{i}] pairs capsule {pr[0]!r} with itself")
         pairs.append((pr[0], pr[1]))
     margin_data = data.get("collision_margin", {"default": 0.1})
-    if isinstance(margin_data, (int, float)):
+    if isinstance(margin_data, (int, float)) and not isinstance(margin_data, bool):
         margin_data = {"default": margin_data}
+    if not isinstance(margin_data, dict) or not all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in margin_data.values()
+    ):
+        raise RobotDescriptionError(f"{path}: collision_margin must be a number or map 'default' and 'a/b' pairs to numbers [m]")
     default = float(margin_data.get("default", 0.1))
     overrides = {}
     for key, value in margin_data.items():

@@ -363,7 +363,7 @@ def load_checkpoint(path, robot) -> RetargetModel:
     if ckpt["robot"] != robot.name:
         raise CheckpointError(f"checkpoint {path} was trained for robot {ckpt['robot']!r}, not for {robot.name!r}")
     names = ckpt.get("joint_names")
-    if names is not None and list(names) != list(robot.joint_names):
+    if names is not None and (not isinstance(names, (list, tuple)) or list(names) != list(robot.joint_names)):
         raise CheckpointError(f"checkpoint {path} was made for other joints of {robot.name!r} (the robot description changed)")
     try:
         from nlo_lab.human import skeleton_graph

@@ -23,12 +23,20 @@ import numpy as np
 
 from nlo_lab.errors import DemonstrationError
 
-__all__ = ["Demonstration", "SIDES", "ARM_JOINTS", "FINGERS", "FINGER_POINTS"]
+__all__ = ["Demonstration", "SIDES", "ARM_JOINTS", "FINGERS", "FINGER_POINTS", "FPS_RANGE", "MAX_FRAMES", "ROTATION_TOLERANCE"]
 
 SIDES = ("left", "right")
 ARM_JOINTS = ("shoulder", "elbow", "wrist")
 FINGERS = ("thumb", "index", "middle", "ring", "pinky")
 FINGER_POINTS = ("base", "tip")  # base = metacarpophalangeal joint, tip = fingertip
+# Frame rates a recording may state: from a 1 Hz time-lapse to a 1000 Hz motion-capture
+# system (MediaPipe video runs at 15-60 Hz, the authors' gloves at about 15 Hz). Outside it
+# the value is a broken or crafted header, and durations and velocities built on it are garbage.
+FPS_RANGE = (1.0, 1000.0)
+# Longest recording read or built: two hours at 60 fps (about 330 MB of float64 arrays).
+# Readers check a file's declared size against it before they read the data.
+MAX_FRAMES = 432_000
+ROTATION_TOLERANCE = 1e-3  # largest |R^T R - I| entry (and |det R - 1|) of a valid wrist rotation
 
 
 def _side_index(side: str) -> int:
@@ -102,15 +110,25 @@ class Demonstration:
 
     # ------------------------------------------------------------------ checks
     def validate(self, path=None) -> None:
-        """Check shapes, fps and finiteness; raise :class:`DemonstrationError` naming the field."""
-        try:
-            fps = float(self.fps)
-        except (TypeError, ValueError):
-            raise DemonstrationError(f"fps must be a number, got {self.fps!r}", path=path, field="fps") from None
-        if not np.isfinite(fps) or fps <= 0:
-            raise DemonstrationError(f"fps must be > 0, got {self.fps!r}", path=path, field="fps")
+        """Check fps, shapes, dtypes, finiteness and rotations; raise :class:`DemonstrationError` naming the field.
+
+        fps must be a real number (not a bool, string or complex) in :data:`FPS_RANGE`;
+        the arrays real numbers (booleans for the masks); every valid wrist rotation
+        a rotation matrix within :data:`ROTATION_TOLERANCE`.
+        """
+        fps = self.fps
+        if isinstance(fps, np.ndarray) and fps.shape == ():
+            fps = fps[()]
+        if isinstance(fps, (bool, np.bool_)) or not isinstance(fps, (int, float, np.integer, np.floating)):
+            raise DemonstrationError(f"fps must be a real number, got {type(fps).__name__}", path=path, field="fps")
+        fps = float(fps)
+        if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:  # also false for NaN
+            raise DemonstrationError(f"fps must be in [{FPS_RANGE[0]:g}, {FPS_RANGE[1]:g}], got {fps:g}", path=path, field="fps")
         self.fps = fps
-        self.arm_positions = np.asarray(self.arm_positions, dtype=np.float64)
+        raw = np.asarray(self.arm_positions)
+        if raw.dtype.kind not in "iuf":
+            raise DemonstrationError(f"arm_positions must hold real numbers, got dtype {raw.dtype}", path=path, field="arm_positions")
+        self.arm_positions = raw.astype(np.float64, copy=False)
         if self.arm_positions.ndim != 4 or self.arm_positions.shape[1:] != (2, 3, 3):
             raise DemonstrationError(
                 f"arm_positions must be (T, 2, 3, 3), got {self.arm_positions.shape}", path=path, field="arm_positions"
@@ -118,6 +136,8 @@ class Demonstration:
         T = self.arm_positions.shape[0]
         if T == 0:
             raise DemonstrationError("the demonstration has no frames", path=path, field="arm_positions")
+        if T > MAX_FRAMES:
+            raise DemonstrationError(f"{T} frames is more than the {MAX_FRAMES} this nlo_lab reads", path=path, field="arm_positions")
         expected = {
             "arm_mask": (T, 2, 3),
             "wrist_rotations": (T, 2, 3, 3),
@@ -126,7 +146,12 @@ class Demonstration:
             "finger_mask": (T, 2, 5),
         }
         for name, shape in expected.items():
-            value = np.asarray(getattr(self, name), dtype=bool if name.endswith("mask") else np.float64)
+            raw = np.asarray(getattr(self, name))
+            kinds = "biu" if name.endswith("mask") else "iuf"
+            if raw.dtype.kind not in kinds:
+                raise DemonstrationError(f"{name} must hold {'booleans' if kinds == 'biu' else 'real numbers'}, got dtype {raw.dtype}",
+                                         path=path, field=name)
+            value = raw.astype(bool if name.endswith("mask") else np.float64, copy=False)
             if value.shape != shape:
                 raise DemonstrationError(f"{name} must be {shape}, got {value.shape}", path=path, field=name)
             setattr(self, name, value)
@@ -142,6 +167,15 @@ class Demonstration:
                 raise DemonstrationError(f"{name} holds NaN or inf where the mask says valid", path=path, frame=frame, field=name)
             # Masked-out entries are NaN by convention (never silent zeros).
             value[~np.broadcast_to(mask, value.shape)] = np.nan
+        R = self.wrist_rotations[self.wrist_mask]  # (N, 3, 3) the valid ones
+        if len(R):
+            off = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-1, -2))
+            off = np.maximum(off, np.abs(np.linalg.det(R) - 1.0))
+            bad = off > ROTATION_TOLERANCE
+            if bad.any():
+                t, s = np.argwhere(self.wrist_mask)[int(np.argmax(bad))]
+                raise DemonstrationError(f"wrist rotation is not a rotation matrix (error {off[bad][0]:.3g})",
+                                         path=path, frame=int(t), field=f"wrist_rotations/{SIDES[s]}")
 
     # ------------------------------------------------------------------ access
     def __len__(self) -> int:

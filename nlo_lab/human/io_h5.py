@@ -36,7 +36,7 @@ import h5py
 import numpy as np
 
 from nlo_lab.errors import DemonstrationError
-from nlo_lab.human.demonstration import SIDES, Demonstration
+from nlo_lab.human.demonstration import FPS_RANGE, MAX_FRAMES, SIDES, Demonstration
 from nlo_lab.human.transforms import body_frame_from_shoulders, check_arm_lengths, quat_to_matrix, wrist_frame_from_hand
 
 __all__ = ["DEFAULT_FPS", "SENTENCE_MARKER", "GLOVE_POINTS", "GLOVE_FINGER_POINTS", "load_h5_sequences", "load_h5_first"]
@@ -58,33 +58,52 @@ def _dataset(group: h5py.Group, key: str, shape_tail: tuple[int, ...], path, req
         if required:
             raise DemonstrationError("missing dataset", path=path, field=field)
         return None
-    obj = group[key]
+    obj = _member(group, key, path, field)
     if not isinstance(obj, h5py.Dataset):
         raise DemonstrationError("expected a dataset, found a group", path=path, field=field)
+    # dtype and shape come from the header: checked before a byte of data is read
+    if obj.dtype.kind not in "iuf":
+        raise DemonstrationError(f"expected real numbers, got dtype {obj.dtype}", path=path, field=field)
+    if obj.shape is None or len(obj.shape) != 1 + len(shape_tail) or tuple(obj.shape[1:]) != shape_tail:
+        raise DemonstrationError(f"expected shape (T, {', '.join(map(str, shape_tail))}), got {obj.shape}", path=path, field=field)
+    if obj.shape[0] == 0:
+        raise DemonstrationError("no frames", path=path, field=field)
+    if obj.shape[0] > MAX_FRAMES:
+        raise DemonstrationError(f"declares {obj.shape[0]} frames, more than the {MAX_FRAMES} this nlo_lab reads", path=path, field=field)
     try:
         value = np.asarray(obj[()], dtype=np.float64)
     except (OSError, ValueError, TypeError) as err:
         raise DemonstrationError(f"unreadable dataset ({err})", path=path, field=field) from None
-    if value.ndim != 1 + len(shape_tail) or value.shape[1:] != shape_tail:
-        raise DemonstrationError(f"expected shape (T, {', '.join(map(str, shape_tail))}), got {value.shape}", path=path, field=field)
-    if value.shape[0] == 0:
-        raise DemonstrationError("no frames", path=path, field=field)
     bad = ~np.isfinite(value)
     if bad.any():
         raise DemonstrationError("NaN or inf", path=path, frame=int(np.argwhere(bad)[0][0]), field=field)
     return value
 
 
+def _member(group: h5py.Group, key: str, path, field: str):
+    """``group[key]``, refusing links that leave the file or lead nowhere."""
+    link = group.get(key, getlink=True)
+    if isinstance(link, h5py.ExternalLink):
+        raise DemonstrationError("is a link to another file (external links are not followed)", path=path, field=field)
+    try:
+        return group[key]
+    except (KeyError, OSError, RuntimeError, ValueError):
+        raise DemonstrationError("is a link that leads nowhere", path=path, field=field) from None
+
+
 def _fps(group: h5py.Group, root: h5py.File, path) -> float:
     for holder in (group, root):
         if "fps" in holder.attrs:
-            raw = holder.attrs["fps"]
+            field = f"{holder.name}:fps"
             try:
-                fps = float(np.asarray(raw).reshape(()))
-            except (TypeError, ValueError):
-                raise DemonstrationError(f"fps attribute is not a number: {raw!r}", path=path, field="fps") from None
-            if not np.isfinite(fps) or fps <= 0:
-                raise DemonstrationError(f"fps must be > 0, got {fps}", path=path, field=f"{holder.name}:fps")
+                raw = np.asarray(holder.attrs["fps"])
+            except (OSError, TypeError, ValueError) as err:
+                raise DemonstrationError(f"unreadable fps attribute ({err})", path=path, field=field) from None
+            if raw.size != 1 or raw.dtype.kind not in "iuf":
+                raise DemonstrationError(f"fps must be one real number, got dtype {raw.dtype} shape {raw.shape}", path=path, field=field)
+            fps = float(raw.reshape(()))
+            if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:
+                raise DemonstrationError(f"fps must be in [{FPS_RANGE[0]:g}, {FPS_RANGE[1]:g}], got {fps:g}", path=path, field=field)
             return fps
     return DEFAULT_FPS
 
@@ -202,10 +221,11 @@ def load_h5_first(path) -> Demonstration:
 def _read_groups(path: Path, first_only: bool) -> list[Demonstration]:
     """The sequence groups of ``path`` in sorted order (only the first when ``first_only``)."""
     with _groups(path) as f:
-        names = sorted(k for k in f.keys() if isinstance(f[k], h5py.Group))
-        if not names:
-            raise DemonstrationError("the file holds no sequence group", path=path)
         try:
+            # hard links only: a soft or external link at the root is not a sequence of this file
+            names = sorted(k for k in f.keys() if isinstance(f.get(k, getlink=True), h5py.HardLink) and isinstance(f[k], h5py.Group))
+            if not names:
+                raise DemonstrationError("the file holds no sequence group", path=path)
             return [_read_group(f[n], f, path) for n in names[: 1 if first_only else None]]
-        except (OSError, KeyError, RuntimeError) as err:  # truncated / corrupt storage
+        except (OSError, KeyError, RuntimeError, ValueError, TypeError) as err:  # truncated / corrupt storage
             raise DemonstrationError(f"unreadable HDF5 content ({err})", path=path) from None

@@ -204,6 +204,8 @@ def load_pose(path) -> Demonstration:
                 pts[side, joint] = v * unscale, ok
         sh_ok = pts["left", "shoulder"][1] & pts["right", "shoulder"][1]
         width = _median_shoulder_distance(pts["left", "shoulder"][0], pts["right", "shoulder"][0], sh_ok, slice(0, 3))
+        if not width > 0:  # e.g. every world landmark at zero: no scale to take from them
+            raise DemonstrationError("the world landmarks put both shoulders at one point", path=path, field=f"{_WORLD}/LEFT_SHOULDER")
         extra = 1.0
         if not (_WORLD_SHOULDER_RANGE[0] <= width <= _WORLD_SHOULDER_RANGE[1]):
             extra = NOMINAL_SHOULDER_WIDTH / width  # the stored world scale is implausible: fall back to the nominal width
