@@ -106,7 +106,8 @@ def stale_temp_folders(target: str | os.PathLike) -> list[Path]:
     target = Path(os.path.abspath(target))
     found = []
     try:
-        entries = list(os.scandir(target.parent))
+        with os.scandir(target.parent) as it:
+            entries = list(it)
     except OSError:
         return []
     for entry in entries:
@@ -137,10 +138,11 @@ def check_output_place(target: str | os.PathLike, names: tuple[str, ...]) -> Pat
     if os.path.lexists(target):
         if not target.is_dir():
             raise OutputError(f"{raw} exists and is not a folder")
-        for entry in os.scandir(target):
-            if not entry.is_file(follow_symlinks=False):
-                what = "an entry of the output set" if entry.name in names else "an entry that cannot be carried over"
-                raise OutputError(f"{raw} holds {entry.name!r}, {what} that is not a plain file")
+        with os.scandir(target) as entries:
+            blocking = sorted(e.name for e in entries if not e.is_file(follow_symlinks=False))
+        if blocking:
+            what = "an entry of the output set" if blocking[0] in names else "an entry the swap cannot carry over"
+            raise OutputError(f"{raw} holds {blocking[0]!r}, {what}: it is not a plain file")
         writable = target.parent
     else:
         writable = target.parent
@@ -191,12 +193,13 @@ def _commit(tmp: Path, target: Path, names: tuple[str, ...]) -> None:
     except OSError as err:
         if err.errno not in (errno.EEXIST, errno.ENOTEMPTY):
             raise
-    for entry in os.scandir(target):  # carry the other plain files over (hard links: no copy)
-        if entry.name not in names and entry.is_file(follow_symlinks=False):
-            try:
-                os.link(entry.path, tmp / entry.name)
-            except OSError:
-                shutil.copy2(entry.path, tmp / entry.name)
+    with os.scandir(target) as entries:  # carry the other plain files over (hard links: no copy)
+        others = [e.path for e in entries if e.name not in names and e.is_file(follow_symlinks=False)]
+    for other in others:
+        try:
+            os.link(other, tmp / os.path.basename(other))
+        except OSError:
+            shutil.copy2(other, tmp / os.path.basename(other))
     if not _exchange(tmp, target):  # no atomic swap here: the target is briefly absent, never mixed
         aside = target.parent / f".{target.name}{TEMP_TAG}{os.getpid()}-{secrets.token_hex(4)}"
         os.rename(target, aside)
@@ -230,7 +233,12 @@ def output_set(target: str | os.PathLike, names: tuple[str, ...]) -> Iterator[Pa
     tmp = parent / f".{target.name}{TEMP_TAG}{os.getpid()}-{secrets.token_hex(4)}"
     os.mkdir(tmp)
     try:
-        yield tmp
+        try:
+            yield tmp
+        except OSError as err:  # name the user's target, not our temporary folder
+            name = Path(err.filename).name if err.filename else ""
+            where = target / name if name else target
+            raise OutputError(f"cannot write {where}: {err.strerror or err}") from None
         missing = [n for n in names if not (tmp / n).is_file()]
         if missing:
             raise RuntimeError(f"the output set lacks {missing}")  # a bug of the caller

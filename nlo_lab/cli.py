@@ -296,16 +296,25 @@ def _signals_raise():
             signal.signal(sig, handler)
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"nlo-lab: warning: {escape(message)} ({category.__name__})", file=sys.stderr)
-
-
 @contextlib.contextmanager
 def _one_warning_channel(quiet: bool):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore" if quiet else "default")  # "default": once per place
-        warnings.showwarning = _show_warning
+    """Collect the run's warnings; print each distinct one as one line when the run succeeds.
+
+    A failed run prints its error line only (the one line the error path promises).
+    Python's default filters apply (deprecations inside libraries are not the user's business).
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.resetwarnings()
+        warnings.simplefilter("ignore" if quiet else "default")
+        for category in (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning):
+            warnings.filterwarnings("ignore", category=category)
         yield
+    seen = set()
+    for w in caught:
+        line = f"nlo-lab: warning: {escape(w.message)} ({w.category.__name__})"
+        if line not in seen:
+            seen.add(line)
+            print(line, file=sys.stderr)
 
 
 def _error(message) -> int:

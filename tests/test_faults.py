@@ -1,0 +1,541 @@
+"""Fault injection: crafted files, hostile flags, bad output places, signals, concurrency.
+
+Every case runs the real command line (in process, or as a child process where a
+signal or a second process is involved) and asserts the exit status, exactly one
+stderr line naming the problem, no traceback, and that nothing was left behind:
+the folder the test works in is byte for byte as before (or holds exactly the
+complete new set). Crafted files are made here, never committed as blobs.
+"""
+
+from __future__ import annotations
+
+import errno
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import zipfile
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+import torch
+
+from nlo_lab import cli
+from nlo_lab._atomic import TEMP_TAG
+from nlo_lab.cli import OUTPUT_FILES, main
+from nlo_lab.errors import CheckpointError, DemonstrationError, SettingsError
+from nlo_lab.human import save_npz
+from nlo_lab.retarget import retarget
+from nlo_lab.robots import load_robot
+from test_human_io import write_authors_h5
+from test_pose_reader import write_pose
+from test_transforms import make_demo
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+# ----------------------------------------------------------------------------- helpers
+def tree(folder: Path) -> list[tuple[str, int, int]]:
+    """Every entry below ``folder`` with size and mtime: equal lists mean nothing changed."""
+    out = []
+    for root, dirs, files in os.walk(folder):
+        for name in sorted(dirs + files):
+            p = Path(root) / name
+            st = p.lstat()
+            out.append((str(p.relative_to(folder)), st.st_size if p.is_file() else -1, st.st_mtime_ns))
+    return sorted(out)
+
+
+def run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_clean_failure(code, err, *needles, status=2):
+    lines = err.splitlines()
+    assert code == status, (code, err)
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    assert lines[0].startswith("nlo-lab: "), lines[0]
+    assert all(ch.isprintable() for ch in lines[0]), repr(lines[0])
+    for needle in needles:
+        assert needle in lines[0], (needle, lines[0])
+
+
+def fails_cleanly(capsys, workdir: Path, argv, *needles):
+    """Run ``nlo-lab argv``; assert one clean error line and that ``workdir`` is unchanged."""
+    before = tree(workdir)
+    code, out, err = run(argv, capsys)
+    assert_clean_failure(code, err, *needles)
+    assert out == ""
+    assert tree(workdir) == before
+    return err
+
+
+@pytest.fixture
+def work(tmp_path, monkeypatch):
+    """A folder of its own as the current folder (outputs of relative paths land in it)."""
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+@pytest.fixture
+def demo_npz(work):
+    return save_npz(make_demo(T=12, fps=10.0), work / "demo.npz")
+
+
+def npz_with(path: Path, **override) -> Path:
+    """A valid archive of a small demonstration with some entries replaced (None removes one)."""
+    good = save_npz(make_demo(T=6), path.with_name("good-" + path.name))
+    with np.load(good, allow_pickle=False) as data:
+        content = {k: data[k] for k in data.files}
+    good.unlink()
+    content.update(override)
+    content = {k: v for k, v in content.items() if v is not None}
+    with open(path, "wb") as f:
+        np.savez(f, **content)
+    return path
+
+
+# ----------------------------------------------------------------------------- crafted .npz
+NPZ_CASES = {
+    "fps is text": ({"fps": np.array("25")}, "fps"),
+    "fps 1e300": ({"fps": np.array(1e300)}, "fps"),
+    "fps 3e38": ({"fps": np.array(3e38)}, "fps"),
+    "fps 1e-30": ({"fps": np.array(1e-30)}, "fps"),
+    "fps complex": ({"fps": np.array(25 + 1j)}, "fps"),
+    "fps True": ({"fps": np.array(True)}, "fps"),
+    "fps NaN": ({"fps": np.array(np.nan)}, "fps"),
+    "arm_positions text": ({"arm_positions": np.array("abc")}, "arm_positions"),
+    "arm_positions complex": ({"arm_positions": np.ones((6, 2, 3, 3), complex)}, "arm_positions"),
+    "format_version text": ({"format_version": np.array("abc")}, "format_version"),
+    "format_version list": ({"format_version": np.array([1, 1])}, "format_version"),
+    "meta nested 100000 deep": ({"meta_json": np.array('{"a": ' + "[" * 100_000 + "]" * 100_000 + "}")}, "meta_json"),
+    "meta nested 100 deep": ({"meta_json": np.array('{"a": ' + "[" * 100 + "]" * 100 + "}")}, "meta_json"),
+    "meta a list": ({"meta_json": np.array("[1]")}, "meta_json"),
+    "name a number": ({"name": np.array(3.0)}, "name"),
+    "wrist mask text": ({"wrist_mask": np.full((6, 2), "x")}, "wrist_mask"),
+    "missing fps": ({"fps": None}, "fps"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(NPZ_CASES))
+def test_crafted_npz(case, work, capsys):
+    override, needle = NPZ_CASES[case]
+    path = npz_with(work / "crafted.npz", **override)
+    fails_cleanly(capsys, work, ["retarget", path, "--robot", "yumi", "--out", "out"], "crafted.npz", needle)
+
+
+def test_npy_renamed_to_npz(work, capsys):
+    np.save(work / "x.npy", np.zeros((6, 2, 3, 3)))
+    os.rename(work / "x.npy", work / "x.npz")
+    fails_cleanly(capsys, work, ["retarget", "x.npz", "--robot", "yumi"], "x.npz", "not a readable .npz")
+
+
+def test_pickle_in_npz_is_refused_and_never_runs(work, capsys):
+    marker = work / "ran"
+
+    class Evil:
+        def __reduce__(self):
+            return (os.mkdir, (str(marker),))
+
+    path = npz_with(work / "evil.npz", name=np.array([Evil()], dtype=object))
+    fails_cleanly(capsys, work, ["retarget", path, "--robot", "yumi"], "evil.npz", "pickles")
+    assert not marker.exists()
+
+
+def _raw_npy_member(zf: zipfile.ZipFile, name: str, shape, payload: bytes = b"") -> None:
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": shape})
+    zf.writestr(name + ".npy", header.getvalue() + payload)
+
+
+def test_npz_declaring_a_huge_array_is_refused_before_reading(work, capsys):
+    path = npz_with(work / "huge.npz", arm_positions=None)
+    with zipfile.ZipFile(path, "a") as zf:  # 10^9 frames declared, none stored
+        _raw_npy_member(zf, "arm_positions", (10**9, 2, 3, 3))
+    assert path.stat().st_size < 100_000
+    fails_cleanly(capsys, work, ["retarget", path, "--robot", "yumi"], "huge.npz", "arm_positions", "declares")
+
+
+def test_unknown_npz_members_are_skipped_unread(work):
+    path = npz_with(work / "extra.npz")
+    with zipfile.ZipFile(path, "a") as zf:
+        _raw_npy_member(zf, "unused", (2 * 10**9 // 8,))  # "2 GB", never stored: reading it would fail
+        zf.writestr("garbage.npy", b"not an array at all")
+    from nlo_lab.human import load_demonstration
+
+    assert len(load_demonstration(path)) == 6
+
+
+# ----------------------------------------------------------------------------- crafted .h5
+def test_h5_dangling_link_at_the_root(work, capsys):
+    write_authors_h5(work / "d.h5", groups=("a",))
+    with h5py.File(work / "d.h5", "a") as f:
+        f["0_first"] = h5py.SoftLink("/nowhere")
+        f["a"]["l_up_pos_link"] = h5py.SoftLink("/nowhere")
+        del f["a"]["l_fr_pos"]
+        f["a"]["l_fr_pos"] = h5py.SoftLink("/nowhere")
+    fails_cleanly(capsys, work, ["retarget", "d.h5", "--robot", "yumi"], "d.h5", "a/l_fr_pos", "leads nowhere")
+
+
+def test_h5_external_link_at_the_root(work, capsys):
+    write_authors_h5(work / "e.h5", groups=("b",))
+    with h5py.File(work / "e.h5", "a") as f:
+        f["a"] = h5py.ExternalLink("/etc/passwd", "/x")
+        del f["b"]["r_hd_pos"]
+        f["b"]["r_hd_pos"] = h5py.ExternalLink("other.h5", "/r_hd_pos")
+    fails_cleanly(capsys, work, ["retarget", "e.h5", "--robot", "yumi"], "e.h5", "b/r_hd_pos", "external")
+
+
+@pytest.mark.parametrize("fps", [1e300, 3e38, 1e-30, -5.0, 0.0])
+def test_h5_fps_out_of_range(fps, work, capsys):
+    write_authors_h5(work / "f.h5", groups=("a",), fps=fps)
+    fails_cleanly(capsys, work, ["retarget", "f.h5", "--robot", "yumi"], "f.h5", "fps", "[1, 1000]")
+
+
+def test_h5_complex_dataset_is_refused(work, capsys):
+    write_authors_h5(work / "c.h5", groups=("a",))
+    with h5py.File(work / "c.h5", "a") as f:
+        value = f["a"]["l_hd_pos"][()] * (1 + 1j)
+        del f["a"]["l_hd_pos"]
+        f["a"]["l_hd_pos"] = value
+    fails_cleanly(capsys, work, ["retarget", "c.h5", "--robot", "yumi"], "c.h5", "a/l_hd_pos", "complex")
+
+
+def test_h5_declaring_500m_rows_is_refused_before_reading(work, capsys):
+    write_authors_h5(work / "big.h5", groups=("a",))
+    with h5py.File(work / "big.h5", "a") as f:
+        del f["a"]["l_up_pos"]
+        f["a"].create_dataset("l_up_pos", shape=(500_000_000, 3), dtype="f8", chunks=(1024, 3))  # nothing stored
+    assert (work / "big.h5").stat().st_size < 200_000
+    fails_cleanly(capsys, work, ["retarget", "big.h5", "--robot", "yumi"], "big.h5", "a/l_up_pos", "500000000 frames")
+
+
+def test_h5_group_names_are_escaped(work, capsys):
+    evil = "a\n\x1b[31mnlo-lab: fake line\x07"
+    write_authors_h5(work / "n.h5", groups=(evil,))
+    with h5py.File(work / "n.h5", "a") as f:
+        del f[evil]["l_up_pos"]
+    err = fails_cleanly(capsys, work, ["retarget", "n.h5", "--robot", "yumi"], "n.h5", "\\n\\x1b[31mnlo-lab: fake line\\x07/l_up_pos")
+    assert "\x1b" not in err and "\x07" not in err
+
+
+# ----------------------------------------------------------------------------- crafted .pose
+def test_pose_with_all_world_landmarks_at_zero(work, capsys):
+    overrides = {(t, 8 + 21 + 21 + p): 0.0 for t in range(40) for p in range(8)}  # the world component
+    write_pose(work / "z.pose", data_overrides=overrides)
+    fails_cleanly(capsys, work, ["retarget", "z.pose", "--robot", "yumi"], "z.pose", "POSE_WORLD_LANDMARKS")
+
+
+def test_pose_point_names_and_file_names_are_escaped(work, capsys):
+    name = "evil\n\x1b]0;title\x07.pose"
+    write_pose(work / name, data_overrides={(3, 0): np.nan})  # NaN in an observed landmark names the point
+    err = fails_cleanly(capsys, work, ["retarget", name, "--robot", "yumi"], "evil\\n\\x1b]0;title\\x07.pose")
+    assert "\x1b" not in err
+
+
+def test_truncated_pose(work, capsys):
+    write_pose(work / "t.pose")
+    data = (work / "t.pose").read_bytes()
+    (work / "t.pose").write_bytes(data[: len(data) // 3])
+    fails_cleanly(capsys, work, ["retarget", "t.pose", "--robot", "yumi"], "t.pose")
+
+
+# ----------------------------------------------------------------------------- robot specs, checkpoints
+def _spec(work: Path, **change) -> Path:
+    spec = json.loads((REPO / "assets/robots/yumi.json").read_text())
+    spec.update(change)
+    spec["urdf"] = str((REPO / "assets/robots" / spec["urdf"]).resolve())
+    path = work / "robot.json"
+    path.write_text(json.dumps(spec))
+    return path
+
+
+def test_binary_robot_spec(work, capsys):
+    (work / "robot.json").write_bytes(bytes(range(256)) * 4)
+    fails_cleanly(capsys, work, ["retarget", "demo:introduction_06", "--robot", "robot.json"], "robot.json", "not a text file")
+
+
+@pytest.mark.parametrize("margin", ["abc", [1, 2], {"default": "x"}, True])
+def test_robot_spec_with_a_bad_margin(margin, work, capsys):
+    _spec(work, collision_margin=margin)
+    fails_cleanly(capsys, work, ["retarget", "demo:introduction_06", "--robot", "robot.json"], "robot.json", "collision_margin")
+
+
+def test_checkpoint_with_numeric_joint_names(tmp_path):
+    from nlo_lab.train import checkpoint_path, load_checkpoint
+
+    ckpt = torch.load(checkpoint_path("nao"), map_location="cpu", weights_only=True)
+    ckpt["joint_names"] = 7
+    torch.save(ckpt, tmp_path / "bad.pt")
+    with pytest.raises(CheckpointError, match="bad.pt"):
+        load_checkpoint(tmp_path / "bad.pt", "nao")
+
+
+# ----------------------------------------------------------------------------- hostile flags
+FLAG_CASES = {
+    "seed with 30 digits": (["--seed", "1" * 30], "--seed"),
+    "negative seed": (["--seed", "-1"], "--seed"),
+    "iters not a number": (["--iters", "1e9"], "--iters"),
+    "negative iters": (["--iters", "-3"], "--iters"),
+    "unknown init": (["--init", "bogus"], "--init"),
+    "weights garbage": (["--weights", "ee=,,=3"], "weight ee"),
+    "weights unknown term": (["--weights", "nope=1"], "nope"),
+    "weights negative": (["--weights", "ee=-1"], "ee"),
+    "weights NaN": (["--weights", "ee=nan"], "ee"),
+    "unknown robot": (["--robot", "r2d2"], "r2d2"),
+    "robot name with escapes": (["--robot", "x\x1b[2J\ny"], "x\\x1b[2J\\ny"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(FLAG_CASES))
+def test_hostile_flags(case, work, capsys):
+    extra, needle = FLAG_CASES[case]
+    argv = ["retarget", "demo:introduction_06", "--robot", "yumi", "--out", "out"] + extra
+    fails_cleanly(capsys, work, argv, needle)
+
+
+def test_port_out_of_range(work, capsys):
+    fails_cleanly(capsys, work, ["lab", "--port", "99999"], "--port")
+
+
+def test_huge_weight_gives_a_nan_loss_error_not_an_output(work, demo_npz, capsys):
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "nao", "--iters", "2", "--weights", "ee=1e39",
+                                 "--json", "--out", "out"], "NaN")
+
+
+def test_retarget_rechecks_the_demonstration():
+    robot = load_robot("nao")
+    demo = make_demo(T=5)
+    demo.wrist_rotations[2, 0] = np.nan  # after construction
+    with pytest.raises(DemonstrationError, match="frame 2"):
+        retarget(demo, robot)
+    demo = make_demo(T=5)
+    demo.wrist_rotations[3, 1] *= 2.0  # not a rotation any more
+    with pytest.raises(DemonstrationError, match="not a rotation"):
+        retarget(demo, robot)
+    with pytest.raises(SettingsError, match="chunk_frames"):
+        retarget(make_demo(T=5), robot, chunk_frames=0)
+
+
+# ----------------------------------------------------------------------------- output places
+def test_out_is_an_existing_file(work, demo_npz, capsys):
+    (work / "file").write_text("keep me")
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "yumi", "--out", "file"], "file", "not a folder")
+
+
+def test_out_is_the_input_file(work, demo_npz, capsys):
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "yumi", "--out", demo_npz], "demo.npz", "not a folder")
+
+
+def test_out_is_dev_null(work, demo_npz, capsys):
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "yumi", "--out", "/dev/null"], "/dev/null")
+
+
+def test_out_below_a_file(work, demo_npz, capsys):
+    (work / "file").write_text("keep me")
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "yumi", "--out", "file/sub/out"], "not a folder")
+
+
+def test_out_is_the_current_folder(work, demo_npz, capsys):
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "yumi", "--out", "."], "current folder")
+
+
+@pytest.mark.parametrize("blocker", ["trajectory.csv", "viewer.html", "notes"])
+def test_out_with_a_blocking_folder_is_refused_before_work(blocker, work, demo_npz, capsys, monkeypatch):
+    out = work / "out"
+    out.mkdir()
+    (out / "viewer.html").write_text("old") if blocker != "viewer.html" else None
+    (out / blocker).mkdir()
+    monkeypatch.setattr(cli, "_load_input", lambda text: pytest.fail("work started"))
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "yumi", "--out", out], blocker)
+
+
+def test_read_only_place_is_refused_before_work(work, demo_npz, capsys, monkeypatch):
+    real = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: False if Path(p) == work else real(p, mode, **kw))
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "yumi", "--out", "out"], "no permission", str(work))
+
+
+def test_permission_error_while_writing(work, demo_npz, capsys, monkeypatch):
+    import nlo_lab.trajectory as trajectory
+
+    def denied(self, path):
+        raise PermissionError(errno.EACCES, "Permission denied", str(path))
+
+    monkeypatch.setattr(trajectory.RobotTrajectory, "save_csv", denied)
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", "out"],
+                  "Permission denied", "trajectory.csv")
+
+
+@pytest.mark.parametrize("old_set", [False, True])
+def test_full_disk_while_writing_leaves_the_old_set(old_set, work, demo_npz, capsys, monkeypatch):
+    import nlo_lab.viz as viz
+
+    out = work / "out"
+    if old_set:
+        out.mkdir()
+        for name in OUTPUT_FILES:
+            (out / name).write_text(f"old {name}")
+        (out / "notes.txt").write_text("the user's own file")
+
+    def full(path, *args, **kwargs):
+        Path(path).write_bytes(b"partial")
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(viz, "export_html", full)
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", out],
+                  "No space left on device", "viewer.html")
+
+
+def test_memory_error_is_one_line(work, demo_npz, capsys, monkeypatch):
+    def oom(*args, **kwargs):
+        raise MemoryError()
+
+    monkeypatch.setattr("nlo_lab.retarget.retarget", oom)
+    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "nao", "--out", "out"], "out of memory")
+
+
+def test_a_bug_still_gives_a_traceback(work, demo_npz, monkeypatch):
+    def bug(*args, **kwargs):
+        raise ZeroDivisionError("our bug")
+
+    monkeypatch.setattr("nlo_lab.retarget.retarget", bug)
+    with pytest.raises(ZeroDivisionError):  # exit 1 with a traceback, from the interpreter
+        main(["retarget", str(demo_npz), "--robot", "nao"])
+
+
+def test_new_set_replaces_old_and_keeps_other_files(work, demo_npz, capsys):
+    out = work / "out"
+    out.mkdir()
+    for name in OUTPUT_FILES:
+        (out / name).write_text("old")
+    (out / "notes.txt").write_text("the user's own file")
+    code, _, err = run(["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", out, "--quiet"], capsys)
+    assert code == 0, err
+    assert sorted(os.listdir(out)) == sorted(OUTPUT_FILES + ("notes.txt",))
+    assert all((out / n).read_bytes() != b"old" for n in OUTPUT_FILES)
+    assert (out / "notes.txt").read_text() == "the user's own file"
+    assert [p.name for p in work.iterdir() if TEMP_TAG in p.name] == []
+
+
+def test_stale_temp_folder_of_a_killed_run_is_cleaned(work, demo_npz, capsys):
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = work / f".out{TEMP_TAG}{dead.pid}-0123abcd"
+    stale.mkdir()
+    (stale / "trajectory.npz").write_text("half")
+    alive = work / f".out{TEMP_TAG}{os.getpid()}-4567abcd"  # a live writer's (ours): left alone
+    alive.mkdir()
+    code, _, err = run(["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", "out"], capsys)
+    assert code == 0, err
+    assert not stale.exists() and alive.exists()
+
+
+# ----------------------------------------------------------------------------- warnings
+def test_warnings_are_one_line_each_and_quiet_silences_them(work, demo_npz, capsys, monkeypatch):
+    import warnings
+
+    import nlo_lab.retarget as rt
+
+    real = rt.retarget
+
+    def noisy(*args, **kwargs):
+        warnings.warn("first line\nsecond line", UserWarning)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(rt, "retarget", noisy)
+    code, _, err = run(["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--json"], capsys)
+    assert code == 0
+    assert err.splitlines() == ["nlo-lab: warning: first line\\nsecond line (UserWarning)"]
+    code, _, err = run(["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--json", "--quiet"], capsys)
+    assert code == 0 and err == ""
+
+
+# ----------------------------------------------------------------------------- signals and concurrency (child processes)
+_CHILD = """
+import os, signal, sys, time
+from pathlib import Path
+import nlo_lab.viz as viz
+from nlo_lab import cli
+
+mode = sys.argv[1]
+real = viz.export_html
+
+def export(path, *args, **kwargs):
+    real(path, *args, **kwargs)  # the temporary folder exists and holds files
+    Path(path).with_name("ready").touch() if mode == "wait" else None
+    if mode.startswith("self-"):
+        os.kill(os.getpid(), getattr(signal, mode[5:]))
+    elif mode == "wait":
+        time.sleep(60)
+
+viz.export_html = export
+sys.exit(cli.main(sys.argv[2:]))
+"""
+
+
+def _child(mode: str, argv, cwd: Path, **kw) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.Popen([sys.executable, "-c", _CHILD, mode] + [str(a) for a in argv], cwd=cwd, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+
+
+def _temp_folders(folder: Path) -> list[Path]:
+    return [p for p in folder.iterdir() if TEMP_TAG in p.name]
+
+
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGINT", "SIGHUP"])
+def test_signal_while_writing_removes_the_temp_folder(sig, work, demo_npz):
+    proc = _child(f"self-{sig}", ["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", "out"], work)
+    out, err = proc.communicate(timeout=300)
+    assert proc.returncode == 128 + getattr(signal, sig), err
+    assert_clean_failure(proc.returncode, err, sig, status=128 + getattr(signal, sig))
+    assert not (work / "out").exists() and _temp_folders(work) == []
+
+
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGKILL"])
+def test_signal_from_outside_at_the_moment_the_temp_folder_exists(sig, work, demo_npz):
+    out = work / "out"
+    out.mkdir()
+    for name in OUTPUT_FILES:
+        (out / name).write_text("old")
+    before = tree(out)
+    proc = _child("wait", ["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", out], work)
+    deadline = time.monotonic() + 300
+    while not any((t / "ready").exists() for t in _temp_folders(work)):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.05)
+    proc.send_signal(getattr(signal, sig))
+    _, err = proc.communicate(timeout=60)
+    assert tree(out) == before  # the old set, untouched
+    if sig == "SIGKILL":
+        assert proc.returncode == -signal.SIGKILL
+        assert len(_temp_folders(work)) == 1  # nothing can clean up after SIGKILL ...
+        proc = _child("none", ["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", out], work)
+        _, err = proc.communicate(timeout=300)
+        assert proc.returncode == 0, err  # ... but the next run into the same place does
+    else:
+        assert_clean_failure(proc.returncode, err, "SIGTERM", status=128 + signal.SIGTERM)
+    assert _temp_folders(work) == []
+
+
+def test_two_runs_into_one_place_each_leave_a_whole_set(work, demo_npz):
+    out = work / "out"
+    procs = [_child("none", ["retarget", demo_npz, "--robot", "nao", "--iters", str(i), "--out", out], work) for i in (0, 3)]
+    for p in procs:
+        _, err = p.communicate(timeout=300)
+        assert p.returncode == 0, err
+    assert sorted(os.listdir(out)) == sorted(OUTPUT_FILES)
+    with np.load(out / "trajectory.npz") as data:
+        angles = data["angles"]
+    csv = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(csv[:, -angles.shape[1]:], angles, atol=1e-6)  # npz and csv from the same run
+    assert _temp_folders(work) == []
