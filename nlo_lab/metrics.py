@@ -37,6 +37,9 @@ __all__ = [
 
 
 
+_BAND = 64  # anti-diagonals whose distances frechet_distance computes in one numpy pass
+
+
 def _curve(x: Any, name: str) -> np.ndarray:
     """A ``(n, d)`` float64 point sequence, finite, n >= 1."""
     a = np.asarray(x, dtype=np.float64)
@@ -109,12 +112,17 @@ def frechet_distance(P: Any, Q: Any) -> float:
     if p.shape[0] > q.shape[0]:  # shorter curve on the rows: shorter diagonals
         p, q = q, p
     n, m = p.shape[0], q.shape[0]
-    # Squared distances, one anti-diagonal at a time (never the (n, m) table: linear
-    # memory); max/min commute with the monotone sqrt, taken once at the end.
-    q_rev = np.ascontiguousarray(q[::-1])  # cell (i, k - i) pairs p[i] with q_rev[m - 1 - k + i]
     if n == 1 or m == 1:
         diff = p[:, None, :] - q[None, :, :]
         return float(math.sqrt(np.einsum("ijc,ijc->ij", diff, diff).max()))
+    # Squared distances for a block of _BAND anti-diagonals at a time (never the (n, m)
+    # table: memory is linear in n + m); max/min commute with the monotone sqrt, taken once.
+    # Cell (i, k - i) pairs p[i] with q_rev[m - 1 - k + i]; q_rev is padded so that the
+    # cells outside the table index harmless zeros (they are never read).
+    pad = n + _BAND
+    q_rev = np.zeros((p.shape[1], m + 2 * pad))  # per coordinate, contiguous
+    q_rev[:, pad: pad + m] = q[::-1].T
+    p_cols = np.ascontiguousarray(p.T)
     inf = np.inf
     # Three rotating buffers over rows, padded at index 0 with the row "-1" (inf).
     prev2 = np.full(n + 1, inf)
@@ -122,22 +130,28 @@ def frechet_distance(P: Any, Q: Any) -> float:
     prev1 = np.full(n + 1, inf)
     cur = np.full(n + 1, inf)
     tmp = np.empty(n)
-    diff = np.empty((n, p.shape[1]))
-    dk_buf = np.empty(n)
-    for k in range(n + m - 1):
-        lo = k - m + 1 if k >= m else 0
-        hi = k if k < n else n - 1
-        L = hi - lo + 1
-        d = diff[:L]
-        np.subtract(p[lo: hi + 1], q_rev[m - 1 - k + lo: m - k + hi], out=d)
-        dk = np.einsum("ic,ic->i", d, d, out=dk_buf[:L])  # (L,) squared distances on diagonal k
-        t = tmp[:L]
-        np.minimum(prev1[lo: hi + 1], prev1[lo + 1: hi + 2], out=t)  # up, left
-        np.minimum(t, prev2[lo: hi + 1], out=t)  # diagonal
-        np.maximum(dk, t, out=cur[lo + 1: hi + 2])
-        if k == 0:
-            prev2[0] = inf
-        prev2, prev1, cur = prev1, cur, prev2
+    for k0 in range(0, n + m - 1, _BAND):
+        k1 = min(k0 + _BAND, n + m - 1)  # diagonals k0 .. k1 - 1
+        r0, r1 = max(0, k0 - m + 1), min(n - 1, k1 - 1)  # rows any of them touches
+        R = r1 - r0 + 1
+        first, last = pad + m - 1 - k0 + r0, pad + m - 1 - (k1 - 1) + r0  # q_rev start of diagonal k0, k1 - 1
+        block = np.zeros((k1 - k0, R))  # (B, R) squared distances
+        for c in range(p.shape[1]):  # per coordinate: no (B, R, d) temporary
+            windows = np.lib.stride_tricks.sliding_window_view(q_rev[c, last: first + R], R)[::-1]  # (B, R) views
+            diff = p_cols[c, r0: r1 + 1][None, :] - windows
+            diff *= diff
+            block += diff
+        for k in range(k0, k1):
+            lo = k - m + 1 if k >= m else 0
+            hi = k if k < n else n - 1
+            dk = block[k - k0, lo - r0: hi - r0 + 1]
+            t = tmp[: hi - lo + 1]
+            np.minimum(prev1[lo: hi + 1], prev1[lo + 1: hi + 2], out=t)  # up, left
+            np.minimum(t, prev2[lo: hi + 1], out=t)  # diagonal
+            np.maximum(dk, t, out=cur[lo + 1: hi + 2])
+            if k == 0:
+                prev2[0] = inf
+            prev2, prev1, cur = prev1, cur, prev2
     return float(math.sqrt(prev1[n]))
 
 

@@ -23,7 +23,21 @@ from meshcat.servers.zmqserver import VIEWER_ROOT, create_command
 from nlo_lab._atomic import atomic_path
 from nlo_lab.errors import NloLabError
 
-__all__ = ["RecordingWindow", "recording_visualizer", "scene_html", "export_html", "static_html", "iframe_html"]
+__all__ = [
+    "VIEWER_MAX_FRAMES",
+    "RecordingWindow",
+    "recording_visualizer",
+    "scene_html",
+    "decimate",
+    "export_html",
+    "static_html",
+    "iframe_html",
+]
+
+# Most animation frames a page stores (about 7 kB each for YuMi and a human in single
+# precision): a longer recording keeps every k-th frame (see :func:`decimate`), so a
+# 10,000-frame recording gives a page of about 15 MB instead of 140.
+VIEWER_MAX_FRAMES = 2000
 
 
 @lru_cache(maxsize=1)
@@ -67,7 +81,8 @@ class RecordingWindow:
         data = command.lower()
         cmd = data["type"]
         path = [p for p in data["path"].split("/") if p]
-        payload = umsgpack.packb(data)
+        # Animation keys in single precision: three.js computes in float32 anyway, and it halves the page.
+        payload = umsgpack.packb(data, force_float_precision="single") if cmd == "set_animation" else umsgpack.packb(data)
         if cmd == "set_object":
             node = find_node(self.tree, path)
             node.object, node.properties = payload, []
@@ -98,6 +113,32 @@ def recording_visualizer() -> Visualizer:
     return Visualizer(window=RecordingWindow())
 
 
+def decimate(angles: Any, demo: Any = None, fps: float | None = None, max_frames: int | None = None):
+    """Every k-th frame of ``angles`` (and ``demo``) so at most ``max_frames`` remain, and the rate that keeps the duration.
+
+    The page stores one animation key per frame and track; three.js interpolates
+    between keys (linearly, quaternions by slerp), so a long recording plays at its
+    own speed with fewer keys. ``k = ceil(T / max_frames)``; nothing changes when
+    ``T <= max_frames`` (default :data:`VIEWER_MAX_FRAMES`).
+
+    Returns:
+        ``(angles, demo, fps)``, decimated.
+    """
+    import numpy as np
+
+    max_frames = VIEWER_MAX_FRAMES if max_frames is None else int(max_frames)
+    q = np.asarray(angles)
+    rate = float(fps if fps is not None else (demo.fps if demo is not None else 30.0))
+    step = -(-len(q) // max_frames) if q.ndim == 2 else 1
+    if step <= 1:
+        return angles, demo, fps
+    keep = np.arange(0, len(q), step)
+    if demo is not None:
+        fields = ("arm_positions", "arm_mask", "wrist_rotations", "wrist_mask", "finger_positions", "finger_mask")
+        demo = type(demo).from_arrays(demo.fps, *(getattr(demo, f)[keep] for f in fields), name=demo.name, meta=demo.meta)
+    return q[keep], demo, rate / step
+
+
 def static_html(
     robot: Any,
     angles: Any,
@@ -114,6 +155,7 @@ def static_html(
     """
     from nlo_lab.viz.scene import RetargetScene
 
+    angles, demo, fps = decimate(angles, demo, fps)
     vis = recording_visualizer()
     scene = RetargetScene(vis, robot, angles, demo=demo, layout=layout, offset=offset, fps=fps, human_scale=human_scale)
     if len(scene) > 1:
@@ -147,6 +189,9 @@ def export_html(
             or ``"human"`` (as recorded; side layout only).
 
     The camera is framed on the robot and human over the whole trajectory, from the front-side.
+    The page stays small: animation keys are stored in single precision, and a recording
+    longer than :data:`VIEWER_MAX_FRAMES` frames keeps every k-th frame at ``fps / k``
+    (:func:`decimate`; same duration, three.js interpolates between the keys).
 
     Returns:
         The written path.

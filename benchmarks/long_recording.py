@@ -1,0 +1,103 @@
+"""A long recording through the whole command line: time, peak memory, viewer size (prints a table).
+
+    python benchmarks/long_recording.py [--robot yumi] [--frames 1000 5000 10000] [--iters 100]
+
+Each length is a two-arm, two-hand recording made by concatenating clips of the
+synthetic test split (20 fps: 10,000 frames are 8 min 20 s), saved as ``.npz`` and
+retargeted by ``nlo-lab retarget FILE --robot ROBOT --out DIR --json`` in a fresh
+process (default settings unless ``--iters``). Printed per length: wall time of the
+whole command (imports, reading, optimisation, metrics, writing), the process's
+peak resident memory (``ru_maxrss``), the size of ``viewer.html``, and memory per
+frame above the 1,000-frame run (linear growth keeps it flat).
+
+Targets (issue 16): 10,000 frames to YuMi with the defaults in <= 120 s, <= 1.5 GB
+peak memory, ``viewer.html`` <= 30 MB.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from nlo_lab.human import Demonstration, save_npz
+from nlo_lab.human.corpus import sign_corpus
+
+_RUN = """
+import resource, sys
+from nlo_lab.cli import main
+code = main(sys.argv[1:])
+print("MAXRSS_KB", resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)
+sys.exit(code)
+"""
+
+
+def long_demo(frames: int) -> Demonstration:
+    """The first ``frames`` frames of the test split's clips, repeated as needed."""
+    clips = sign_corpus("test")
+    keys = ("arm_positions", "arm_mask", "wrist_rotations", "wrist_mask", "finger_positions", "finger_mask")
+    parts, total = [], 0
+    while total < frames:
+        for c in clips:
+            parts.append(c)
+            total += len(c)
+            if total >= frames:
+                break
+    arrays = {k: np.concatenate([getattr(d, k) for d in parts])[:frames] for k in keys}
+    return Demonstration(fps=clips[0].fps, name=f"long-{frames}", **arrays)
+
+
+def run(path: Path, out: Path, robot: str, iters: int | None) -> dict:
+    argv = ["retarget", str(path), "--robot", robot, "--out", str(out), "--json", "--quiet"]
+    if iters is not None:
+        argv += ["--iters", str(iters)]
+    start = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", _RUN, *argv], capture_output=True, text=True)
+    seconds = time.perf_counter() - start
+    if proc.returncode != 0:
+        raise SystemExit(f"nlo-lab failed ({proc.returncode}): {proc.stderr.strip()}")
+    rss_kb = int(next(line.split()[1] for line in proc.stderr.splitlines() if line.startswith("MAXRSS_KB")))
+    summary = json.loads(proc.stdout.strip().splitlines()[-1])
+    return {
+        "seconds": seconds,
+        "peak_mb": rss_kb / 1024,
+        "viewer_mb": (out / "viewer.html").stat().st_size / 1e6,
+        "retarget_s": summary["seconds"],
+        "frechet_m": summary["frechet_m"],
+    }
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robot", default="yumi")
+    parser.add_argument("--frames", type=int, nargs="+", default=[1000, 5000, 10000])
+    parser.add_argument("--iters", type=int, default=None, help="default: the command line's (100)")
+    args = parser.parse_args(argv)
+    print(f"nlo-lab retarget, {args.robot}, iterations {args.iters or 'default (100)'}, "
+          f"NLO_LAB_THREADS={os.environ.get('NLO_LAB_THREADS', 'unset')}, {os.cpu_count()} cores")
+    print(f"{'frames':>7} {'wall s':>8} {'retarget s':>10} {'peak MB':>8} {'MB/1k frames':>12} {'viewer MB':>9} {'frechet m':>9}")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for frames in args.frames:
+            path = save_npz(long_demo(frames), Path(tmp) / f"long-{frames}.npz")
+            r = run(path, Path(tmp) / f"out-{frames}", args.robot, args.iters)
+            rows.append((frames, r))
+            base = rows[0]
+            per_k = (r["peak_mb"] - base[1]["peak_mb"]) / ((frames - base[0]) / 1000) if frames != base[0] else float("nan")
+            print(f"{frames:>7} {r['seconds']:>8.1f} {r['retarget_s']:>10.1f} {r['peak_mb']:>8.0f} {per_k:>12.1f} "
+                  f"{r['viewer_mb']:>9.1f} {r['frechet_m']:>9.4f}", flush=True)
+    frames, r = rows[-1]
+    print(f"targets at {frames} frames: wall {r['seconds']:.1f} s (<= 120), peak {r['peak_mb']:.0f} MB (<= 1536), "
+          f"viewer {r['viewer_mb']:.1f} MB (<= 30)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
