@@ -22,6 +22,7 @@ from meshcat.servers.zmqserver import VIEWER_ROOT, create_command
 
 from nlo_lab._atomic import atomic_path
 from nlo_lab.errors import NloLabError
+from nlo_lab.viz._packing import packb_single
 
 __all__ = [
     "VIEWER_MAX_FRAMES",
@@ -82,7 +83,7 @@ class RecordingWindow:
         cmd = data["type"]
         path = [p for p in data["path"].split("/") if p]
         # Animation keys in single precision: three.js computes in float32 anyway, and it halves the page.
-        payload = umsgpack.packb(data, force_float_precision="single") if cmd == "set_animation" else umsgpack.packb(data)
+        payload = packb_single(data) if cmd == "set_animation" else umsgpack.packb(data)
         if cmd == "set_object":
             node = find_node(self.tree, path)
             node.object, node.properties = payload, []
