@@ -203,7 +203,11 @@ def _commit(tmp: Path, target: Path, names: tuple[str, ...]) -> None:
     if not _exchange(tmp, target):  # no atomic swap here: the target is briefly absent, never mixed
         aside = target.parent / f".{target.name}{TEMP_TAG}{os.getpid()}-{secrets.token_hex(4)}"
         os.rename(target, aside)
-        os.rename(tmp, target)
+        try:
+            os.rename(tmp, target)
+        except BaseException:
+            os.rename(aside, target)  # the old set goes back: never a stale folder holding it
+            raise
         tmp = aside
     _fsync_dir(target.parent)
     shutil.rmtree(tmp, ignore_errors=True)  # the old set

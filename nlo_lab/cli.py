@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import os
 import signal
 import sys
@@ -158,6 +159,11 @@ def _write_outputs(out_dir: Path, result, demo, robot) -> None:
         _raise_pending_signal()  # a signal an import swallowed still ends the run, before the swap
 
 
+def _finite_or_null(summary: dict) -> dict:
+    """NaN and infinity are not JSON: a figure that is not finite is reported as null."""
+    return {k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in summary.items()}
+
+
 def _print_summary(summary: dict) -> None:
     width = max(len(k) for k in summary)
     for key, value in summary.items():
@@ -195,7 +201,7 @@ def cmd_retarget(args) -> int:
 
         atomic_write_bytes(save_pose, video.to_bytes())
     if args.json:
-        print(json.dumps(result.summary, allow_nan=False))  # retarget() refuses non-finite figures
+        print(json.dumps(_finite_or_null(result.summary), allow_nan=False))  # valid JSON: no NaN
     else:
         print(f"retargeted {escape(demo.name or args.input)} ({len(demo)} frames) to {escape(robot.name)}:")
         _print_summary({k: escape(v) if isinstance(v, str) else v for k, v in result.summary.items()})

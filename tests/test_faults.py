@@ -474,6 +474,12 @@ def export(path, *args, **kwargs):
     Path(path).with_name("ready").touch() if mode == "wait" else None
     if mode.startswith("self-"):
         os.kill(os.getpid(), getattr(signal, mode[5:]))
+    elif mode == "swallow-SIGINT":  # as a library's `except BaseException: pass` around an import does
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(1)
+        except BaseException:
+            pass
     elif mode == "wait":
         time.sleep(60)
 
@@ -492,9 +498,11 @@ def _temp_folders(folder: Path) -> list[Path]:
     return [p for p in folder.iterdir() if TEMP_TAG in p.name]
 
 
-@pytest.mark.parametrize("sig", ["SIGTERM", "SIGINT", "SIGHUP"])
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGINT", "SIGHUP", "swallowed SIGINT"])
 def test_signal_while_writing_removes_the_temp_folder(sig, work, demo_npz):
-    proc = _child(f"self-{sig}", ["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", "out"], work)
+    mode = "swallow-SIGINT" if sig.startswith("swallowed") else f"self-{sig}"
+    sig = sig.split()[-1]
+    proc = _child(mode, ["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", "out"], work)
     out, err = proc.communicate(timeout=300)
     assert proc.returncode == 128 + getattr(signal, sig), err
     assert_clean_failure(proc.returncode, err, sig, status=128 + getattr(signal, sig))
@@ -539,3 +547,60 @@ def test_two_runs_into_one_place_each_leave_a_whole_set(work, demo_npz):
     csv = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
     np.testing.assert_allclose(csv[:, -angles.shape[1]:], angles, atol=1e-6)  # npz and csv from the same run
     assert _temp_folders(work) == []
+
+
+# ----------------------------------------------------------------------------- the swap without RENAME_EXCHANGE
+def _old_set(out: Path) -> None:
+    out.mkdir()
+    for name in OUTPUT_FILES:
+        (out / name).write_text(f"old {name}")
+    (out / "notes.txt").write_text("the user's own file")
+
+
+def test_swap_without_an_atomic_exchange(tmp_path, monkeypatch):
+    from nlo_lab import _atomic
+
+    monkeypatch.setattr(_atomic, "_exchange", lambda a, b: False)  # an old kernel or a file system without it
+    out = tmp_path / "out"
+    _old_set(out)
+    with _atomic.output_set(out, OUTPUT_FILES) as tmp:
+        for name in OUTPUT_FILES:
+            (tmp / name).write_text(f"new {name}")
+    assert {p.name: p.read_text() for p in out.iterdir()} == {**{n: f"new {n}" for n in OUTPUT_FILES}, "notes.txt": "the user's own file"}
+    assert os.listdir(tmp_path) == ["out"]
+
+
+def test_failed_swap_puts_the_old_set_back(tmp_path, monkeypatch):
+    from nlo_lab import _atomic
+
+    monkeypatch.setattr(_atomic, "_exchange", lambda a, b: False)
+    out = tmp_path / "out"
+    _old_set(out)
+    before = tree(tmp_path)
+    real, calls, new = os.rename, [], []
+
+    def rename(a, b):
+        if new and Path(a) == new[0] and Path(b) == out:
+            calls.append(a)
+            if len(calls) == 1:  # what the kernel says for a folder onto a non-empty one
+                raise OSError(errno.ENOTEMPTY, "Directory not empty", str(b))
+            raise OSError(errno.EIO, "Input/output error", str(b))  # the new set cannot move in
+        return real(a, b)
+
+    monkeypatch.setattr(os, "rename", rename)
+    with pytest.raises(OSError, match="Input/output"):
+        with _atomic.output_set(out, OUTPUT_FILES) as tmp:
+            new.append(tmp)
+            for name in OUTPUT_FILES:
+                (tmp / name).write_text("new")
+    assert len(calls) == 2  # the fallback ran: old set aside, new set refused, old set back
+    assert [(p, s) for p, s, _ in tree(tmp_path)] == [(p, s) for p, s, _ in before]  # old set back, no temp folder
+
+
+def test_output_set_lacking_a_file_is_a_bug_and_leaves_nothing(tmp_path):
+    from nlo_lab import _atomic
+
+    with pytest.raises(RuntimeError, match="lacks"):
+        with _atomic.output_set(tmp_path / "out", OUTPUT_FILES) as tmp:
+            (tmp / "trajectory.npz").write_text("only one")
+    assert os.listdir(tmp_path) == []
