@@ -42,6 +42,7 @@ bench: setup
 	$(PY) benchmarks/fk.py
 	$(PY) benchmarks/frechet.py
 	$(PY) benchmarks/retarget_speed.py
+	$(PY) benchmarks/long_recording.py --robot yumi $(if $(QUICK),--frames 1000 2000,)
 	$(PY) benchmarks/panel.py
 	$(PY) benchmarks/speed.py --robot yumi
 	$(PY) benchmarks/quality.py --robot yumi $(if $(QUICK),--quick --no-write,)

@@ -155,7 +155,7 @@ def _write_outputs(out_dir: Path, result, demo, robot) -> None:
     with output_set(out_dir, OUTPUT_FILES) as tmp:
         result.trajectory.save_npz(tmp / "trajectory.npz")
         result.trajectory.save_csv(tmp / "trajectory.csv")
-        export_html(tmp / "viewer.html", robot, result.trajectory.angles, demo=demo, fps=demo.fps)
+        export_html(tmp / "viewer.html", robot, result.trajectory.angles, demo=demo, fps=demo.fps, single_precision=True)
         _raise_pending_signal()  # a signal an import swallowed still ends the run, before the swap
 
 

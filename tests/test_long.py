@@ -77,7 +77,7 @@ def test_single_precision_packing_equals_umsgpack(monkeypatch):
 
     robot = load_robot("nao")
     demo = make_demo(T=300, fps=20.0)
-    scene = RetargetScene(recording_visualizer(), robot, np.random.default_rng(0).normal(size=(300, robot.n_joints)), demo=demo)
+    scene = RetargetScene(recording_visualizer(single_precision=True), robot, np.random.default_rng(0).normal(size=(300, robot.n_joints)), demo=demo)
     command = mc.SetAnimation(scene.animation(), play=True, repetitions=0).lower()
     reference = umsgpack.packb(command, force_float_precision="single")
     assert _packing.packb_single(command) == reference

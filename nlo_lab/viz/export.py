@@ -35,9 +35,9 @@ __all__ = [
     "iframe_html",
 ]
 
-# Most animation frames a page stores (about 7 kB each for YuMi and a human in single
-# precision): a longer recording keeps every k-th frame (see :func:`decimate`), so a
-# 10,000-frame recording gives a page of about 15 MB instead of 140.
+# Most animation frames a page stores (YuMi and a human: about 10 kB each in single
+# precision, 14 kB in double): a longer recording keeps every k-th frame (see
+# :func:`decimate`), so a 10,000-frame recording gives a page of about 20 MB instead of 140.
 VIEWER_MAX_FRAMES = 2000
 
 
@@ -75,15 +75,15 @@ class RecordingWindow:
     web_url = None
     server_proc = None
 
-    def __init__(self) -> None:
+    def __init__(self, single_precision: bool = False) -> None:
         self.tree = SceneTree()
+        self.single_precision = single_precision  # animation keys as float32 (half the bytes; three.js computes in float32)
 
     def send(self, command) -> None:
         data = command.lower()
         cmd = data["type"]
         path = [p for p in data["path"].split("/") if p]
-        # Animation keys in single precision: three.js computes in float32 anyway, and it halves the page.
-        payload = packb_single(data) if cmd == "set_animation" else umsgpack.packb(data)
+        payload = packb_single(data) if cmd == "set_animation" and self.single_precision else umsgpack.packb(data)
         if cmd == "set_object":
             node = find_node(self.tree, path)
             node.object, node.properties = payload, []
@@ -109,9 +109,12 @@ class RecordingWindow:
         pass
 
 
-def recording_visualizer() -> Visualizer:
-    """A meshcat ``Visualizer`` that needs no server; ``.static_html()`` gives the page."""
-    return Visualizer(window=RecordingWindow())
+def recording_visualizer(single_precision: bool = False) -> Visualizer:
+    """A meshcat ``Visualizer`` that needs no server; ``.static_html()`` gives the page.
+
+    ``single_precision``: store animation keys as float32 (the page's animation half as large).
+    """
+    return Visualizer(window=RecordingWindow(single_precision))
 
 
 def decimate(angles: Any, demo: Any = None, fps: float | None = None, max_frames: int | None = None):
@@ -149,6 +152,7 @@ def static_html(
     offset: float | Sequence[float] | None = None,
     play: bool = True,
     human_scale: str = "robot",
+    single_precision: bool = False,
 ) -> str:
     """The animated robot (and human) scene as one self-contained HTML string.
 
@@ -157,7 +161,7 @@ def static_html(
     from nlo_lab.viz.scene import RetargetScene
 
     angles, demo, fps = decimate(angles, demo, fps)
-    vis = recording_visualizer()
+    vis = recording_visualizer(single_precision)
     scene = RetargetScene(vis, robot, angles, demo=demo, layout=layout, offset=offset, fps=fps, human_scale=human_scale)
     if len(scene) > 1:
         scene.animate(play=play, repetitions=0 if play else 1)
@@ -174,6 +178,7 @@ def export_html(
     offset: float | Sequence[float] | None = None,
     play: bool = True,
     human_scale: str = "robot",
+    single_precision: bool = False,
 ) -> Path:
     """Write a self-contained animated 3-D view (works offline from ``file://``).
 
@@ -188,16 +193,20 @@ def export_html(
         play: start playing (looping) when opened; the viewer's Animations panel plays, pauses and scrubs.
         human_scale: ``"robot"`` (the human mapped into the robot's frame and size, as the metric does)
             or ``"human"`` (as recorded; side layout only).
+        single_precision: animation keys as float32 (see below).
 
     The camera is framed on the robot and human over the whole trajectory, from the front-side.
-    The page stays small: animation keys are stored in single precision, and a recording
-    longer than :data:`VIEWER_MAX_FRAMES` frames keeps every k-th frame at ``fps / k``
-    (:func:`decimate`; same duration, three.js interpolates between the keys).
+    The page stays small: a recording longer than :data:`VIEWER_MAX_FRAMES` frames keeps
+    every k-th frame at ``fps / k`` (:func:`decimate`; same duration, three.js interpolates
+    between the keys), and ``single_precision=True`` (what ``nlo-lab retarget --out`` uses)
+    stores the animation keys as float32, the precision three.js computes in (about 30 %
+    smaller; the default keeps float64 for callers that read the numbers back).
 
     Returns:
         The written path.
     """
-    page = static_html(robot, angles, demo=demo, fps=fps, layout=layout, offset=offset, play=play, human_scale=human_scale)
+    page = static_html(robot, angles, demo=demo, fps=fps, layout=layout, offset=offset, play=play, human_scale=human_scale,
+                       single_precision=single_precision)
     target = Path(path)
     if not target.parent.is_dir():
         raise NloLabError(f"{target}: folder {target.parent} does not exist")
