@@ -1,6 +1,6 @@
 """A long recording through the whole command line: time, peak memory, viewer size (prints a table).
 
-    python benchmarks/long_recording.py [--robot yumi] [--frames 1000 5000 10000] [--iters 100]
+    python benchmarks/long_recording.py [--robot yumi] [--frames 1000 5000 10000] [--iters 100] [--no-write]
 
 Each length is a two-arm, two-hand recording made by concatenating clips of the
 synthetic test split (20 fps: 10,000 frames are 8 min 20 s), saved as ``.npz`` and
@@ -12,7 +12,8 @@ torch thread, see nlo_lab.threads), the process's peak resident memory (``ru_max
 frame above the 1,000-frame run (linear growth keeps it flat).
 
 Targets (issue 16): 10,000 frames to YuMi with the defaults in <= 120 s, <= 1.5 GB
-peak memory, ``viewer.html`` <= 30 MB.
+peak memory, ``viewer.html`` <= 30 MB. The table also replaces the section
+``long:ROBOT`` of docs/RESULTS.md (unless ``--no-write``).
 """
 
 from __future__ import annotations
@@ -28,8 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from nlo_lab.human import Demonstration, save_npz
-from nlo_lab.human.corpus import sign_corpus
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import results_doc  # noqa: E402
+
+from nlo_lab.human import Demonstration, save_npz  # noqa: E402
+from nlo_lab.human.corpus import sign_corpus  # noqa: E402
 
 _RUN = """
 import resource, sys
@@ -83,10 +87,13 @@ def main(argv=None) -> int:
     parser.add_argument("--robot", default="yumi")
     parser.add_argument("--frames", type=int, nargs="+", default=[1000, 5000, 10000])
     parser.add_argument("--iters", type=int, default=None, help="default: the command line's (100)")
+    parser.add_argument("--no-write", action="store_true", help="do not update docs/RESULTS.md")
     args = parser.parse_args(argv)
     print(f"nlo-lab retarget, {args.robot}, iterations {args.iters or 'default (100)'}, "
           f"NLO_LAB_THREADS={os.environ.get('NLO_LAB_THREADS', 'unset')}, {os.cpu_count()} cores")
     print(f"{'frames':>7} {'wall s':>8} {'CPU s':>7} {'retarget s':>10} {'peak MB':>8} {'MB/1k frames':>12} {'viewer MB':>9} {'frechet m':>9}")
+    table = ["| frames | wall s | CPU s | retarget s | peak MB | MB per 1k frames above the first | viewer.html MB | Fréchet m |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|"]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for frames in args.frames:
@@ -97,9 +104,21 @@ def main(argv=None) -> int:
             per_k = (r["peak_mb"] - base[1]["peak_mb"]) / ((frames - base[0]) / 1000) if frames != base[0] else float("nan")
             print(f"{frames:>7} {r['seconds']:>8.1f} {r['cpu_s']:>7.1f} {r['retarget_s']:>10.1f} {r['peak_mb']:>8.0f} {per_k:>12.1f} "
                   f"{r['viewer_mb']:>9.1f} {r['frechet_m']:>9.4f}", flush=True)
+            table.append(f"| {frames} | {r['seconds']:.1f} | {r['cpu_s']:.1f} | {r['retarget_s']:.1f} | {r['peak_mb']:.0f} | "
+                         f"{'' if frames == base[0] else f'{per_k:.1f}'} | {r['viewer_mb']:.1f} | {r['frechet_m']:.4f} |")
     frames, r = rows[-1]
-    print(f"targets at {frames} frames: wall {r['seconds']:.1f} s (<= 120; CPU {r['cpu_s']:.1f} s), peak {r['peak_mb']:.0f} MB (<= 1536), "
-          f"viewer {r['viewer_mb']:.1f} MB (<= 30)")
+    verdict = (f"targets at {frames} frames: wall {r['seconds']:.1f} s (<= 120; CPU {r['cpu_s']:.1f} s), "
+               f"peak {r['peak_mb']:.0f} MB (<= 1536), viewer {r['viewer_mb']:.1f} MB (<= 30)")
+    print(verdict)
+    if not args.no_write:
+        text = "\n".join([
+            f"## Long recordings on {args.robot}", "", results_doc.stamp(),
+            f"- `nlo-lab retarget FILE --robot {args.robot} --out DIR --json` in a fresh process per length"
+            f" (iterations: {args.iters or 'default, 100'}); the recording: test-split clips concatenated"
+            " (two arms, two hands, 20 fps). Wall time depends on what else the machine runs; CPU time"
+            " (user + system) is what one free core would take.",
+            f"- {verdict}", "", *table, ""])
+        print(f"wrote {results_doc.update_section(f'long:{args.robot}', text)}")
     return 0
 
 
