@@ -233,9 +233,12 @@ def output_set(target: str | os.PathLike, names: tuple[str, ...]) -> Iterator[Pa
     for stale in stale_temp_folders(target):
         shutil.rmtree(stale, ignore_errors=True)
     parent = target.parent
-    parent.mkdir(parents=True, exist_ok=True)
     tmp = parent / f".{target.name}{TEMP_TAG}{os.getpid()}-{secrets.token_hex(4)}"
-    os.mkdir(tmp)
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        os.mkdir(tmp)
+    except OSError as err:  # read-only file system, no permission, full disk: name the place, not our temp folder
+        raise OutputError(f"cannot write in {parent}: {err.strerror or err}") from None
     try:
         try:
             yield tmp

@@ -604,3 +604,19 @@ def test_output_set_lacking_a_file_is_a_bug_and_leaves_nothing(tmp_path):
         with _atomic.output_set(tmp_path / "out", OUTPUT_FILES) as tmp:
             (tmp / "trajectory.npz").write_text("only one")
     assert os.listdir(tmp_path) == []
+
+
+def test_read_only_file_system_names_the_place(work, demo_npz, capsys, monkeypatch):
+    from nlo_lab import _atomic
+
+    real = os.mkdir
+
+    def read_only(path, *args, **kwargs):
+        if TEMP_TAG in str(path):
+            raise OSError(errno.EROFS, "Read-only file system", str(path))
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(_atomic.os, "mkdir", read_only)
+    err = fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", "out"],
+                        "Read-only file system", f"cannot write in {work}")
+    assert TEMP_TAG not in err
