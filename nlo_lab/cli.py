@@ -317,7 +317,7 @@ def _one_warning_channel(quiet: bool):
         yield
     seen = set()
     for w in caught:
-        line = f"nlo-lab: warning: {escape(w.message)} ({w.category.__name__})"
+        line = f"nlo-lab: warning: {escape(w.message)}"
         if line not in seen:
             seen.add(line)
             print(line, file=sys.stderr)
