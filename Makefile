@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test lab bench clean browser
+.PHONY: setup demo test lab bench clean browser lint wheel-check
 
 setup: $(STAMP)
 
@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 	$(PIP) install --quiet torch==2.13.0
-	$(PIP) install --quiet -e ".[test,video]"
+	$(PIP) install --quiet -e ".[lab,test,video]"
 	touch $(STAMP)
 
 demo: setup
@@ -22,9 +22,19 @@ demo: setup
 
 # Tests and every notebook (nbval runs each cell, fails on any error). Test mode
 # shortens the notebooks' loops; the static viewer means CI opens no ports.
-test: setup browser
+test: setup browser lint wheel-check
 	NLO_LAB_TEST_MODE=1 NLO_LAB_STATIC_VIEWER=1 $(PY) -m pytest -q -p no:cacheprovider tests notebooks \
 		--nbval-lax --nbval-current-env --nbval-cell-timeout=300
+
+# ruff: the rules and exclusions are in pyproject.toml.
+lint: setup
+	$(PY) -m ruff check .
+
+# Build the sdist and the wheel, install the wheel into a venv outside the checkout
+# (cached in ~/.cache/nlo_lab/wheel-check: torch and friends install once) and use it
+# from an empty folder: tools/wheel_check.py says what it checks.
+wheel-check: setup
+	$(PY) tools/wheel_check.py
 
 # The browser test needs Debian's chromium; install it when we can (root + apt),
 # otherwise that one test says why it skipped.

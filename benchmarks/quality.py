@@ -42,7 +42,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
 
-from nlo_lab.baselines import METHODS, BaselineSettings, SupervisedSettings, supervised_dataset, supervised_network, train_variant  # noqa: E402
+from nlo_lab.baselines import BaselineSettings, SupervisedSettings, supervised_dataset, supervised_network, train_variant  # noqa: E402
 from nlo_lab.errors import CheckpointError  # noqa: E402
 from nlo_lab.evaluate import evaluate, format_table  # noqa: E402
 from nlo_lab.human.corpus import sign_corpus  # noqa: E402

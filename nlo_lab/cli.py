@@ -91,7 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("train", help="train the encoder and decoder of a robot on the synthetic corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
     p.add_argument("--epochs", type=_positive_int, default=None, help="passes over the training frames")
-    p.add_argument("--out", default=None, help="checkpoint path (default: assets/checkpoints/NAME.pt)")
+    p.add_argument("--out", default=None, help="checkpoint path (default: assets/checkpoints/NAME.pt in a checkout, ./NAME.pt in an installed package)")
     p.add_argument("--seed", type=_ranged_int(0, MAX_SEED), default=0)
     p.add_argument("--quiet", action="store_true", help="no progress bar, no warnings")
 
@@ -103,8 +103,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("demo", help="retarget a clip of the embedded test split to YuMi and print the summary")
 
-    p = sub.add_parser("lab", help="open JupyterLab on the notebooks")
+    p = sub.add_parser("lab", help="copy the notebooks to a folder of yours and open JupyterLab there")
     p.add_argument("--port", type=_ranged_int(1, 65535), default=8888)
+    p.add_argument("--dir", default=None, help="your notebook folder (default: $NLO_LAB_NOTEBOOKS or ~/nlo_lab_notebooks)")
+    p.add_argument("--copy-only", action="store_true", help="copy the notebooks and print the folder; do not start JupyterLab")
     return parser
 
 
@@ -252,9 +254,17 @@ def cmd_demo(args) -> int:
 
 
 def cmd_lab(args) -> int:
-    from nlo_lab.paths import NOTEBOOKS_DIR
+    from nlo_lab.lab import copy_notebooks, lab_command
+    from nlo_lab.paths import user_notebooks_dir
 
-    command = [sys.executable, "-m", "jupyter", "lab", f"--notebook-dir={NOTEBOOKS_DIR}", "--ip=127.0.0.1", f"--port={args.port}"]
+    folder = Path(args.dir).expanduser() if args.dir else user_notebooks_dir()
+    copied, kept = copy_notebooks(folder)
+    note = f" (kept your {len(kept)} existing files)" if kept else ""
+    print(f"notebooks: {folder}: copied {len(copied)} files{note}", file=sys.stderr)
+    if args.copy_only:
+        print(folder)
+        return 0
+    command = lab_command(folder, args.port)
     os.execv(sys.executable, command)
     return 0  # not reached
 

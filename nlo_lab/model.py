@@ -37,12 +37,12 @@ from torch import nn
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.fused_decoder import DecoderPlan, decode_fused
+from nlo_lab.graph import Graph
 
 # Up to this batch the frozen decoder runs in numpy (fused_decoder): measured on
 # YuMi (1 thread), fwd+bwd at batch 1: 266 us numpy vs 473 us torch; at 170:
 # 15.4 ms vs 2.6 ms (numpy's stacked small matmuls do not batch).
 FUSED_MAX_BATCH = 8
-from nlo_lab.graph import NODE_ARM, NODE_HAND, Graph
 
 __all__ = [
     "GraphLayer",
@@ -153,7 +153,9 @@ class GraphLayer(nn.Module):
         y = x @ torch.cat(blocks, dim=0).reshape(-1, C).T
         nb = len(blocks)
         y = y.reshape(B, N * nb * K, O)
-        col = lambda node, block, t: (node * nb + block) * K + t  # row of y for (node, block, type)
+        def col(node, block, t):  # row of y for (node, block, type)
+            return (node * nb + block) * K + t
+
         msg = y.index_select(1, col(dst, 0, t_edge)) + y.index_select(1, col(src, 1, t_edge))  # (B, E, O)
         if edge_attr.ndim == 2:  # static: project once, (E, O)
             msg = msg + (torch.einsum("ef,eof->eo", edge_attr, w_edge[t_edge]) + self.bias[t_edge])

@@ -36,7 +36,7 @@ from nlo_lab.errors import RobotDescriptionError, UnknownRobotError
 from nlo_lab.graph import NODE_ARM, NODE_HAND, Graph
 from nlo_lab.human.demonstration import FINGERS, SIDES
 from nlo_lab.kinematics import KinematicTree, URDFModel, matrix_to_rpy, parse_urdf, rpy_to_matrix
-from nlo_lab.paths import ROBOTS_DIR
+from nlo_lab.paths import BUNDLED_ROBOTS, ROBOTS_DIR, is_bundled, repair_hint
 
 __all__ = ["ArmSpec", "CapsuleSpec", "RobotSpec", "Robot", "load_robot", "load_spec", "known_robots"]
 
@@ -170,6 +170,8 @@ def _resolve(name_or_path: str | Path) -> Path:
             raise RobotDescriptionError(f"robot spec file not found: {p}")
         return p
     spec = ROBOTS_DIR / f"{name_or_path}.json"
+    if not spec.is_file() and name_or_path in BUNDLED_ROBOTS:
+        raise RobotDescriptionError(f"robot spec file not found: {spec}; {repair_hint(spec)}")
     if not spec.is_file():
         raise UnknownRobotError(f"unknown robot {str(name_or_path)!r}; known robots: {', '.join(known_robots())} (or give a path to a spec .json)")
     return spec
@@ -205,9 +207,11 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except UnicodeDecodeError:
-        raise RobotDescriptionError(f"{path}: not a text file (a robot spec is UTF-8 JSON)") from None
+        hint = f"; {repair_hint(path)}" if is_bundled(path) else ""
+        raise RobotDescriptionError(f"{path}: not a text file (a robot spec is UTF-8 JSON){hint}") from None
     except (json.JSONDecodeError, RecursionError) as e:
-        raise RobotDescriptionError(f"{path}: malformed JSON ({e})") from None
+        hint = f"; {repair_hint(path)}" if is_bundled(path) else ""
+        raise RobotDescriptionError(f"{path}: malformed JSON ({e}){hint}") from None
     if not isinstance(data, dict):
         raise RobotDescriptionError(f"{path}: the spec must be a JSON object")
     urdf = path.parent / str(_need(data, "urdf", "the spec", path))
@@ -581,5 +585,10 @@ def load_robot(name_or_path: str | Path) -> Robot:
             naming a link or joint that the URDF does not have.
     """
     spec = load_spec(name_or_path)
-    model = parse_urdf(spec.urdf)
-    return Robot(spec, model)
+    try:
+        model = parse_urdf(spec.urdf)
+        return Robot(spec, model)
+    except RobotDescriptionError as exc:
+        if is_bundled(spec.urdf):  # a damaged install, not the user's file
+            raise RobotDescriptionError(f"{exc}; {repair_hint(spec.urdf)}") from None
+        raise

@@ -34,7 +34,7 @@ from nlo_lab.errors import CheckpointError, NloLabError, SettingsError
 from nlo_lab.human import sign_corpus
 from nlo_lab.losses import COLLISION_FORMS, LossWeights, Targets, latent_loss, objective, targets_from_demonstration
 from nlo_lab.model import MODEL_KINDS, RetargetModel, build_model
-from nlo_lab.paths import CHECKPOINTS_DIR
+from nlo_lab.paths import BUNDLED_ROBOTS, CHECKPOINTS_DIR, is_bundled, is_editable_checkout, repair_hint
 
 __all__ = [
     "CHECKPOINT_FORMAT_VERSION",
@@ -400,9 +400,14 @@ def load_pretrained(robot) -> RetargetModel:
     """
     robot = _resolve_robot(robot)
     path = checkpoint_path(robot.name)
-    if not path.is_file():
+    if not path.is_file() and robot.name not in BUNDLED_ROBOTS:
         raise CheckpointError(f"no trained checkpoint for robot {robot.name!r} ({path}); run `nlo-lab train --robot {robot.name}`")
-    return load_checkpoint(path, robot)
+    try:
+        return load_checkpoint(path, robot)
+    except CheckpointError as exc:
+        if robot.name in BUNDLED_ROBOTS and is_bundled(robot.spec.path):  # the shipped file is missing or damaged
+            raise CheckpointError(f"{exc}; {repair_hint(path)}") from None
+        raise
 
 
 # ---------------------------------------------------------------------- command
@@ -419,7 +424,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--latent-per-node", type=int, default=d.latent_per_node)
     p.add_argument("--max-seconds", type=float, default=d.max_seconds)
     p.add_argument("--threads", type=int, default=1, help="torch threads (1 avoids oversubscription)")
-    p.add_argument("--out", default=None, help="checkpoint file (default assets/checkpoints/NAME.pt)")
+    p.add_argument("--out", default=None, help="checkpoint file (default: assets/checkpoints/NAME.pt in a checkout, ./NAME.pt in an installed package)")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     torch.set_num_threads(max(1, args.threads))
@@ -435,7 +440,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     robot = _resolve_robot(args.robot)
     result = train_model(robot, settings)
-    out = Path(args.out) if args.out else checkpoint_path(robot.name)
+    # A checkout retrains the shipped file in place; an installed package is never written to.
+    out = Path(args.out) if args.out else checkpoint_path(robot.name) if is_editable_checkout() else Path(f"{robot.name}.pt")
     save_checkpoint(result.model, out, robot)
     print(
         f"trained {robot.name}: {result.steps} steps in {result.seconds:.1f} s, "

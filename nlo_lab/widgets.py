@@ -21,12 +21,12 @@ from __future__ import annotations
 
 import html
 import time
-from typing import Any, Callable, Mapping
+from typing import Any, Callable
 
 import numpy as np
 import torch
 
-from nlo_lab.errors import NloLabError, SettingsError
+from nlo_lab.errors import SettingsError
 from nlo_lab.losses import TERMS, LossWeights, Targets, targets_from_demonstration
 from nlo_lab.optimize import INITS, OptimizeResult, OptimizeSettings, initial_latent, optimize_latent
 from nlo_lab.threads import single_thread

@@ -47,7 +47,7 @@ def test_notebook_follows_the_conventions(path):
 
 def test_check_catches_a_bad_notebook(tmp_path):
     tool = _tool()
-    nb = tool.make_notebook([("markdown", "# x\n\n## Learning goals\n\n- a"), ("code", "1 + 1"), ("markdown", "no exercises")])
+    nb = tool.from_source("# %% [markdown]\n# # x\n#\n# ## Learning goals\n#\n# - a\n\n# %%\n1 + 1\n\n# %% [markdown]\n# no exercises\n")
     nb.cells[1].outputs = [nbformat.v4.new_output("execute_result", {"text/plain": "2"}, execution_count=1)]
     nb.cells[1].execution_count = 1
     nb.metadata["kernelspec"]["name"] = "python2"
@@ -60,12 +60,14 @@ def test_check_catches_a_bad_notebook(tmp_path):
     assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code")
 
 
-def test_parse_source_round_trip():
+def test_build_reads_the_percent_format_with_jupytext():
     tool = _tool()
-    cells = tool.parse_source("# %% [markdown]\n# # T\n#\n# text\n\n# %%\nx = 1\n\n# %%\nprint(x)\n")
-    assert cells == [("markdown", "# T\n\ntext"), ("code", "x = 1"), ("code", "print(x)")]
-    with pytest.raises(ValueError, match="markdown line"):
-        tool.parse_source("# %% [markdown]\nnot a comment\n")
+    source = "# %% [markdown]\n# # T\n#\n# text\n\n# %%\nx = 1\n\n# %%\nprint(x)\n"
+    nb = tool.from_source(source)
+    assert [(c.cell_type, c.source) for c in nb.cells] == [("markdown", "# T\n\ntext"), ("code", "x = 1"), ("code", "print(x)")]
+    assert [c.id for c in nb.cells] == ["c00", "c01", "c02"]  # stable: a rebuild gives the same file
+    assert "jupytext" not in nb.metadata and all(not c.metadata for c in nb.cells)
+    assert tool.dumps(tool.from_source(source)) == tool.dumps(nb)
 
 
 def _servers_of(pid: int) -> list[str]:

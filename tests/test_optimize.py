@@ -96,10 +96,14 @@ def test_decoder_stays_frozen_and_untouched(nao, setup):
 
 def test_patience_stops_after_evaluations_without_improvement():
     x0 = torch.zeros(3, 2)
-    evaluate = lambda x: (x.sum(-1) * 0 + 1.0, x, {})  # flat loss: never improves
+    def evaluate(x):  # flat loss: never improves
+        return x.sum(-1) * 0 + 1.0, x, {}
+
     *_, history, steps = _descend(x0, evaluate, None, iterations=100, patience=4, lr=0.1, callback=None)
     assert steps == 4 and len(history) == 5
-    evaluate = lambda x: ((x - 3).pow(2).sum(-1), x, {})  # a bowl: keeps improving
+    def evaluate(x):  # a bowl: keeps improving
+        return (x - 3).pow(2).sum(-1), x, {}
+
     *_, history, steps = _descend(x0, evaluate, None, iterations=20, patience=4, lr=0.1, callback=None)
     assert steps == 20 and history[-1] < history[0]
 

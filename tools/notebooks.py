@@ -1,9 +1,11 @@
 """Build, strip and check the notebooks (see notebooks/README.md).
 
-The source of every notebook is ``notebooks/src/NN_name.py`` in percent format:
-``# %% [markdown]`` starts a markdown cell (its lines are ``# `` comments),
-``# %%`` starts a code cell. ``build`` writes ``notebooks/NN_name.ipynb``
-with nbformat 4, outputs stripped, kernelspec python3.
+The source of every notebook is ``notebooks/src/NN_name.py`` in jupytext's
+percent format: ``# %% [markdown]`` starts a markdown cell (its lines are
+``# `` comments), ``# %%`` starts a code cell. ``build`` reads it with
+jupytext and writes ``notebooks/NN_name.ipynb`` with nbformat 4, outputs
+stripped, kernelspec python3. ``check`` is our conventions check (learning
+goals, exercises, outputs stripped, in sync with the source).
 
 Usage::
 
@@ -17,6 +19,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import jupytext
 import nbformat
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -27,43 +30,20 @@ KERNELSPEC = {"display_name": "Python 3 (ipykernel)", "language": "python", "nam
 LANGUAGE_INFO = {"name": "python", "pygments_lexer": "ipython3"}
 
 
-def parse_source(text: str) -> list[tuple[str, str]]:
-    """``[(kind, source)]`` cells of a percent-format file (kind ``"markdown"`` or ``"code"``)."""
-    cells: list[tuple[str, list[str]]] = []
-    for line in text.splitlines():
-        stripped = line.strip()
-        if stripped.startswith("# %%"):
-            kind = "markdown" if "[markdown]" in stripped else "code"
-            cells.append((kind, []))
-            continue
-        if not cells:
-            if stripped:  # a header before the first cell marker would be lost silently
-                raise ValueError(f"text before the first '# %%' marker: {line!r}")
-            continue
-        kind, lines = cells[-1]
-        if kind == "markdown":
-            if stripped and not line.startswith("#"):
-                raise ValueError(f"markdown line is not a '# ' comment: {line!r}")
-            line = line[2:] if line.startswith("# ") else line[1:]
-        lines.append(line)
-    out = []
-    for kind, lines in cells:
-        while lines and not lines[0].strip():
-            lines.pop(0)
-        while lines and not lines[-1].strip():
-            lines.pop()
-        out.append((kind, "\n".join(lines)))
-    return out
+def from_source(text: str) -> nbformat.NotebookNode:
+    """A stripped nbformat-4 notebook from a percent-format source (read by jupytext).
 
-
-def make_notebook(cells: list[tuple[str, str]]) -> nbformat.NotebookNode:
-    """A stripped nbformat-4 notebook of ``cells``."""
-    nb = nbformat.v4.new_notebook()
-    nb.metadata = {"kernelspec": dict(KERNELSPEC), "language_info": dict(LANGUAGE_INFO)}
-    for i, (kind, source) in enumerate(cells):
-        cell = nbformat.v4.new_markdown_cell(source) if kind == "markdown" else nbformat.v4.new_code_cell(source)
-        cell.id = f"c{i:02d}"  # stable ids: rebuilding gives the same file
-        nb.cells.append(cell)
+    jupytext gives the cells; we drop its bookkeeping metadata (the sources are
+    the truth, there is no pairing), fix the kernelspec and give every cell a
+    stable id, so that rebuilding an unchanged source gives the same file.
+    """
+    nb = jupytext.reads(text, fmt="py:percent")
+    nb.metadata = nbformat.from_dict({"kernelspec": dict(KERNELSPEC), "language_info": dict(LANGUAGE_INFO)})
+    for i, cell in enumerate(nb.cells):
+        cell.metadata = nbformat.from_dict({})
+        cell.id = f"c{i:02d}"
+        if cell.cell_type == "code":
+            cell.outputs, cell.execution_count = [], None
     nbformat.validate(nb)
     return nb
 
@@ -74,7 +54,7 @@ def dumps(nb: nbformat.NotebookNode) -> str:
 
 def build_one(src: Path) -> Path:
     target = NOTEBOOKS / (src.stem + ".ipynb")
-    target.write_text(dumps(make_notebook(parse_source(src.read_text(encoding="utf-8")))), encoding="utf-8")
+    target.write_text(dumps(from_source(src.read_text(encoding="utf-8"))), encoding="utf-8")
     return target
 
 
@@ -109,7 +89,7 @@ def problems(path: Path) -> list[str]:
     src = SOURCES / (path.stem + ".py")
     if not src.is_file():
         out.append(f"{name}: no source notebooks/src/{src.name}")
-    elif dumps(make_notebook(parse_source(src.read_text(encoding="utf-8")))) != path.read_text(encoding="utf-8"):
+    elif dumps(from_source(src.read_text(encoding="utf-8"))) != path.read_text(encoding="utf-8"):
         out.append(f"{name}: differs from notebooks/src/{src.name} (run `tools/notebooks.py build`)")
     return out
 

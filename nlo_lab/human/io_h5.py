@@ -36,7 +36,7 @@ import h5py
 import numpy as np
 
 from nlo_lab.errors import DemonstrationError
-from nlo_lab.human.demonstration import FPS_RANGE, MAX_FRAMES, SIDES, Demonstration
+from nlo_lab.human.demonstration import FPS_RANGE, MAX_FRAMES, Demonstration
 from nlo_lab.human.transforms import body_frame_from_shoulders, check_arm_lengths, quat_to_matrix, wrist_frame_from_hand
 
 __all__ = ["DEFAULT_FPS", "SENTENCE_MARKER", "GLOVE_POINTS", "GLOVE_FINGER_POINTS", "load_h5_sequences", "load_h5_first"]

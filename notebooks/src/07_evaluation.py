@@ -40,7 +40,7 @@ print([(d.name, len(d)) for d in demos])
 # training frames (the paper's NN learns from an optimiser's output); it is trained once and cached.
 
 # %%
-from nlo_lab.baselines import METHODS, BaselineSettings, SupervisedSettings, run_method, supervised_network
+from nlo_lab.baselines import BaselineSettings, SupervisedSettings, run_method, supervised_network
 settings = BaselineSettings(
     iterations=budget(100, 10),
     supervised=SupervisedSettings(frame_stride=budget(4, 64), label_iterations=budget(150, 20), epochs=budget(60, 5)),
@@ -89,7 +89,6 @@ ax.set_xscale("log"); ax.set_xlabel("wall time [s]"); ax.set_ylabel("mean Fréch
 # the wrist and elbow paths, human (mapped) against robot.
 
 # %%
-import numpy as np
 fig, axes = plt.subplots(1, 2, figsize=(8, 3))
 for ax, key, unit in zip(axes, ("velocity_error", "acceleration_error"), ("m/s", "m/s²")):
     ax.bar(range(len(ev.methods)), [ev.mean(m, key) for m in ev.methods])

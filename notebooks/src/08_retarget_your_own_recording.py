@@ -92,7 +92,8 @@ for name in budget(("yumi", "nao", "pepper"), ("nao",)):
 # ```
 
 # %%
-import subprocess, sys
+import subprocess
+import sys
 cmd = [sys.executable, "-m", "nlo_lab.cli", "retarget", str(path), "--robot", "nao", "--iters", str(budget(100, 5)), "--json"]
 print(subprocess.run(cmd, capture_output=True, text=True, check=True).stdout)
 
