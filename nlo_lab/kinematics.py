@@ -1,8 +1,8 @@
 """Batched, differentiable forward kinematics of a URDF tree.
 
-The URDF is parsed once (:func:`parse_urdf`, our own small XML reader so that
-every problem becomes a :class:`~nlo_lab.errors.RobotDescriptionError` naming
-the file). :class:`KinematicTree` then precomputes, per moving joint, the
+The URDF is parsed once (:func:`parse_urdf`: yourdfpy reads the file, we
+check the tree, and every problem becomes a
+:class:`~nlo_lab.errors.RobotDescriptionError` naming the file). :class:`KinematicTree` then precomputes, per moving joint, the
 index of its nearest moving ancestor, the fixed transform from that ancestor's
 frame to the joint (fixed joints are folded in), its axis and its mimic rule.
 One forward pass (:meth:`KinematicTree.body_poses`) is
@@ -23,21 +23,23 @@ gather and one matmul after step 3.
 
 from __future__ import annotations
 
+import logging
 import math
-import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import torch
 from torch.autograd.function import once_differentiable
 
 from nlo_lab.errors import RobotDescriptionError
+from nlo_lab.rotations import matrix_to_rpy, rpy_to_matrix  # re-exported: their old home
 
 __all__ = [
     "JointInfo",
     "URDFModel",
+    "load_urdf",
     "parse_urdf",
     "rpy_to_matrix",
     "matrix_to_rpy",
@@ -48,43 +50,6 @@ MOVING_TYPES = ("revolute", "continuous")
 SUPPORTED_TYPES = MOVING_TYPES + ("fixed",)
 # batch x levels above which FK goes level by level instead of by pointer jumping (measured)
 _JUMP_MAX_WORK = 128
-
-
-# --------------------------------------------------------------------------- rotations
-def rpy_to_matrix(rpy: Sequence[float]) -> np.ndarray:
-    """URDF roll-pitch-yaw (fixed axes x, y, z) to a rotation matrix ``Rz(y) Ry(p) Rx(r)``.
-
-    Args:
-        rpy: ``(3,)`` roll, pitch, yaw [rad].
-
-    Returns:
-        ``(3, 3)`` float64 rotation matrix.
-    """
-    r, p, y = (float(v) for v in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
-def matrix_to_rpy(R: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`rpy_to_matrix` (pitch in [-pi/2, pi/2]); ``(3, 3)`` -> ``(3,)`` [rad]."""
-    R = np.asarray(R, dtype=np.float64)
-    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
-    if abs(math.cos(pitch)) < 1e-9:  # gimbal lock: put everything into yaw
-        return np.array([0.0, pitch, math.atan2(-R[0, 1], R[1, 1])])
-    return np.array([math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])]) + 0.0  # no -0.0
-
-
-def _transform(xyz, rpy) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = rpy_to_matrix(rpy)
-    T[:3, 3] = xyz
-    return T
 
 
 # --------------------------------------------------------------------------- URDF model
@@ -134,6 +99,7 @@ class URDFModel:
         root: the root link.
         links: link names, parents before children.
         joints: joints, parents before children.
+        urdf: the ``yourdfpy.URDF`` it was built from (visuals, materials).
     """
 
     name: str
@@ -141,6 +107,7 @@ class URDFModel:
     root: str
     links: tuple[str, ...]
     joints: tuple[JointInfo, ...]
+    urdf: Any = field(default=None, compare=False, repr=False)
 
     def joint(self, name: str) -> JointInfo:
         for j in self.joints:
@@ -156,26 +123,70 @@ class URDFModel:
         return None
 
 
-def _floats(text: str | None, n: int, what: str, path: Path) -> np.ndarray:
-    if text is None:
-        return np.zeros(n)
-    try:
-        values = np.array([float(v) for v in text.split()])
-    except ValueError:
-        raise RobotDescriptionError(f"{path}: {what} must be {n} numbers, got {text!r}") from None
-    if values.shape != (n,) or not np.all(np.isfinite(values)):
-        raise RobotDescriptionError(f"{path}: {what} must be {n} finite numbers, got {text!r}")
-    return values
+class _LogRecorder(logging.Handler):
+    """Collects what yourdfpy logs while it reads one file (it logs, not raises, on bad XML)."""
+
+    def __init__(self) -> None:
+        super().__init__(level=logging.ERROR)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(record.getMessage())
 
 
-def parse_urdf(path: str | Path) -> URDFModel:
-    """Read a URDF file into a :class:`URDFModel`.
+def load_urdf(path: str | Path):
+    """Read a URDF file with yourdfpy (no meshes, no scene graph): the one parse of a file.
 
     Args:
         path: the ``.urdf`` file.
 
     Returns:
-        The model, joints ordered parents first.
+        The ``yourdfpy.URDF``; :func:`parse_urdf` builds the kinematic model from
+        it and the viewer its visuals (``Robot.urdf``).
+
+    Raises:
+        RobotDescriptionError: a missing file or malformed XML, naming the file.
+    """
+    import yourdfpy  # imported here: the FK never needs it once the tree is built
+
+    path = Path(path)
+    if not path.is_file():
+        raise RobotDescriptionError(f"URDF file not found: {path}")
+    logger = logging.getLogger("yourdfpy")
+    recorder = _LogRecorder()
+    logger.addHandler(recorder)
+    propagate, logger.propagate = logger.propagate, False  # its complaints become our one error
+    try:
+        urdf = yourdfpy.URDF.load(
+            str(path), build_scene_graph=False, build_collision_scene_graph=False, load_meshes=False, load_collision_meshes=False
+        )
+    except Exception as exc:  # yourdfpy raises assorted types (KeyError, AttributeError, ValueError ...)
+        detail = recorder.messages[0] if recorder.messages else f"{type(exc).__name__}: {exc}"
+        raise RobotDescriptionError(f"{path}: malformed URDF ({detail})") from None
+    finally:
+        logger.removeHandler(recorder)
+        logger.propagate = propagate
+    if recorder.messages:  # yourdfpy recovers from broken XML; we refuse the file
+        raise RobotDescriptionError(f"{path}: malformed URDF XML ({recorder.messages[0]})")
+    return urdf
+
+
+def _vector(value, n: int, what: str, path: Path) -> np.ndarray:
+    values = np.asarray(value, dtype=np.float64).reshape(-1) if value is not None else np.zeros(n)
+    if values.shape != (n,) or not np.all(np.isfinite(values)):
+        raise RobotDescriptionError(f"{path}: {what} must be {n} finite numbers, got {value!r}")
+    return values
+
+
+def parse_urdf(path: str | Path) -> URDFModel:
+    """Read a URDF file into a :class:`URDFModel` (yourdfpy parses, we check the tree).
+
+    Args:
+        path: the ``.urdf`` file.
+
+    Returns:
+        The model, joints ordered parents first; ``model.urdf`` keeps the
+        ``yourdfpy.URDF`` so that nothing parses the file twice.
 
     Raises:
         RobotDescriptionError: missing file, malformed XML, a joint naming a link
@@ -184,15 +195,9 @@ def parse_urdf(path: str | Path) -> URDFModel:
             source does not exist.
     """
     path = Path(path)
-    if not path.is_file():
-        raise RobotDescriptionError(f"URDF file not found: {path}")
-    try:
-        root_el = ET.parse(path).getroot()
-    except ET.ParseError as e:
-        raise RobotDescriptionError(f"{path}: malformed URDF XML ({e})") from None
-    if root_el.tag != "robot":
-        raise RobotDescriptionError(f"{path}: the root element must be <robot>, got <{root_el.tag}>")
-    links = [el.get("name") for el in root_el.findall("link")]
+    urdf = load_urdf(path)
+    robot = urdf.robot
+    links = [link.name for link in robot.links]
     if any(n is None for n in links):
         raise RobotDescriptionError(f"{path}: a <link> has no name")
     if len(set(links)) != len(links):
@@ -201,8 +206,8 @@ def parse_urdf(path: str | Path) -> URDFModel:
     link_set = set(links)
 
     joints: dict[str, JointInfo] = {}
-    for el in root_el.findall("joint"):
-        name, jtype = el.get("name"), el.get("type")
+    for el in robot.joints:
+        name, jtype = el.name, el.type
         if name is None:
             raise RobotDescriptionError(f"{path}: a <joint> has no name")
         if name in joints:
@@ -211,38 +216,32 @@ def parse_urdf(path: str | Path) -> URDFModel:
             raise RobotDescriptionError(
                 f"{path}: joint {name!r} has type {jtype!r}; supported: {', '.join(SUPPORTED_TYPES)}"
             )
-        ends = {}
-        for tag in ("parent", "child"):
-            sub = el.find(tag)
-            ends[tag] = None if sub is None else sub.get("link")
-            if ends[tag] not in link_set:
-                raise RobotDescriptionError(f"{path}: joint {name!r} names {tag} link {ends[tag]!r}, which does not exist")
-        origin_el = el.find("origin")
-        xyz = _floats(None if origin_el is None else origin_el.get("xyz"), 3, f"joint {name!r} origin xyz", path)
-        rpy = _floats(None if origin_el is None else origin_el.get("rpy"), 3, f"joint {name!r} origin rpy", path)
-        axis_el = el.find("axis")
-        axis = np.array([1.0, 0.0, 0.0]) if axis_el is None else _floats(axis_el.get("xyz"), 3, f"joint {name!r} axis", path)
+        for tag, link in (("parent", el.parent), ("child", el.child)):
+            if link not in link_set:
+                raise RobotDescriptionError(f"{path}: joint {name!r} names {tag} link {link!r}, which does not exist")
+        origin = np.eye(4) if el.origin is None else np.asarray(el.origin, dtype=np.float64)
+        if origin.shape != (4, 4) or not np.all(np.isfinite(origin)):
+            raise RobotDescriptionError(f"{path}: joint {name!r} has a bad <origin>")
+        axis = _vector(el.axis if el.axis is not None else [1.0, 0.0, 0.0], 3, f"joint {name!r} axis", path)
         lower, upper = -math.pi, math.pi
         if jtype in MOVING_TYPES:
             if np.linalg.norm(axis) < 1e-9:
                 raise RobotDescriptionError(f"{path}: joint {name!r} has a zero axis")
             axis = axis / np.linalg.norm(axis)
-            limit_el = el.find("limit")
-            if limit_el is None and jtype == "revolute":
+            limit = el.limit
+            if limit is None and jtype == "revolute":
                 raise RobotDescriptionError(f"{path}: revolute joint {name!r} has no <limit>")
-            if limit_el is not None and (limit_el.get("lower") is not None or jtype == "revolute"):
-                lower = float(_floats(limit_el.get("lower", "0"), 1, f"joint {name!r} lower limit", path)[0])
-                upper = float(_floats(limit_el.get("upper", "0"), 1, f"joint {name!r} upper limit", path)[0])
+            if limit is not None and (limit.lower is not None or jtype == "revolute"):
+                lower = float(_vector(limit.lower if limit.lower is not None else 0.0, 1, f"joint {name!r} lower limit", path)[0])
+                upper = float(_vector(limit.upper if limit.upper is not None else 0.0, 1, f"joint {name!r} upper limit", path)[0])
             if lower > upper:
                 raise RobotDescriptionError(f"{path}: joint {name!r} has lower limit {lower} > upper limit {upper}")
         mimic = None
-        mimic_el = el.find("mimic")
-        if mimic_el is not None:
-            src = mimic_el.get("joint")
-            mult = float(_floats(mimic_el.get("multiplier", "1"), 1, f"joint {name!r} mimic multiplier", path)[0])
-            off = float(_floats(mimic_el.get("offset", "0"), 1, f"joint {name!r} mimic offset", path)[0])
-            mimic = (src, mult, off)
-        joints[name] = JointInfo(name, jtype, ends["parent"], ends["child"], _transform(xyz, rpy), axis, lower, upper, mimic)
+        if el.mimic is not None:
+            mult = float(_vector(el.mimic.multiplier, 1, f"joint {name!r} mimic multiplier", path)[0])
+            off = float(_vector(el.mimic.offset, 1, f"joint {name!r} mimic offset", path)[0])
+            mimic = (el.mimic.joint, mult, off)
+        joints[name] = JointInfo(name, jtype, el.parent, el.child, origin, axis, lower, upper, mimic)
 
     for j in joints.values():
         if j.mimic is not None:
@@ -276,7 +275,7 @@ def parse_urdf(path: str | Path) -> URDFModel:
     # order_joints is in stack-push order; re-sort so that each joint follows its parent link's joint.
     rank = {n: i for i, n in enumerate(order_links)}
     order_joints.sort(key=lambda j: rank[j.child])
-    return URDFModel(root_el.get("name", path.stem), path, roots[0], tuple(order_links), tuple(order_joints))
+    return URDFModel(robot.name or path.stem, path, roots[0], tuple(order_links), tuple(order_joints), urdf)
 
 
 # --------------------------------------------------------------------------- FK

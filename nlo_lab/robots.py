@@ -35,7 +35,8 @@ from nlo_lab.collision import segment_distance_ends
 from nlo_lab.errors import RobotDescriptionError, UnknownRobotError
 from nlo_lab.graph import NODE_ARM, NODE_HAND, Graph
 from nlo_lab.human.demonstration import FINGERS, SIDES
-from nlo_lab.kinematics import KinematicTree, URDFModel, matrix_to_rpy, parse_urdf, rpy_to_matrix
+from nlo_lab.kinematics import KinematicTree, URDFModel, parse_urdf
+from nlo_lab.rotations import matrix_to_rpy, rpy_to_matrix
 from nlo_lab.paths import BUNDLED_ROBOTS, ROBOTS_DIR, is_bundled, repair_hint
 
 __all__ = ["ArmSpec", "CapsuleSpec", "RobotSpec", "Robot", "load_robot", "load_spec", "known_robots"]

@@ -400,13 +400,14 @@ def load_pretrained(robot) -> RetargetModel:
     """
     robot = _resolve_robot(robot)
     path = checkpoint_path(robot.name)
-    if not path.is_file() and robot.name not in BUNDLED_ROBOTS:
+    if not path.is_file() and not (robot.name in BUNDLED_ROBOTS and is_bundled(path)):
         raise CheckpointError(f"no trained checkpoint for robot {robot.name!r} ({path}); run `nlo-lab train --robot {robot.name}`")
     try:
         return load_checkpoint(path, robot)
     except CheckpointError as exc:
-        if robot.name in BUNDLED_ROBOTS and is_bundled(robot.spec.path):  # the shipped file is missing or damaged
-            raise CheckpointError(f"{exc}; {repair_hint(path)}") from None
+        if robot.name in BUNDLED_ROBOTS and is_bundled(path) and is_bundled(robot.spec.path):  # a shipped file is missing or damaged
+            retrain = f" (or retrain it: `nlo-lab train --robot {robot.name}`)" if is_editable_checkout() else ""
+            raise CheckpointError(f"{exc}; {repair_hint(path)}{retrain}") from None
         raise
 
 

@@ -1,4 +1,4 @@
-"""Forward kinematics: batched = looped, gradients, agreement with yourdfpy, mimic joints."""
+"""Forward kinematics: batched = looped, gradients, agreement with pytorch-kinematics (the reference) and yourdfpy, mimic joints."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import torch
 
-from nlo_lab.kinematics import matrix_to_rpy, rpy_to_matrix
+from nlo_lab.rotations import matrix_to_rpy, rpy_to_matrix
 from nlo_lab.robots import Robot, load_robot
 
 yourdfpy = pytest.importorskip("yourdfpy")
@@ -87,6 +87,48 @@ def yourdfpy_poses(robot: Robot, q: np.ndarray) -> list[dict[str, np.ndarray]]:
         model.update_cfg({n: float(v) for n, v in zip(robot.joint_names, row)})
         out.append({link: model.get_transform(link, robot.spec.base_link) for link in robot.link_names})
     return out
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_agrees_with_pytorch_kinematics(name):
+    """The reference: pytorch-kinematics reads the URDF itself; every link, every robot, poses and gradients."""
+    pytest.importorskip("pytorch_kinematics")
+    from nlo_lab.pk_chain import PKChain
+
+    robot = robot64(name)
+    ref = PKChain(robot)
+    assert set(ref.joint_names) == set(robot.tree.moving_names)  # mimic joints included, as separate joints
+    q = random_q(robot, 8, seed=6)
+    ours, theirs = robot.forward_kinematics(q), ref.forward_kinematics(q)
+    assert set(theirs) == set(ours)
+    for link, T in theirs.items():
+        # 1e-6: pytorch-kinematics stores the URDF's numbers in float32 before .to(float64)
+        np.testing.assert_allclose(ours[link].numpy(), T.numpy(), atol=1e-6, rtol=0, err_msg=f"{name} {link}")
+    links = [robot.arm(s).wrist for s in ("left", "right")] + [robot.arm(s).elbow for s in ("left", "right")]
+    w = torch.randn(len(links), 3, dtype=torch.float64, generator=torch.Generator().manual_seed(1))
+    grads = []
+    for fk in (robot.forward_kinematics, ref.forward_kinematics):
+        qq = q.clone().requires_grad_(True)
+        poses = fk(qq)
+        (torch.stack([poses[k][:, :3, 3] for k in links], 1) * w).sum().backward()
+        grads.append(qq.grad)
+    torch.testing.assert_close(grads[0], grads[1], atol=1e-5, rtol=0)
+
+
+def test_pk_chain_angles_expand_the_mimic_joints():
+    pytest.importorskip("pytorch_kinematics")
+    from nlo_lab.pk_chain import PKChain
+
+    robot = robot64("yumi")
+    ref = PKChain(robot)
+    assert len(ref.joint_names) == robot.n_joints + 12  # six coupled joints per Inspire hand
+    q = random_q(robot, 3, seed=7)
+    theta = ref.angles(q)
+    for name, _, _, _, _, src, mult, off in mimic_table(robot):
+        k, s = ref.joint_names.index(name), robot.joint_names.index(src)
+        torch.testing.assert_close(theta[:, k], mult * q[:, s] + off)
+    for i, name in enumerate(robot.joint_names):
+        torch.testing.assert_close(theta[:, ref.joint_names.index(name)], q[:, i])
 
 
 @pytest.mark.parametrize("name", ROBOTS)

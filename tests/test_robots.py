@@ -293,6 +293,36 @@ def test_truncated_urdf(tmp_path):
         load_robot(spec)
 
 
+def test_one_parse_per_urdf_file(monkeypatch):
+    """yourdfpy parses each URDF once; FK and the viewer's visuals share it."""
+    yourdfpy = pytest.importorskip("yourdfpy")
+    from nlo_lab.viz.scene import robot_visuals
+
+    calls = []
+    real = yourdfpy.URDF.load
+    monkeypatch.setattr(yourdfpy.URDF, "load", staticmethod(lambda *a, **k: calls.append(a[0]) or real(*a, **k)))
+    robot = load_robot("nao")
+    assert isinstance(robot.model.urdf, yourdfpy.URDF)
+    assert robot_visuals(robot) and len(calls) == 1 and calls[0].endswith("nao.urdf")
+
+
+def test_urdf_with_a_bad_number_names_the_file(tmp_path):
+    spec, urdf = copy_robot(tmp_path)
+    urdf.write_text(urdf.read_text().replace('<joint name="RWristYaw" type="revolute">', '<joint name="RWristYaw" type="revolute">\n    <origin xyz="0 zero 0"/>', 1))
+    with pytest.raises(RobotDescriptionError, match=r"nao\.urdf.*malformed URDF"):
+        load_robot(spec)
+
+
+def test_urdf_joint_without_a_child_names_the_file(tmp_path):
+    spec, urdf = copy_robot(tmp_path)
+    text = urdf.read_text()
+    start = text.index('<joint name="RWristYaw"')
+    child = text.index("<child", start)
+    urdf.write_text(text[:child] + text[text.index("/>", child) + 2:])
+    with pytest.raises(RobotDescriptionError, match=r"nao\.urdf"):
+        load_robot(spec)
+
+
 def test_spec_naming_missing_link(tmp_path):
     spec, _ = copy_robot(tmp_path)
     data = json.loads(spec.read_text())

@@ -48,6 +48,18 @@ def from_source(text: str) -> nbformat.NotebookNode:
     return nb
 
 
+def make_notebook(cells: list[tuple[str, str]]) -> nbformat.NotebookNode:
+    """A stripped notebook of ``[(kind, source)]`` cells, normalised like :func:`from_source` (for tests)."""
+    nb = nbformat.v4.new_notebook()
+    nb.metadata = nbformat.from_dict({"kernelspec": dict(KERNELSPEC), "language_info": dict(LANGUAGE_INFO)})
+    for i, (kind, source) in enumerate(cells):
+        cell = nbformat.v4.new_markdown_cell(source) if kind == "markdown" else nbformat.v4.new_code_cell(source)
+        cell.id = f"c{i:02d}"
+        nb.cells.append(cell)
+    nbformat.validate(nb)
+    return nb
+
+
 def dumps(nb: nbformat.NotebookNode) -> str:
     return nbformat.writes(nb) + "\n"
 

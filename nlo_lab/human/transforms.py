@@ -14,6 +14,7 @@ import numpy as np
 
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human.demonstration import SIDES, Demonstration
+from nlo_lab.rotations import matrix_to_quat, quat_to_matrix, slerp  # re-exported: their old home
 
 __all__ = [
     "wrist_frame_from_hand",
@@ -81,56 +82,6 @@ def body_frame_from_shoulders(
     z = _normalize(up - np.sum(up * y, axis=-1, keepdims=True) * y)
     x = np.cross(y, z)
     return (ls + rs) / 2.0, np.stack([x, y, z], axis=-1)
-
-
-# ----------------------------------------------------------------------------- quaternions
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """``(..., 4)`` quaternions ``(x, y, z, w)`` (normalised here) -> ``(..., 3, 3)`` rotation matrices."""
-    q = np.asarray(q, float)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    x, y, z, w = np.moveaxis(q, -1, 0)
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        axis=-2,
-    )
-
-
-def matrix_to_quat(R: np.ndarray) -> np.ndarray:
-    """``(..., 3, 3)`` rotation matrices -> ``(..., 4)`` unit quaternions ``(x, y, z, w)`` with w >= 0."""
-    R = np.asarray(R, float)
-    # Shepperd's method on all four candidates, keep the best-conditioned per matrix.
-    tr = R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2]
-    cands = np.stack(
-        [
-            np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1], 1 + tr], -1),
-            np.stack([1 + 2 * R[..., 0, 0] - tr, R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0], R[..., 2, 1] - R[..., 1, 2]], -1),
-            np.stack([R[..., 0, 1] + R[..., 1, 0], 1 + 2 * R[..., 1, 1] - tr, R[..., 1, 2] + R[..., 2, 1], R[..., 0, 2] - R[..., 2, 0]], -1),
-            np.stack([R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1], 1 + 2 * R[..., 2, 2] - tr, R[..., 1, 0] - R[..., 0, 1]], -1),
-        ],
-        axis=-2,
-    )  # (..., 4 candidates, 4)
-    best = np.argmax(np.stack([1 + tr, 1 + 2 * R[..., 0, 0] - tr, 1 + 2 * R[..., 1, 1] - tr, 1 + 2 * R[..., 2, 2] - tr], -1), -1)
-    q = np.take_along_axis(cands, best[..., None, None], axis=-2)[..., 0, :]
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    return np.where(q[..., 3:] < 0, -q, q)
-
-
-def _slerp(q0: np.ndarray, q1: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """Spherical interpolation of ``(..., 4)`` unit quaternions at fractions ``a`` ``(...,)``."""
-    dot = np.sum(q0 * q1, axis=-1)
-    q1 = np.where(dot[..., None] < 0, -q1, q1)  # shortest arc
-    dot = np.clip(np.abs(dot), -1.0, 1.0)
-    theta = np.arccos(dot)
-    small = theta < 1e-6
-    s = np.sin(np.where(small, 1.0, theta))
-    w0 = np.where(small, 1 - a, np.sin((1 - a) * theta) / s)
-    w1 = np.where(small, a, np.sin(a * theta) / s)
-    q = w0[..., None] * q0 + w1[..., None] * q1
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
 # ----------------------------------------------------------------------------- gaps and checks
@@ -274,7 +225,7 @@ def resample(demo: Demonstration, fps: float) -> Demonstration:
     R = demo.wrist_rotations
     wm = both(demo.wrist_mask)
     q = matrix_to_quat(np.where(demo.wrist_mask[..., None, None], R, np.eye(3)))  # (T, 2, 4)
-    rot = quat_to_matrix(_slerp(q[i0], q[i1], np.broadcast_to(a[:, None], wm.shape)))
+    rot = quat_to_matrix(slerp(q[i0], q[i1], np.broadcast_to(a[:, None], wm.shape)))
     rot[~wm] = np.nan
     meta = dict(demo.meta)
     meta["resampled_from_fps"] = float(demo.fps)

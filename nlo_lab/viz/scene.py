@@ -101,14 +101,9 @@ def urdf_path_of(robot: Any) -> Path:
 
 
 def _load_urdf(path: Path):
-    import yourdfpy
+    from nlo_lab.kinematics import load_urdf  # the package's one URDF reader (yourdfpy), errors naming the file
 
-    if not path.is_file():
-        raise RobotDescriptionError(f"URDF not found: {path}")
-    try:
-        return yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False)
-    except Exception as exc:  # yourdfpy raises assorted errors on a malformed file
-        raise RobotDescriptionError(f"cannot parse URDF {path}: {exc}") from None
+    return load_urdf(path)
 
 
 def robot_visuals(urdf: Any) -> list[Visual]:
@@ -117,7 +112,9 @@ def robot_visuals(urdf: Any) -> list[Visual]:
     Args:
         urdf: a URDF path, a robot object, or a loaded ``yourdfpy.URDF``.
     """
-    model = urdf if hasattr(urdf, "robot") and hasattr(urdf.robot, "links") else _load_urdf(urdf_path_of(urdf))
+    model = getattr(getattr(urdf, "model", None), "urdf", None)  # a Robot keeps the yourdfpy.URDF it was parsed into
+    if model is None:
+        model = urdf if hasattr(urdf, "robot") and hasattr(urdf.robot, "links") else _load_urdf(urdf_path_of(urdf))
     out: list[Visual] = []
     for link in model.robot.links:
         for vis in link.visuals or []:
@@ -150,7 +147,9 @@ def link_groups(urdf: Any, arms: dict[str, tuple[str, str]] | None = None) -> di
     is ``arm`` and everything below the wrist is ``hand``; other links (and all
     links without ``arms``) are grouped by name.
     """
-    model = urdf if hasattr(urdf, "robot") and hasattr(urdf.robot, "links") else _load_urdf(urdf_path_of(urdf))
+    model = getattr(getattr(urdf, "model", None), "urdf", None)  # a Robot keeps the yourdfpy.URDF it was parsed into
+    if model is None:
+        model = urdf if hasattr(urdf, "robot") and hasattr(urdf.robot, "links") else _load_urdf(urdf_path_of(urdf))
     groups = {link.name: _name_group(link.name) for link in model.robot.links}
     parent = {j.child: j.parent for j in model.robot.joints}
     children: dict[str, list[str]] = {}
