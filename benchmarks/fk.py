@@ -4,18 +4,24 @@ Prints forward and forward+backward wall time (median of many runs) at batch 1,
 32 and 256 for YuMi with both hands (all 26 actuated angles; pytorch-kinematics
 gets every moving joint, the 12 mimic joints set explicitly from their sources).
 
-Run: ``.venv/bin/python benchmarks/fk.py [--robot yumi] [--runs 50] [--threads N]``
+Run: ``.venv/bin/python benchmarks/fk.py [--robot yumi] [--runs 50] [--threads N] [--no-write]``;
+writes the section ``fk:ROBOT`` of docs/RESULTS.md.
 """
 
 from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import time
+from pathlib import Path
 
 import torch
 
 from nlo_lab.robots import load_robot
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import results_doc  # noqa: E402
 
 
 def median_ms(fn, runs: int) -> float:
@@ -34,29 +40,25 @@ def main() -> None:
     parser.add_argument("--robot", default="yumi")
     parser.add_argument("--runs", type=int, default=50)
     parser.add_argument("--threads", type=int, default=None, help="torch.set_num_threads (default: torch's choice)")
+    parser.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
     args = parser.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
-    import pytorch_kinematics as pk
+    from nlo_lab.pk_chain import PKChain
 
     robot = load_robot(args.robot)
-    chain = pk.build_chain_from_urdf(robot.spec.urdf.read_bytes())
-    chain = chain.to(dtype=torch.float32)
-    pk_names = chain.get_joint_parameter_names()
-    # map our actuated angles to pk's full joint vector (mimic joints expanded the URDF's way)
+    pk_ref = PKChain(robot, dtype=torch.float32)  # the same URDF as a pytorch-kinematics chain, mimic joints expanded
     tree = robot.tree
-    moving = {n: k for k, n in enumerate(tree.moving_names)}
-    order = torch.tensor([moving[n] for n in pk_names])
 
     def pk_fk(q):
-        full = tree.joint_angles(q).index_select(-1, order)  # (B, n_pk)
-        return chain.forward_kinematics(full)
+        return pk_ref.chain.forward_kinematics(pk_ref.angles(q))
 
     print(f"FK of {robot.name}: {robot.n_joints} actuated, {len(tree.moving_names)} moving joints, {len(robot.link_names)} links; "
           f"torch {torch.__version__}, {torch.get_num_threads()} threads, float32, CPU, median of {args.runs} runs")  # fmt: skip
     header = f"{'batch':>5} | {'ours fwd ms':>11} | {'pk fwd ms':>9} | {'ratio':>5} | {'ours f+b ms':>11} | {'pk f+b ms':>9} | {'ratio':>5}"
     print(header)
     print("-" * len(header))
+    rows = []
     g = torch.Generator().manual_seed(0)
     for batch in (1, 32, 256):
         q0 = robot.lower_limits + torch.rand(batch, robot.n_joints, generator=g) * (robot.upper_limits - robot.lower_limits)
@@ -87,7 +89,23 @@ def main() -> None:
         a, b = median_ms(ours_fwd, args.runs), median_ms(pk_fwd, args.runs)
         c, d = median_ms(ours_fb, args.runs), median_ms(pk_fb, args.runs)
         print(f"{batch:>5} | {a:>11.3f} | {b:>9.3f} | {b / a:>5.1f} | {c:>11.3f} | {d:>9.3f} | {d / c:>5.1f}")
+        rows.append(f"| {batch} | {a:.3f} | {b:.3f} | {b / a:.1f} | {c:.3f} | {d:.3f} | {d / c:.1f} |")
     print("ratio = pytorch-kinematics time / ours (> 1: ours is faster)")
+    if not args.no_write:
+        text = "\n".join([
+            f"## Forward kinematics on {robot.name} against pytorch-kinematics", "", results_doc.stamp(),
+            f"{robot.n_joints} actuated angles, {len(tree.moving_names)} moving joints, {len(robot.link_names)} links; float32, "
+            f"median of {args.runs} runs. pytorch-kinematics gets the mimic joints expanded by `nlo_lab.pk_chain.PKChain`; "
+            "both give the same poses on every link (asserted here; the tests check every robot to 1e-6 m, gradients included).",
+            "", "| batch | ours fwd ms | pk fwd ms | ratio | ours fwd+bwd ms | pk fwd+bwd ms | ratio |", "|---:|---:|---:|---:|---:|---:|---:|",
+            *rows, "",
+            "Why ours is faster: pytorch-kinematics composes the tree in a Python loop over the links (a few 4×4 products, "
+            "index look-ups and a `Transform3d` per link, on every call); ours folds the constant offsets in once at load "
+            "time, forms every joint's local transform with one matrix product (Rodrigues' formula is linear in sin θ and "
+            "cos θ) and composes the chain by pointer jumping in ⌈log₂(depth + 1)⌉ batched products. At batch 1 "
+            "per-operation overhead is nearly all the time; as the batch grows the arithmetic dominates and the ratio shrinks.",
+        ])  # fmt: skip
+        print(f"wrote {results_doc.update_section(f'fk:{robot.name}', text)}")
 
 
 if __name__ == "__main__":
