@@ -14,6 +14,7 @@ uses the same): the notebook's live viewer, or the static page where none can ru
 from __future__ import annotations
 
 import io
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -32,7 +33,7 @@ def jpeg_bytes(image: np.ndarray, quality: int = 80) -> bytes:
     return buffer.getvalue()
 
 
-def save_upload(upload, folder) -> "Path | None":
+def save_upload(upload, folder) -> Path | None:
     """Write the file a learner chose in an ``ipywidgets.FileUpload`` into ``folder``.
 
     Args:
@@ -47,8 +48,6 @@ def save_upload(upload, folder) -> "Path | None":
     Raises:
         NloLabError: the upload's name has no video extension.
     """
-    from pathlib import Path
-
     from nlo_lab._atomic import atomic_write_bytes
     from nlo_lab.human.io_video import VIDEO_SUFFIXES
 
