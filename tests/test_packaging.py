@@ -211,3 +211,63 @@ def test_a_users_own_robot_gets_no_repair_hint(tmp_path):
     with pytest.raises(RobotDescriptionError) as info:
         load_robot(spec)
     assert "reinstall" not in str(info.value) and "git checkout" not in str(info.value)
+
+
+# ----------------------------------------------------------------------------- dependencies
+def _imported_modules() -> dict[str, str]:
+    """Top-level third-party modules the package imports -> one file that imports each."""
+    import ast
+    import sys
+
+    found: dict[str, str] = {}
+    for path in sorted((ROOT / "nlo_lab").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            else:
+                continue
+            for name in names:
+                top = name.split(".")[0]
+                if top not in sys.stdlib_module_names and top != "nlo_lab":
+                    found.setdefault(top, str(path.relative_to(ROOT)))
+    return found
+
+
+def _canonical(name: str) -> str:
+    import re
+
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
+def test_every_import_is_declared():
+    tomllib = pytest.importorskip("tomllib")
+    import importlib.metadata
+    import re
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    requirements = project["dependencies"] + [r for extra in project["optional-dependencies"].values() for r in extra]
+    declared = {_canonical(re.match(r"[A-Za-z0-9_.-]+", r).group(0)) for r in requirements}
+    # where the import name is not the distribution's (and the distribution may not be installed here)
+    known = {"cv2": "opencv-contrib-python", "PIL": "pillow", "zmq": "pyzmq", "umsgpack": "u-msgpack-python", "IPython": "ipython"}
+    installed = importlib.metadata.packages_distributions()
+    missing = []
+    for module, where in _imported_modules().items():
+        candidates = [known[module]] if module in known else installed.get(module, [module])
+        if not any(_canonical(c) in declared for c in candidates):
+            missing.append(f"{module} (imported by {where})")
+    assert not missing, f"imported but not declared in pyproject.toml: {missing}"
+
+
+def test_no_declared_runtime_dependency_is_unused():
+    tomllib = pytest.importorskip("tomllib")
+    import re
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    runtime = {_canonical(re.match(r"[A-Za-z0-9_.-]+", r).group(0)) for r in project["dependencies"]}
+    module_of = {"pytorch-kinematics": "pytorch_kinematics", "u-msgpack-python": "umsgpack", "pyzmq": "zmq",
+                 "ipython": "IPython", "pillow": "PIL", "pose-format": "pose_format"}  # fmt: skip
+    imported = set(_imported_modules())
+    unused = sorted(d for d in runtime if module_of.get(d, d.replace("-", "_")) not in imported)
+    assert not unused, f"declared runtime dependencies that nlo_lab never imports: {unused}"

@@ -1,0 +1,139 @@
+"""Speed of video -> MediaPipe Holistic -> robot on the sample video (prints a table).
+
+    python benchmarks/video.py [--robot yumi] [--repeats 3] [--workers 1,2] [--no-cli] [--no-write]
+
+1. Pose estimation (``nlo_lab.human.io_video.estimate_pose``: decoding, Holistic
+   with the bundled model, pose-format's container) for each number of workers:
+   frames per second, and the CPU time over the wall time (the cores the estimation
+   actually kept busy; it must never exceed the workers asked for).
+2. Retargeting the sample's demonstration (``nlo_lab.retarget.retarget``, 100 iterations).
+3. End to end per second of video: pose estimation (1 worker) + retargeting, over the
+   video's duration; and the whole command ``nlo-lab retarget VIDEO --json`` as a user
+   runs it (interpreter start and imports included).
+
+Medians of ``--repeats`` runs; rewrites the ``video`` section of docs/RESULTS.md
+unless ``--no-write``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+import warnings
+
+from results_doc import ROOT, stamp, update_section
+
+from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration, video_info
+from nlo_lab.optimize import OptimizeSettings
+from nlo_lab.retarget import retarget
+from nlo_lab.robots import load_robot
+from nlo_lab.train import load_pretrained
+
+SAMPLE = ROOT / "assets" / "recordings" / "signer_webcam_58f.mp4"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--robot", default="yumi")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--workers", default="1,2", help="comma-separated numbers of Holistic instances")
+    ap.add_argument("--no-cli", action="store_true", help="skip timing the command line")
+    ap.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
+    args = ap.parse_args()
+    info = video_info(SAMPLE)
+    duration = info["frames"] / info["fps"]
+    cores = len(os.sched_getaffinity(0))
+    load = os.getloadavg()[0]  # the machine may be shared: say how busy it was
+    print(f"{SAMPLE.name}: {info['frames']} frames, {info['width']}x{info['height']}, {info['fps']:.2f} fps, "
+          f"{duration:.2f} s of video; {cores} cores available, load average {load:.1f}")
+
+    t0 = time.perf_counter()
+    import pose_format.utils.holistic  # noqa: F401  (mediapipe's import, paid once per process)
+    import_seconds = time.perf_counter() - t0
+    print(f"importing mediapipe through pose-format: {import_seconds:.2f} s (once per process)")
+
+    rows, video = [], None
+    for workers in [int(w) for w in args.workers.split(",")]:
+        walls, ratios = [], []
+        for _ in range(args.repeats):
+            c0 = time.process_time()
+            video = estimate_pose(SAMPLE, threads=workers)
+            walls.append(video.seconds)
+            ratios.append((time.process_time() - c0) / video.seconds)
+        wall = statistics.median(walls)
+        rows.append((workers, video.workers, wall, info["frames"] / wall, statistics.median(ratios)))
+        print(f"pose estimation, {workers} worker(s) asked, {video.workers} used: {wall:.2f} s median of {args.repeats}, "
+              f"{info['frames'] / wall:.1f} frames/s, CPU time / wall {statistics.median(ratios):.2f}")
+
+    video = estimate_pose(SAMPLE, threads=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the sample's left hand is never seen: known
+        demo = pose_to_demonstration(video)
+    robot = load_robot(args.robot)
+    model = load_pretrained(robot)
+    settings = OptimizeSettings(iterations=100)
+    retarget(demo, robot, settings=settings, model=model)  # warm-up
+    runs = [retarget(demo, robot, settings=settings, model=model) for _ in range(args.repeats)]
+    retarget_s = statistics.median(r.seconds for r in runs)
+    s = runs[-1].summary
+    print(f"retarget to {robot.name} (100 iterations): {retarget_s:.3f} s median of {args.repeats}; "
+          f"Fréchet {s['frechet_m']:.4f} m, limit violations {s['limit_violations']}, collision frames {s['self_collision_frames']}")
+
+    pose_1 = rows[0][2] if rows and rows[0][0] == 1 else video.seconds
+    per_second = (pose_1 + retarget_s) / duration
+    print(f"end to end (library, 1 worker): {pose_1 + retarget_s:.2f} s for {duration:.2f} s of video = "
+          f"{per_second:.2f} s per second of video")
+
+    cli = None
+    if not args.no_cli:
+        cmd = [sys.executable, "-m", "nlo_lab.cli", "retarget", str(SAMPLE), "--robot", robot.name, "--json", "--threads", "1"]
+        walls, pose_in_cli = [], []
+        for _ in range(args.repeats):
+            t0 = time.perf_counter()
+            out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+            walls.append(time.perf_counter() - t0)
+            pose_in_cli.append(json.loads(out)["pose_seconds"])
+        cli = statistics.median(walls)
+        print(f"command line `nlo-lab retarget {SAMPLE.name} --robot {robot.name} --json --threads 1`: {cli:.2f} s median of "
+              f"{args.repeats} ({cli / duration:.2f} s per second of video; pose_seconds {statistics.median(pose_in_cli):.2f})")
+
+    if args.no_write:
+        return
+    lines = [
+        "## Video to robot",
+        "",
+        stamp(),
+        f"- video: `assets/recordings/{SAMPLE.name}` ({info['frames']} frames, {info['width']}x{info['height']}, "
+        f"{info['fps']:.2f} fps, {duration:.2f} s); MediaPipe Holistic 0.10.21 through pose-format, model complexity 1",
+        f"- importing mediapipe: {import_seconds:.2f} s, once per process (not in the figures below)",
+        f"- load average (1 min) at the start: {load:.1f} on {cores} cores (other work shares this machine)",
+        "",
+        f"### Pose estimation (median of {args.repeats})",
+        "",
+        "| workers asked | workers used | seconds | frames/s | CPU time / wall |",
+        "|---|---|---|---|---|",
+        *[f"| {a} | {u} | {w:.2f} | {f:.1f} | {r:.2f} |" for a, u, w, f, r in rows],
+        "",
+        "CPU time / wall is the number of cores the estimation kept busy on average (decoding included).",
+        "",
+        "### Retargeting and end to end",
+        "",
+        f"- retarget to {robot.name}, 100 iterations: {retarget_s:.3f} s (median of {args.repeats}); "
+        f"Fréchet {s['frechet_m']:.4f} m, {s['limit_violations']} limit violations, {s['self_collision_frames']} collision frames",
+        f"- library, pose estimation (1 worker) + retargeting: {pose_1 + retarget_s:.2f} s, "
+        f"**{per_second:.2f} s per second of video**",
+    ]
+    if cli is not None:
+        lines.append(f"- the command `nlo-lab retarget {SAMPLE.name} --robot {robot.name} --json --threads 1` "
+                     f"(start, imports, estimation, retargeting): {cli:.2f} s, {cli / duration:.2f} s per second of video")
+    update_section("video", "\n".join(lines))
+    print("updated docs/RESULTS.md (section video)")
+
+
+if __name__ == "__main__":
+    main()

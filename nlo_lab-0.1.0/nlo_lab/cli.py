@@ -1,0 +1,284 @@
+"""The ``nlo-lab`` command (DESIGN.md, "Command line": a contract).
+
+Bad input ends with exit status 2 and one line on stderr that names what is
+wrong and where; never a traceback, never a partial output left behind.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+from nlo_lab.errors import NloLabError
+
+__all__ = ["main", "build_parser"]
+
+ROBOTS = ("yumi", "nao", "pepper")
+INITS = ("encoder", "random", "train-stats", "zeros")
+DEMO_CLIP = "demo:introduction_06"  # "HELLO, NAME, STUDENT" (133 frames at 20 fps)
+
+
+class UsageError(NloLabError):
+    """A bad flag or argument on the command line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    # argparse prints usage plus a message and exits; we want one line and status 2.
+    def error(self, message: str):  # type: ignore[override]
+        raise UsageError(f"{self.prog}: {message}")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``nlo-lab`` (exposed for the docs and the tests)."""
+    parser = _Parser(prog="nlo-lab", description="Kinematic motion retargeting by neural latent optimisation.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    p = sub.add_parser("retarget", help="retarget a recording (.pose, .h5, .npz, a video or demo:NAME) to a robot")
+    p.add_argument("input", metavar="INPUT",
+                   help="a .pose/.h5/.npz file, a video (.mp4/.mov/.webm/.avi), or demo:NAME for a clip of the embedded corpus")
+    p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
+    p.add_argument("--init", default="encoder", choices=INITS, help="initialisation of the latent code (default: encoder)")
+    p.add_argument("--iters", type=_positive_int, default=100, help="latent optimisation budget (default: 100)")
+    p.add_argument("--weights", default=None, help="loss weights, e.g. ee=1000,ori=100,elbow=100,finger=100,collision=1000")
+    p.add_argument("--out", default=None, help="folder for trajectory.npz, trajectory.csv and viewer.html")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random initialisation")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal)")
+    p.add_argument("--save-pose", metavar="FILE", default=None,
+                   help="video input: also keep MediaPipe Holistic's landmarks as this .pose file")
+    p.add_argument("--threads", type=_positive_int, default=None,
+                   help="video input: cores for the pose estimation, at most (default: NLO_LAB_THREADS, else 1)")
+
+    p = sub.add_parser("train", help="train the encoder and decoder of a robot on the synthetic corpus")
+    p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
+    p.add_argument("--epochs", type=_positive_int, default=None, help="passes over the training frames")
+    p.add_argument("--out", default=None, help="checkpoint path (default: assets/checkpoints/NAME.pt in a checkout, ./NAME.pt in an installed package)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    p = sub.add_parser("evaluate", help="compare the method with the baselines on a corpus split")
+    p.add_argument("--robot", required=True)
+    p.add_argument("--split", default="test", choices=("train", "test"))
+    p.add_argument("--json", action="store_true", help="print the results as one JSON object on the last line")
+    p.add_argument("--limit", type=_positive_int, default=None, help="evaluate only the first N sequences")
+
+    sub.add_parser("demo", help="retarget a clip of the embedded test split to YuMi and print the summary")
+
+    p = sub.add_parser("lab", help="copy the notebooks to a folder of yours and open JupyterLab there")
+    p.add_argument("--port", type=int, default=8888)
+    p.add_argument("--dir", default=None, help="your notebook folder (default: $NLO_LAB_NOTEBOOKS or ~/nlo_lab_notebooks)")
+    p.add_argument("--copy-only", action="store_true", help="copy the notebooks and print the folder; do not start JupyterLab")
+    return parser
+
+
+# ----------------------------------------------------------------------------- commands
+def _load_input(text: str):
+    from nlo_lab.human import corpus_clip, load_demonstration
+
+    if text.startswith("demo:"):
+        return corpus_clip(text[len("demo:"):])
+    return load_demonstration(text)
+
+
+def _is_video(text: str) -> bool:
+    from nlo_lab.human.io_video import VIDEO_SUFFIXES
+
+    return not text.startswith("demo:") and Path(text).suffix.lower() in VIDEO_SUFFIXES
+
+
+def _check_save_pose(args) -> Path | None:
+    """``--save-pose`` is checked before the (slow) pose estimation, written after everything else."""
+    if args.save_pose is None:
+        return None
+    if not _is_video(args.input):
+        raise UsageError("nlo-lab retarget: --save-pose needs a video INPUT (.mp4, .mov, .webm or .avi)")
+    path = Path(args.save_pose)
+    if path.suffix.lower() != ".pose":
+        raise UsageError(f"nlo-lab retarget: --save-pose FILE must end in .pose, got {args.save_pose!r}")
+    if path.is_dir():
+        raise UsageError(f"nlo-lab retarget: --save-pose {args.save_pose!r} is a folder")
+    if not path.resolve().parent.is_dir():
+        raise UsageError(f"nlo-lab retarget: --save-pose: the folder {str(path.parent)!r} does not exist")
+    return path
+
+
+def _load_video(args, progress: bool):
+    """A video's demonstration and its landmarks; warnings become one ``nlo-lab: warning:`` line each."""
+    import warnings
+
+    from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration
+
+    video = estimate_pose(args.input, threads=args.threads, progress=progress)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        demo = pose_to_demonstration(video)
+    for w in caught:
+        print(f"nlo-lab: warning: {w.message}", file=sys.stderr)
+    return demo, video
+
+
+def _write_outputs(out_dir: Path, result, demo, robot) -> None:
+    """Write all three files to a temporary folder, then move them in place."""
+    from nlo_lab.viz import export_html
+
+    out_dir = out_dir.resolve()
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+    try:
+        result.trajectory.save_npz(tmp / "trajectory.npz")
+        result.trajectory.save_csv(tmp / "trajectory.csv")
+        export_html(tmp / "viewer.html", robot, result.trajectory.angles, demo=demo, fps=demo.fps)
+        out_dir.mkdir(exist_ok=True)
+        for name in ("trajectory.npz", "trajectory.csv", "viewer.html"):
+            os.replace(tmp / name, out_dir / name)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _print_summary(summary: dict) -> None:
+    width = max(len(k) for k in summary)
+    for key, value in summary.items():
+        if isinstance(value, float):
+            value = f"{value:.4f}"
+        print(f"  {key:<{width}}  {value}")
+
+
+def cmd_retarget(args) -> int:
+    from nlo_lab.losses import LossWeights
+    from nlo_lab.optimize import OptimizeSettings
+    from nlo_lab.retarget import retarget
+    from nlo_lab.robots import load_robot
+
+    weights = LossWeights.from_string(args.weights) if args.weights else LossWeights()
+    settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed)
+    robot = load_robot(args.robot)
+    save_pose = _check_save_pose(args)
+    progress = not args.quiet and sys.stderr.isatty()
+    video = None
+    if _is_video(args.input):
+        demo, video = _load_video(args, progress)
+    else:
+        demo = _load_input(args.input)
+    result = retarget(demo, robot, settings=settings, weights=weights, progress=progress)
+    if video is not None:
+        result.summary["pose_seconds"] = round(video.seconds, 4)
+    if args.out:
+        _write_outputs(Path(args.out), result, demo, robot)
+    if save_pose is not None:
+        from nlo_lab._atomic import atomic_write_bytes
+
+        atomic_write_bytes(save_pose, video.to_bytes())
+    if args.json:
+        print(json.dumps(result.summary))
+    else:
+        print(f"retargeted {demo.name or args.input} ({len(demo)} frames) to {robot.name}:")
+        _print_summary(result.summary)
+        if args.out:
+            print(f"wrote {args.out}/trajectory.npz, trajectory.csv, viewer.html")
+        if save_pose is not None:
+            print(f"wrote {save_pose}")
+    return 0
+
+
+def cmd_train(args) -> int:
+    from nlo_lab.train import main as train_main
+
+    argv = ["--robot", args.robot, "--seed", str(args.seed)]
+    if args.epochs is not None:
+        argv += ["--epochs", str(args.epochs)]
+    if args.out:
+        argv += ["--out", args.out]
+    if args.quiet:
+        argv += ["--quiet"]
+    return int(train_main(argv) or 0)
+
+
+def cmd_evaluate(args) -> int:
+    from nlo_lab.evaluate import main as evaluate_main
+
+    argv = ["--robot", args.robot, "--split", args.split]
+    if args.json:
+        argv.append("--json")
+    if args.limit is not None:
+        argv += ["--limit", str(args.limit)]
+    return int(evaluate_main(argv) or 0)
+
+
+def cmd_demo(args) -> int:
+    from nlo_lab.robots import load_robot
+
+    for name in ROBOTS:
+        robot = load_robot(name)
+        print(f"\n{name}: {robot.n_joints} actuated joints")
+        print(f"  {'joint':<40} {'lower':>9} {'upper':>9}")
+        for joint, lo, hi in zip(robot.joint_names, robot.lower_limits.tolist(), robot.upper_limits.tolist()):
+            print(f"  {joint:<40} {lo:>9.4f} {hi:>9.4f}")
+    out = Path("out/demo")
+    print(f"\nretargeting {DEMO_CLIP} to yumi ...")
+    ns = build_parser().parse_args(["retarget", DEMO_CLIP, "--robot", "yumi", "--out", str(out)])
+    return cmd_retarget(ns)
+
+
+def cmd_lab(args) -> int:
+    from nlo_lab.lab import copy_notebooks, lab_command
+    from nlo_lab.paths import user_notebooks_dir
+
+    folder = Path(args.dir).expanduser() if args.dir else user_notebooks_dir()
+    copied, kept = copy_notebooks(folder)
+    note = f" (kept your {len(kept)} existing files)" if kept else ""
+    print(f"notebooks: {folder}: copied {len(copied)} files{note}", file=sys.stderr)
+    if args.copy_only:
+        print(folder)
+        return 0
+    command = lab_command(folder, args.port)
+    os.execv(sys.executable, command)
+    return 0  # not reached
+
+
+COMMANDS = {
+    "retarget": cmd_retarget,
+    "train": cmd_train,
+    "evaluate": cmd_evaluate,
+    "demo": cmd_demo,
+    "lab": cmd_lab,
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``nlo-lab``; returns the exit status (0 ok, 2 bad input)."""
+    try:
+        args = build_parser().parse_args(argv)
+        import torch
+
+        from nlo_lab.threads import default_threads
+
+        torch.set_num_threads(default_threads())  # see nlo_lab.threads: one thread unless NLO_LAB_THREADS says otherwise
+        return COMMANDS[args.command](args)
+    except NloLabError as exc:
+        print(f"nlo-lab: error: {exc}", file=sys.stderr)
+        return 2
+    except FileNotFoundError as exc:
+        print(f"nlo-lab: error: file not found: {exc.filename}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("nlo-lab: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,201 @@
+"""The data model of one human demonstration.
+
+Frame: the body frame, origin at the centre of the two shoulders, X forward,
+Y to the demonstrator's left, Z up. Units: metres, radians.
+
+Missing or low-confidence points are explicit: each array has a boolean mask,
+and a masked-out value is stored as NaN so that code which forgets the mask
+fails loudly instead of silently retargeting to a zero.
+
+Wrist frame convention (both hands): the columns of ``R_body_wrist`` are
+x = from the wrist towards the middle-finger base (along the hand),
+y = from the little-finger base towards the index base, made orthogonal to x,
+z = x cross y. (For the right hand z is the back of the hand, for the left hand
+the palm: the frame is a proper rotation on both sides.)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from nlo_lab.errors import DemonstrationError
+
+__all__ = ["Demonstration", "SIDES", "ARM_JOINTS", "FINGERS", "FINGER_POINTS"]
+
+SIDES = ("left", "right")
+ARM_JOINTS = ("shoulder", "elbow", "wrist")
+FINGERS = ("thumb", "index", "middle", "ring", "pinky")
+FINGER_POINTS = ("base", "tip")  # base = metacarpophalangeal joint, tip = fingertip
+
+
+def _side_index(side: str) -> int:
+    if side not in SIDES:
+        raise DemonstrationError(f"unknown side {side!r}; expected one of {SIDES}")
+    return SIDES.index(side)
+
+
+@dataclass
+class Demonstration:
+    """One recording of a demonstrator's two arms and hands.
+
+    Attributes:
+        fps: frames per second (> 0).
+        arm_positions: ``(T, 2, 3, 3)`` [m]: side (left, right) x joint
+            (shoulder, elbow, wrist) x xyz, in the body frame.
+        arm_mask: ``(T, 2, 3)`` bool, True where the point was observed.
+        wrist_rotations: ``(T, 2, 3, 3)`` rotation matrices ``R_body_wrist``.
+        wrist_mask: ``(T, 2)`` bool.
+        finger_positions: ``(T, 2, 5, 2, 3)`` [m]: side x finger (thumb..pinky)
+            x (base, tip) x xyz.
+        finger_mask: ``(T, 2, 5)`` bool, True where both base and tip are valid.
+        name: a label (sequence or file name).
+        meta: free-form provenance (source file, scenario, signer, ...).
+    """
+
+    fps: float
+    arm_positions: np.ndarray
+    arm_mask: np.ndarray
+    wrist_rotations: np.ndarray
+    wrist_mask: np.ndarray
+    finger_positions: np.ndarray
+    finger_mask: np.ndarray
+    name: str = ""
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    @classmethod
+    def from_arrays(
+        cls,
+        fps: float,
+        arm_positions: np.ndarray,
+        arm_mask: np.ndarray,
+        wrist_rotations: np.ndarray,
+        wrist_mask: np.ndarray,
+        finger_positions: np.ndarray,
+        finger_mask: np.ndarray,
+        name: str = "",
+        meta: dict[str, Any] | None = None,
+        path=None,
+    ) -> "Demonstration":
+        """Build and validate a demonstration; a validation error names ``path`` (the source file).
+
+        Readers use this instead of the constructor so that an invalid field is
+        reported together with the file it came from.
+        """
+        demo = object.__new__(cls)
+        demo.fps = fps
+        demo.arm_positions = arm_positions
+        demo.arm_mask = arm_mask
+        demo.wrist_rotations = wrist_rotations
+        demo.wrist_mask = wrist_mask
+        demo.finger_positions = finger_positions
+        demo.finger_mask = finger_mask
+        demo.name = name
+        demo.meta = {} if meta is None else dict(meta)
+        demo.validate(path=path)
+        return demo
+
+    # ------------------------------------------------------------------ checks
+    def validate(self, path=None) -> None:
+        """Check shapes, fps and finiteness; raise :class:`DemonstrationError` naming the field."""
+        try:
+            fps = float(self.fps)
+        except (TypeError, ValueError):
+            raise DemonstrationError(f"fps must be a number, got {self.fps!r}", path=path, field="fps") from None
+        if not np.isfinite(fps) or fps <= 0:
+            raise DemonstrationError(f"fps must be > 0, got {self.fps!r}", path=path, field="fps")
+        self.fps = fps
+        self.arm_positions = np.asarray(self.arm_positions, dtype=np.float64)
+        if self.arm_positions.ndim != 4 or self.arm_positions.shape[1:] != (2, 3, 3):
+            raise DemonstrationError(
+                f"arm_positions must be (T, 2, 3, 3), got {self.arm_positions.shape}", path=path, field="arm_positions"
+            )
+        T = self.arm_positions.shape[0]
+        if T == 0:
+            raise DemonstrationError("the demonstration has no frames", path=path, field="arm_positions")
+        expected = {
+            "arm_mask": (T, 2, 3),
+            "wrist_rotations": (T, 2, 3, 3),
+            "wrist_mask": (T, 2),
+            "finger_positions": (T, 2, 5, 2, 3),
+            "finger_mask": (T, 2, 5),
+        }
+        for name, shape in expected.items():
+            value = np.asarray(getattr(self, name), dtype=bool if name.endswith("mask") else np.float64)
+            if value.shape != shape:
+                raise DemonstrationError(f"{name} must be {shape}, got {value.shape}", path=path, field=name)
+            setattr(self, name, value)
+        checks = (
+            ("arm_positions", self.arm_positions, self.arm_mask[..., None]),
+            ("wrist_rotations", self.wrist_rotations, self.wrist_mask[..., None, None]),
+            ("finger_positions", self.finger_positions, self.finger_mask[..., None, None]),
+        )
+        for name, value, mask in checks:
+            bad = ~np.isfinite(value) & np.broadcast_to(mask, value.shape)
+            if bad.any():
+                frame = int(np.argwhere(bad)[0][0])
+                raise DemonstrationError(f"{name} holds NaN or inf where the mask says valid", path=path, frame=frame, field=name)
+            # Masked-out entries are NaN by convention (never silent zeros).
+            value[~np.broadcast_to(mask, value.shape)] = np.nan
+
+    # ------------------------------------------------------------------ access
+    def __len__(self) -> int:
+        return int(self.arm_positions.shape[0])
+
+    @property
+    def duration(self) -> float:
+        """Length in seconds."""
+        return len(self) / self.fps
+
+    def position(self, side: str, joint: str) -> np.ndarray:
+        """``(T, 3)`` positions [m] of ``joint`` (shoulder/elbow/wrist) of arm ``side``."""
+        if joint not in ARM_JOINTS:
+            raise DemonstrationError(f"unknown arm joint {joint!r}; expected one of {ARM_JOINTS}")
+        return self.arm_positions[:, _side_index(side), ARM_JOINTS.index(joint)]
+
+    def position_mask(self, side: str, joint: str) -> np.ndarray:
+        """``(T,)`` validity of :meth:`position`."""
+        if joint not in ARM_JOINTS:
+            raise DemonstrationError(f"unknown arm joint {joint!r}; expected one of {ARM_JOINTS}")
+        return self.arm_mask[:, _side_index(side), ARM_JOINTS.index(joint)]
+
+    def wrist_rotation(self, side: str) -> np.ndarray:
+        """``(T, 3, 3)`` wrist orientations ``R_body_wrist``."""
+        return self.wrist_rotations[:, _side_index(side)]
+
+    def fingers(self, side: str) -> np.ndarray:
+        """``(T, 5, 2, 3)`` finger base and tip positions [m], thumb..pinky."""
+        return self.finger_positions[:, _side_index(side)]
+
+    def arm_lengths(self, side: str) -> tuple[float, float]:
+        """Median upper-arm and forearm lengths [m] over the valid frames."""
+        s = _side_index(side)
+        p, m = self.arm_positions[:, s], self.arm_mask[:, s]
+        upper = np.linalg.norm(p[:, 1] - p[:, 0], axis=-1)[m[:, 0] & m[:, 1]]
+        fore = np.linalg.norm(p[:, 2] - p[:, 1], axis=-1)[m[:, 1] & m[:, 2]]
+        if upper.size == 0 or fore.size == 0:
+            raise DemonstrationError(f"the {side} arm is never fully observed", field=f"{side}/arm")
+        return float(np.median(upper)), float(np.median(fore))
+
+    def slice(self, start: int, stop: int) -> "Demonstration":
+        """Frames ``start:stop`` as a new demonstration."""
+        sl = slice(start, stop)
+        return Demonstration(
+            self.fps,
+            self.arm_positions[sl].copy(),
+            self.arm_mask[sl].copy(),
+            self.wrist_rotations[sl].copy(),
+            self.wrist_mask[sl].copy(),
+            self.finger_positions[sl].copy(),
+            self.finger_mask[sl].copy(),
+            name=self.name,
+            meta=dict(self.meta),
+        )
+
+    def __repr__(self) -> str:
+        return f"Demonstration(name={self.name!r}, frames={len(self)}, fps={self.fps:g})"

@@ -1,0 +1,630 @@
+"""Batched, differentiable forward kinematics of a URDF tree.
+
+The URDF is parsed once (:func:`parse_urdf`: yourdfpy reads the file, we
+check the tree, and every problem becomes a
+:class:`~nlo_lab.errors.RobotDescriptionError` naming the file). :class:`KinematicTree` then precomputes, per moving joint, the
+index of its nearest moving ancestor, the fixed transform from that ancestor's
+frame to the joint (fixed joints are folded in), its axis and its mimic rule.
+One forward pass (:meth:`KinematicTree.body_poses`) is
+
+1. the angles of every moving joint (mimic: ``m * q_src + c``) as one matmul,
+2. every local transform ``T_parentbody_body = pre @ Rodrigues(axis, theta)``
+   from one matmul on ``[sin theta | cos theta]`` (Rodrigues is linear in sin
+   and cos, so the constants ``pre``, ``pre K``, ``pre K^2`` are folded in),
+3. chaining: at small batch by pointer jumping (``ceil(log2(depth + 1))``
+   batched matmuls over all bodies: per-op overhead dominates there), at large
+   batch level by level (each body composed once: matrix count dominates),
+4. links = (their body's world frame) @ (a constant), one batched matmul.
+
+The objective does not need every link: :meth:`KinematicTree.map_points` maps
+constant points and directions given in link frames to the world with one
+gather and one matmul after step 3.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import torch
+from torch.autograd.function import once_differentiable
+
+from nlo_lab.errors import RobotDescriptionError
+from nlo_lab.rotations import matrix_to_rpy, rpy_to_matrix  # re-exported: their old home
+
+__all__ = [
+    "JointInfo",
+    "URDFModel",
+    "load_urdf",
+    "parse_urdf",
+    "rpy_to_matrix",
+    "matrix_to_rpy",
+    "KinematicTree",
+]
+
+MOVING_TYPES = ("revolute", "continuous")
+SUPPORTED_TYPES = MOVING_TYPES + ("fixed",)
+# batch x levels above which FK goes level by level instead of by pointer jumping (measured)
+_JUMP_MAX_WORK = 128
+
+
+# --------------------------------------------------------------------------- URDF model
+@dataclass(frozen=True)
+class JointInfo:
+    """One URDF joint.
+
+    Attributes:
+        name: joint name.
+        type: ``"revolute"``, ``"continuous"`` or ``"fixed"``.
+        parent: parent link name.
+        child: child link name.
+        origin: ``(4, 4)`` float64 ``T_parent_joint`` (the ``<origin>``).
+        axis: ``(3,)`` unit axis in the joint frame.
+        lower: lower limit [rad] (``-pi`` for continuous joints without a limit).
+        upper: upper limit [rad].
+        mimic: ``(source_joint, multiplier, offset)`` or ``None``.
+    """
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    origin: np.ndarray
+    axis: np.ndarray
+    lower: float
+    upper: float
+    mimic: tuple[str, float, float] | None = None
+
+    @property
+    def moving(self) -> bool:
+        return self.type in MOVING_TYPES
+
+    @property
+    def origin_xyz_rpy(self) -> np.ndarray:
+        """``(6,)`` the origin as xyz [m] + rpy [rad]."""
+        return np.concatenate([self.origin[:3, 3], matrix_to_rpy(self.origin[:3, :3])])
+
+
+@dataclass(frozen=True)
+class URDFModel:
+    """A parsed URDF: links and joints, joints in depth-first order from the root.
+
+    Attributes:
+        name: the robot's name attribute.
+        path: the file it came from.
+        root: the root link.
+        links: link names, parents before children.
+        joints: joints, parents before children.
+        urdf: the ``yourdfpy.URDF`` it was built from (visuals, materials).
+    """
+
+    name: str
+    path: Path
+    root: str
+    links: tuple[str, ...]
+    joints: tuple[JointInfo, ...]
+    urdf: Any = field(default=None, compare=False, repr=False)
+
+    def joint(self, name: str) -> JointInfo:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise RobotDescriptionError(f"{self.path}: no joint named {name!r}")
+
+    def parent_joint(self, link: str) -> JointInfo | None:
+        """The joint whose child is ``link`` (``None`` for the root)."""
+        for j in self.joints:
+            if j.child == link:
+                return j
+        return None
+
+
+class _LogRecorder(logging.Handler):
+    """Collects what yourdfpy logs while it reads one file (it logs, not raises, on bad XML)."""
+
+    def __init__(self) -> None:
+        super().__init__(level=logging.ERROR)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(record.getMessage())
+
+
+def load_urdf(path: str | Path):
+    """Read a URDF file with yourdfpy (no meshes, no scene graph): the one parse of a file.
+
+    Args:
+        path: the ``.urdf`` file.
+
+    Returns:
+        The ``yourdfpy.URDF``; :func:`parse_urdf` builds the kinematic model from
+        it and the viewer its visuals (``Robot.urdf``).
+
+    Raises:
+        RobotDescriptionError: a missing file or malformed XML, naming the file.
+    """
+    import yourdfpy  # imported here: the FK never needs it once the tree is built
+
+    path = Path(path)
+    if not path.is_file():
+        raise RobotDescriptionError(f"URDF file not found: {path}")
+    logger = logging.getLogger("yourdfpy")
+    recorder = _LogRecorder()
+    logger.addHandler(recorder)
+    propagate, logger.propagate = logger.propagate, False  # its complaints become our one error
+    try:
+        urdf = yourdfpy.URDF.load(
+            str(path), build_scene_graph=False, build_collision_scene_graph=False, load_meshes=False, load_collision_meshes=False
+        )
+    except Exception as exc:  # yourdfpy raises assorted types (KeyError, AttributeError, ValueError ...)
+        detail = recorder.messages[0] if recorder.messages else f"{type(exc).__name__}: {exc}"
+        raise RobotDescriptionError(f"{path}: malformed URDF ({detail})") from None
+    finally:
+        logger.removeHandler(recorder)
+        logger.propagate = propagate
+    if recorder.messages:  # yourdfpy recovers from broken XML; we refuse the file
+        raise RobotDescriptionError(f"{path}: malformed URDF XML ({recorder.messages[0]})")
+    return urdf
+
+
+def _vector(value, n: int, what: str, path: Path) -> np.ndarray:
+    values = np.asarray(value, dtype=np.float64).reshape(-1) if value is not None else np.zeros(n)
+    if values.shape != (n,) or not np.all(np.isfinite(values)):
+        raise RobotDescriptionError(f"{path}: {what} must be {n} finite numbers, got {value!r}")
+    return values
+
+
+def parse_urdf(path: str | Path) -> URDFModel:
+    """Read a URDF file into a :class:`URDFModel` (yourdfpy parses, we check the tree).
+
+    Args:
+        path: the ``.urdf`` file.
+
+    Returns:
+        The model, joints ordered parents first; ``model.urdf`` keeps the
+        ``yourdfpy.URDF`` so that nothing parses the file twice.
+
+    Raises:
+        RobotDescriptionError: missing file, malformed XML, a joint naming a link
+            that does not exist, a link with two parents, several roots or a
+            cycle, an unsupported joint type, a bad number, a mimic joint whose
+            source does not exist.
+    """
+    path = Path(path)
+    urdf = load_urdf(path)
+    robot = urdf.robot
+    links = [link.name for link in robot.links]
+    if any(n is None for n in links):
+        raise RobotDescriptionError(f"{path}: a <link> has no name")
+    if len(set(links)) != len(links):
+        dup = sorted({n for n in links if links.count(n) > 1})
+        raise RobotDescriptionError(f"{path}: duplicate link names {dup}")
+    link_set = set(links)
+
+    joints: dict[str, JointInfo] = {}
+    for el in robot.joints:
+        name, jtype = el.name, el.type
+        if name is None:
+            raise RobotDescriptionError(f"{path}: a <joint> has no name")
+        if name in joints:
+            raise RobotDescriptionError(f"{path}: duplicate joint name {name!r}")
+        if jtype not in SUPPORTED_TYPES:
+            raise RobotDescriptionError(
+                f"{path}: joint {name!r} has type {jtype!r}; supported: {', '.join(SUPPORTED_TYPES)}"
+            )
+        for tag, link in (("parent", el.parent), ("child", el.child)):
+            if link not in link_set:
+                raise RobotDescriptionError(f"{path}: joint {name!r} names {tag} link {link!r}, which does not exist")
+        origin = np.eye(4) if el.origin is None else np.asarray(el.origin, dtype=np.float64)
+        if origin.shape != (4, 4) or not np.all(np.isfinite(origin)):
+            raise RobotDescriptionError(f"{path}: joint {name!r} has a bad <origin>")
+        axis = _vector(el.axis if el.axis is not None else [1.0, 0.0, 0.0], 3, f"joint {name!r} axis", path)
+        lower, upper = -math.pi, math.pi
+        if jtype in MOVING_TYPES:
+            if np.linalg.norm(axis) < 1e-9:
+                raise RobotDescriptionError(f"{path}: joint {name!r} has a zero axis")
+            axis = axis / np.linalg.norm(axis)
+            limit = el.limit
+            if limit is None and jtype == "revolute":
+                raise RobotDescriptionError(f"{path}: revolute joint {name!r} has no <limit>")
+            if limit is not None and (limit.lower is not None or jtype == "revolute"):
+                lower = float(_vector(limit.lower if limit.lower is not None else 0.0, 1, f"joint {name!r} lower limit", path)[0])
+                upper = float(_vector(limit.upper if limit.upper is not None else 0.0, 1, f"joint {name!r} upper limit", path)[0])
+            if lower > upper:
+                raise RobotDescriptionError(f"{path}: joint {name!r} has lower limit {lower} > upper limit {upper}")
+        mimic = None
+        if el.mimic is not None:
+            mult = float(_vector(el.mimic.multiplier, 1, f"joint {name!r} mimic multiplier", path)[0])
+            off = float(_vector(el.mimic.offset, 1, f"joint {name!r} mimic offset", path)[0])
+            mimic = (el.mimic.joint, mult, off)
+        joints[name] = JointInfo(name, jtype, el.parent, el.child, origin, axis, lower, upper, mimic)
+
+    for j in joints.values():
+        if j.mimic is not None:
+            src = joints.get(j.mimic[0])
+            if src is None:
+                raise RobotDescriptionError(f"{path}: joint {j.name!r} mimics {j.mimic[0]!r}, which does not exist")
+            if not (j.moving and src.moving):
+                raise RobotDescriptionError(f"{path}: mimic joint {j.name!r} and its source {src.name!r} must both move")
+
+    parent_of: dict[str, JointInfo] = {}
+    for j in joints.values():
+        if j.child in parent_of:
+            raise RobotDescriptionError(f"{path}: link {j.child!r} has two parent joints ({parent_of[j.child].name!r}, {j.name!r})")
+        parent_of[j.child] = j
+    roots = [n for n in links if n not in parent_of]
+    if len(roots) != 1:
+        raise RobotDescriptionError(f"{path}: expected exactly one root link, found {roots}")
+    children: dict[str, list[JointInfo]] = {n: [] for n in links}
+    for j in joints.values():
+        children[j.parent].append(j)
+    order_links, order_joints, stack = [], [], [roots[0]]
+    while stack:  # depth-first, keeps file order among siblings
+        link = stack.pop()
+        order_links.append(link)
+        for j in reversed(children[link]):
+            order_joints.append(j)
+            stack.append(j.child)
+    if len(order_links) != len(links):
+        missing = sorted(set(links) - set(order_links))
+        raise RobotDescriptionError(f"{path}: links {missing} are not connected to the root {roots[0]!r} (cycle?)")
+    # order_joints is in stack-push order; re-sort so that each joint follows its parent link's joint.
+    rank = {n: i for i, n in enumerate(order_links)}
+    order_joints.sort(key=lambda j: rank[j.child])
+    return URDFModel(robot.name or path.stem, path, roots[0], tuple(order_links), tuple(order_joints), urdf)
+
+
+# --------------------------------------------------------------------------- FK
+class KinematicTree:
+    """Precomputed index tensors of a URDF tree and its batched FK.
+
+    Args:
+        model: the parsed URDF.
+        actuated: names of the actuated joints, the order of the angle vector
+            ``q``. Every moving joint must be actuated or mimic an actuated
+            joint (directly or through other mimic joints).
+
+    Raises:
+        RobotDescriptionError: an actuated name that is not a moving non-mimic
+            joint, or a moving joint that is neither actuated nor a mimic.
+    """
+
+    def __init__(self, model: URDFModel, actuated: Sequence[str]):
+        self.model = model
+        path = model.path
+        joints = {j.name: j for j in model.joints}
+        self.actuated = tuple(actuated)
+        if len(set(self.actuated)) != len(self.actuated):
+            raise RobotDescriptionError(f"{path}: actuated joints listed twice: {sorted({a for a in actuated if list(actuated).count(a) > 1})}")
+        for name in self.actuated:
+            j = joints.get(name)
+            if j is None:
+                raise RobotDescriptionError(f"{path}: actuated joint {name!r} does not exist in the URDF")
+            if not j.moving or j.mimic is not None:
+                raise RobotDescriptionError(f"{path}: actuated joint {name!r} is {'a mimic' if j.mimic else j.type} joint")
+        act_index = {n: i for i, n in enumerate(self.actuated)}
+
+        def resolve(j: JointInfo, depth: int = 0) -> tuple[int, float, float]:
+            """(actuated index, multiplier, offset) of a moving joint."""
+            if depth > len(joints):
+                raise RobotDescriptionError(f"{path}: mimic joints form a cycle at {j.name!r}")
+            if j.mimic is None:
+                if j.name not in act_index:
+                    raise RobotDescriptionError(
+                        f"{path}: moving joint {j.name!r} is neither in the spec's actuated_joints nor a mimic joint"
+                    )
+                return act_index[j.name], 1.0, 0.0
+            src, m, c = resolve(joints[j.mimic[0]], depth + 1)
+            return src, j.mimic[1] * m, j.mimic[1] * c + j.mimic[2]
+
+        # Anchor of each link: the nearest moving joint at or above it (-1: the root),
+        # and the constant transform from that anchor's frame to the link.
+        moving: list[JointInfo] = []
+        anchor_of_link: dict[str, int] = {model.root: -1}
+        const_of_link: dict[str, np.ndarray] = {model.root: np.eye(4)}
+        pre: list[np.ndarray] = []  # T_anchor_jointframe of each moving joint
+        parent_moving: list[int] = []
+        for j in model.joints:  # parents first
+            a, C = anchor_of_link[j.parent], const_of_link[j.parent]
+            if j.moving:
+                moving.append(j)
+                pre.append(C @ j.origin)
+                parent_moving.append(a)
+                anchor_of_link[j.child], const_of_link[j.child] = len(moving) - 1, np.eye(4)
+            else:
+                anchor_of_link[j.child], const_of_link[j.child] = a, C @ j.origin
+        depth = []
+        for p in parent_moving:
+            depth.append(0 if p < 0 else depth[p] + 1)
+        # Sort moving joints by depth so that each level is a contiguous slice.
+        order = sorted(range(len(moving)), key=lambda i: (depth[i], i))
+        new_pos = {old: new for new, old in enumerate(order)}
+        self.moving_names = tuple(moving[i].name for i in order)
+        self.moving_parent = [new_pos[parent_moving[i]] if parent_moving[i] >= 0 else -1 for i in order]
+        self.moving_pre = np.stack([pre[i] for i in order]) if moving else np.zeros((0, 4, 4))  # (M, 4, 4)
+        rules = [resolve(moving[i]) for i in order]
+        levels = [depth[i] for i in order]
+        self.level_slices: list[tuple[int, int]] = []
+        for d in sorted(set(levels)):
+            idx = [k for k, lv in enumerate(levels) if lv == d]
+            self.level_slices.append((idx[0], idx[-1] + 1))
+        self.link_names = model.links
+        self.link_index = {n: i for i, n in enumerate(model.links)}
+        # body 0 = root; body k+1 = child frame of moving joint k (sorted order)
+        self.link_body = [0 if anchor_of_link[n] < 0 else new_pos[anchor_of_link[n]] + 1 for n in model.links]
+        self.link_const = np.stack([const_of_link[n] for n in model.links])  # (L, 4, 4)
+        # Links whose constant is the identity are bodies themselves (no matmul needed);
+        # the others ("fixed" links) get one batched matmul. Final link k is row
+        # link_gather[k] of cat([bodies (1+M), fixed links (F)]).
+        is_fixed = [not np.array_equal(self.link_const[k], np.eye(4)) for k in range(len(model.links))]
+        self.fixed_links = [k for k, f in enumerate(is_fixed) if f]
+        n_body = 1 + len(moving)
+        self.link_gather = [n_body + self.fixed_links.index(k) if f else self.link_body[k] for k, f in enumerate(is_fixed)]
+        self._np = {
+            "src": np.array([r[0] for r in rules], dtype=np.int64),
+            "mult": np.array([r[1] for r in rules]),
+            "off": np.array([r[2] for r in rules]),
+            "axis": np.stack([moving[i].axis for i in order]) if moving else np.zeros((0, 3)),
+        }
+        self._build_schedules()
+        self._cache: dict[tuple, dict[str, torch.Tensor]] = {}
+
+    def _build_schedules(self) -> None:
+        """Constants of the fast FK (numpy, float64); see :meth:`body_poses`."""
+        M = len(self.moving_names)
+        n = len(self.actuated)
+        # theta = q @ theta_map + off: mimic expansion as one matmul
+        theta_map = np.zeros((n, M))
+        theta_map[self._np["src"], np.arange(M)] = self._np["mult"]
+        # T_parentbody_body(theta) = pre @ [[R(theta), 0], [0, 1]] with Rodrigues
+        # R = I + sin K + (1 - cos) K^2 = (I + K^2) + sin K - cos K^2, so every local
+        # transform is linear in (sin, cos): local = const + [sin | cos] @ coef.
+        # Body 0 (the root) is the identity and takes no coefficient.
+        const = np.tile(np.eye(4), (1 + M, 1, 1))  # (1+M, 4, 4)
+        coef = np.zeros((2 * M, 1 + M, 4, 4))
+        for k in range(M):
+            a = self._np["axis"][k]
+            K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+            H0, HK, HK2 = np.eye(4), np.zeros((4, 4)), np.zeros((4, 4))
+            H0[:3, :3] += K @ K
+            HK[:3, :3], HK2[:3, :3] = K, K @ K
+            pre = self.moving_pre[k]
+            const[k + 1] = pre @ H0
+            coef[k, k + 1] = pre @ HK
+            coef[M + k, k + 1] = -(pre @ HK2)
+        self._np["theta_map"] = theta_map
+        self._np["local_const"] = const.reshape(-1)
+        self._np["local_coef"] = coef.reshape(2 * M, -1)
+        # Level by level (large batches: every body is composed once). Bodies are
+        # 0 = root, then the moving joints sorted by depth, so a level is a slice.
+        parent_body = np.array([0] + [p + 1 for p in self.moving_parent], dtype=np.int64)  # root's parent: itself
+        self._np["level_parent"] = [  # parent's index within the previous level
+            parent_body[1 + s : 1 + e] - (1 + ps) for (ps, _), (s, e) in zip([(-1, 0)] + self.level_slices, self.level_slices)
+        ]
+        # Pointer jumping (small batches: ceil(log2(depth + 1)) steps instead of
+        # one per level). After step k, body i holds T_{anc}_i with anc its
+        # 2^(k+1)-th ancestor (the root, once the chain is exhausted).
+        jumps, anc = [], parent_body.copy()
+        for _ in range(max(1, math.ceil(math.log2(len(self.level_slices) + 1)))):
+            jumps.append(anc.copy())
+            anc = anc[anc]
+        self._np["jumps"] = jumps
+        self._np["link_body"] = np.array(self.link_body, dtype=np.int64)
+
+    @property
+    def n_links(self) -> int:
+        return len(self.link_names)
+
+    @property
+    def n_bodies(self) -> int:
+        """1 + the number of moving joints: the root and the child frame of every moving joint."""
+        return 1 + len(self.moving_names)
+
+    def _consts(self, device: torch.device, dtype: torch.dtype) -> dict:
+        key = (device, dtype)
+        c = self._cache.get(key)
+        if c is None:
+            f = lambda a: torch.as_tensor(a, dtype=dtype, device=device)  # noqa: E731
+            i = lambda a: torch.as_tensor(a, dtype=torch.long, device=device)  # noqa: E731
+            c = {
+                "src": i(self._np["src"]),
+                "mult": f(self._np["mult"]),
+                "off": f(self._np["off"]),
+                "theta_map2": f(np.concatenate([self._np["theta_map"]] * 2, 1)),  # (n, 2M)
+                "off2": f(np.concatenate([self._np["off"], self._np["off"] + math.pi / 2])),  # (2M,)
+                "local_const": f(self._np["local_const"]),
+                "local_coef": f(self._np["local_coef"]),
+                "level_parent": [i(p) for p in self._np["level_parent"]],
+                "jumps": [i(a) for a in self._np["jumps"]],
+                "fixed_body": i([self.link_body[k] for k in self.fixed_links]),
+                "fixed_const": f(self.link_const[self.fixed_links]),  # (F, 4, 4)
+                "link_gather": i(self.link_gather),
+                "link_body": i(self._np["link_body"]),
+                "link_const": f(self.link_const),  # (L, 4, 4)
+            }
+            self._cache[key] = c
+        return c
+
+    def joint_angles(self, q: torch.Tensor) -> torch.Tensor:
+        """Expand actuated angles ``(..., n)`` to every moving joint ``(..., M)`` (sorted order)."""
+        c = self._consts(q.device, q.dtype)
+        return q.index_select(-1, c["src"]) * c["mult"] + c["off"]
+
+    def _flat_angles(self, q: torch.Tensor) -> torch.Tensor:
+        """Validate ``q (..., n)`` and flatten it to ``(B, n)`` floats."""
+        n = len(self.actuated)
+        if q.shape[-1] != n:
+            raise ValueError(f"{self.model.name}: expected {n} joint angles in the last dimension, got shape {tuple(q.shape)}")
+        if not torch.is_floating_point(q):
+            q = q.to(torch.get_default_dtype())
+        return q.reshape(-1, n)
+
+    def body_poses(self, q: torch.Tensor) -> torch.Tensor:
+        """World frames of the root and of every moving joint's child frame.
+
+        Args:
+            q: ``(B, n)`` actuated angles [rad].
+
+        Returns:
+            ``(B, 1 + M, 4, 4)``; body 0 is the root, body ``k + 1`` the
+            moving joint :attr:`moving_names` ``[k]``.
+        """
+        B = q.shape[0]
+        c = self._consts(q.device, q.dtype)
+        # [sin theta | cos theta] as one sin of [theta | theta + pi/2]
+        sc = torch.sin(torch.addmm(c["off2"], q, c["theta_map2"]))  # (B, 2M)
+        local = torch.addmm(c["local_const"], sc, c["local_coef"]).view(B, -1, 4, 4)  # (B, 1+M, 4, 4) T_parent_body
+        # Few tiny matmuls cost less than many (per-op overhead) at small batch; at
+        # large batch the matrix count matters, and levels compose each body once.
+        if B * len(self.level_slices) <= _JUMP_MAX_WORK:
+            T = local.view(-1, 4, 4)  # (B * (1+M), 4, 4): bmm has less overhead than a 4-d matmul
+            for anc in c["jumps"]:
+                T = torch.bmm(T.index_select(0, self._batch_index(c, anc, B)), T)
+            return T.view(B, -1, 4, 4)
+        root, *moving = local.split([1] + [e - s for s, e in self.level_slices], 1)  # split: one cheap backward
+        levels = [root, moving[0]]  # level 0 hangs from the root, whose frame is the identity
+        for A_l, parent in zip(moving[1:], c["level_parent"][1:]):
+            levels.append(levels[-1].index_select(1, parent) @ A_l)
+        return torch.cat(levels, 1)
+
+    def _batch_index(self, c: dict, body_index: torch.Tensor, B: int) -> torch.Tensor:
+        """``body_index`` applied to each of ``B`` samples of a flat ``(B * (1+M), ...)`` tensor (cached per B)."""
+        if B == 1:
+            return body_index
+        key = ("batch_index", id(body_index), B)
+        if key not in c:
+            offsets = torch.arange(B, device=body_index.device)[:, None] * self.n_bodies
+            c[key] = (body_index + offsets).reshape(-1)
+        return c[key]
+
+    def forward(self, q: torch.Tensor) -> torch.Tensor:
+        """World poses of every link.
+
+        Args:
+            q: ``(..., n)`` actuated joint angles [rad], in :attr:`actuated` order.
+
+        Returns:
+            ``(..., L, 4, 4)`` ``T_root_link`` for every link in :attr:`link_names` order.
+        """
+        lead = q.shape[:-1]
+        q = self._flat_angles(q)  # (B, n)
+        c = self._consts(q.device, q.dtype)
+        body = self.body_poses(q)  # (B, 1+M, 4, 4)
+        # Links with a constant offset from their body: one batched matmul; the
+        # others are bodies themselves. Link k is row link_gather[k] of the cat.
+        fixed = body.index_select(1, c["fixed_body"]) @ c["fixed_const"]  # (B, F, 4, 4)
+        T = torch.cat([body, fixed], 1).index_select(1, c["link_gather"])  # (B, L, 4, 4)
+        return T.reshape(*lead, T.shape[1], 4, 4)
+
+    def forward_links(self, q: torch.Tensor, links: torch.Tensor) -> torch.Tensor:
+        """World poses of some links only (the rest of the tree's links are not formed).
+
+        Args:
+            q: ``(..., n)`` actuated angles [rad].
+            links: ``(k,)`` long indices into :attr:`link_names`.
+
+        Returns:
+            ``(..., k, 4, 4)`` ``T_root_link``.
+        """
+        lead = q.shape[:-1]
+        q = self._flat_angles(q)
+        c = self._consts(q.device, q.dtype)
+        links = links.to(device=q.device)
+        body = self.body_poses(q).index_select(1, c["link_body"].index_select(0, links))  # (B, k, 4, 4)
+        T = body @ c["link_const"].index_select(0, links)
+        return T.reshape(*lead, T.shape[1], 4, 4)
+
+    def point_map(self, links: Sequence[str], vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Precompute :meth:`map_points` for homogeneous vectors given in link frames.
+
+        Args:
+            links: ``k`` link names.
+            vectors: ``(k, 4)`` homogeneous coordinates in each link's frame
+                (``w = 1``: a point [m]; ``w = 0``: a direction).
+
+        Returns:
+            ``(body (k,) int64, vectors (k, 4) float64 in the body frames)``.
+        """
+        idx = [self.link_index[n] for n in links]
+        vectors = np.asarray(vectors, dtype=np.float64).reshape(len(idx), 4)
+        body = np.array([self.link_body[i] for i in idx], dtype=np.int64)
+        return body, np.einsum("kij,kj->ki", self.link_const[idx], vectors)
+
+    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor, analytic: bool = True) -> torch.Tensor:
+        """World coordinates of vectors fixed in bodies (see :meth:`point_map`).
+
+        Args:
+            q: ``(B, n)`` actuated angles [rad].
+            body: ``(k,)`` long body indices.
+            vectors: ``(k, 4)`` homogeneous vectors in the body frames.
+            analytic: when ``q`` needs a gradient, compute it in closed form
+                (:class:`_MapPoints`, first derivatives only); False lets
+                autograd differentiate the FK (the reference, and for
+                higher derivatives).
+
+        Returns:
+            ``(B, k, 3)``: points [m] (``w = 1``) or directions (``w = 0``) in the root frame.
+        """
+        q = self._flat_angles(q)
+        if analytic and q.requires_grad and torch.is_grad_enabled():
+            return _MapPoints.apply(q, self, body, vectors)
+        T = self.body_poses(q).index_select(1, body)[..., :3, :]  # (B, k, 3, 4)
+        return (T * vectors[:, None, :]).sum(-1)  # not matmul: B*k tiny matmuls are slow
+
+    def _moved_by(self, body: torch.Tensor) -> torch.Tensor:
+        """``(M, k)`` 0/1: moving joint ``j`` moves body ``body[i]`` (it is its child frame or an ancestor's)."""
+        key = ("moved_by", body.device, tuple(body.tolist()))
+        c = self._cache.get(key)
+        if c is None:
+            parent = [0] + [p + 1 for p in self.moving_parent]  # body -> parent body (root: itself)
+            D = np.zeros((len(self.moving_names), len(body)))
+            for i, b in enumerate(body.tolist()):
+                while b != 0:
+                    D[b - 1, i] = 1.0
+                    b = parent[b]
+            c = self._cache[key] = torch.as_tensor(D, device=body.device)
+        return c
+
+
+class _MapPoints(torch.autograd.Function):
+    """:meth:`KinematicTree.map_points` with the gradient written out.
+
+    For a revolute joint ``j`` with world axis ``a_j`` through ``o_j``, a point
+    ``p`` it moves has ``dp/dθ_j = a_j × (p - o_j)`` and a direction ``v`` has
+    ``a_j × v``. So ``dL/dθ_j = a_j · (Σ_i p_i × g_i - o_j × Σ_i w_i g_i)`` over
+    the vectors the joint moves (``w`` = 1 for points, 0 for directions), then
+    ``dL/dq = dL/dθ @ theta_mapᵀ`` through the mimic expansion. A dozen batched
+    ops instead of autograd's chain through every pose product; the forward
+    runs without recording a graph. First derivatives only.
+    """
+
+    @staticmethod
+    def forward(ctx, q, tree: "KinematicTree", body, vectors):
+        with torch.no_grad():
+            poses = tree.body_poses(q)  # (B, 1+M, 4, 4)
+            pts = (poses.index_select(1, body)[..., :3, :] * vectors[:, None, :]).sum(-1)  # (B, k, 3)
+        ctx.tree, ctx.body = tree, body
+        ctx.save_for_backward(poses, pts, vectors)
+        return pts
+
+    @staticmethod
+    @once_differentiable  # a second derivative raises instead of coming out wrong
+    def backward(ctx, g):
+        poses, pts, vectors = ctx.saved_tensors
+        tree = ctx.tree
+        c = tree._consts(g.device, g.dtype)
+        M = len(tree.moving_names)
+        D = tree._moved_by(ctx.body).to(g.dtype)  # (M, k)
+        axis = c.get("axis")
+        if axis is None:
+            axis = c["axis"] = torch.as_tensor(tree._np["axis"], dtype=g.dtype, device=g.device)  # (M, 3)
+        R, o = poses[:, 1:, :3, :3], poses[:, 1:, :3, 3]  # (B, M, 3, 3), (B, M, 3)
+        a = (R @ axis[:, :, None]).squeeze(-1)  # (B, M, 3) world axes
+        s1 = D @ torch.linalg.cross(pts, g)  # (B, M, 3)
+        s0 = D @ (g * vectors[:, 3:])  # points only
+        dtheta = (a * (s1 - torch.linalg.cross(o, s0))).sum(-1)  # (B, M)
+        return dtheta @ c["theta_map2"][:, :M].T, None, None, None

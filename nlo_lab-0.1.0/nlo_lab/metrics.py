@@ -1,0 +1,299 @@
+"""Tracking and feasibility metrics (DESIGN "Metric").
+
+* :func:`frechet_distance`: exact discrete Fréchet distance, computed along
+  anti-diagonals of the coupling table with numpy (every cell of an
+  anti-diagonal depends only on the two previous anti-diagonals), so the Python
+  loop runs ``n + m - 1`` times instead of ``n * m``.
+* :func:`velocity_error` / :func:`acceleration_error`: mean norm of the
+  difference of finite-difference derivatives.
+* :func:`tracking_errors`: wrist and elbow Fréchet distances after mapping the
+  human into the robot's frame, plus velocity and acceleration errors.
+* :func:`self_collision_frames`, :func:`limit_violations`: feasibility counts.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from nlo_lab.errors import NloLabError
+from nlo_lab.human.demonstration import SIDES
+
+if TYPE_CHECKING:  # pragma: no cover
+    from nlo_lab.human import Demonstration
+
+__all__ = [
+    "frechet_distance",
+    "frechet_distance_reference",
+    "velocity_error",
+    "acceleration_error",
+    "tracking_errors",
+    "self_collision_frames",
+    "limit_violations",
+]
+
+
+
+def _curve(x: Any, name: str) -> np.ndarray:
+    """A ``(n, d)`` float64 point sequence, finite, n >= 1."""
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2 or a.shape[0] == 0:
+        raise NloLabError(f"{name} must be a non-empty (n, d) point sequence, got shape {np.shape(x)}")
+    if not np.isfinite(a).all():
+        row = int(np.argwhere(~np.isfinite(a))[0][0])
+        raise NloLabError(f"{name} holds NaN or inf at point {row}")
+    return a
+
+
+def _pair(P: Any, Q: Any) -> tuple[np.ndarray, np.ndarray]:
+    p, q = _curve(P, "P"), _curve(Q, "Q")
+    if p.shape[1] != q.shape[1]:
+        raise NloLabError(f"P and Q must have the same point dimension, got {p.shape[1]} and {q.shape[1]}")
+    return p, q
+
+
+def frechet_distance_reference(P: Any, Q: Any) -> float:
+    """Discrete Fréchet distance by the textbook dynamic programme (pure Python).
+
+    Slow (a double loop over ``n * m`` cells); kept as the reference the fast
+    version is tested against, and as the benchmark's baseline.
+
+    Args:
+        P: ``(n, d)`` points.
+        Q: ``(m, d)`` points.
+
+    Returns:
+        The distance, in the points' unit.
+    """
+    p, q = _pair(P, Q)
+    pl, ql = p.tolist(), q.tolist()
+    n, m = len(pl), len(ql)
+    inf = math.inf
+    prev = [inf] * m  # row i - 1 of the coupling table
+    for i in range(n):
+        cur = [inf] * m
+        pi = pl[i]
+        for j in range(m):
+            d = math.dist(pi, ql[j])
+            if i == 0 and j == 0:
+                best = d
+            else:
+                best = min(prev[j], prev[j - 1] if j > 0 else inf, cur[j - 1] if j > 0 else inf)
+            cur[j] = d if d > best else best
+        prev = cur
+    return float(prev[m - 1])
+
+
+def frechet_distance(P: Any, Q: Any) -> float:
+    """Exact discrete Fréchet distance between two point sequences (fast).
+
+    ``c[i, j] = max(d(P_i, Q_j), min(c[i-1, j], c[i-1, j-1], c[i, j-1]))``
+    evaluated one anti-diagonal ``k = i + j`` at a time with numpy.
+
+    Args:
+        P: ``(n, d)`` points (e.g. ``(n, 3)`` [m]).
+        Q: ``(m, d)`` points.
+
+    Returns:
+        The distance, in the points' unit.
+
+    Raises:
+        NloLabError: empty, non-finite or mismatched inputs.
+    """
+    p, q = _pair(P, Q)
+    if p.shape[0] > q.shape[0]:  # shorter curve on the rows: shorter diagonals
+        p, q = q, p
+    n, m = p.shape[0], q.shape[0]
+    # Squared distances: max/min commute with the monotone sqrt, taken once at the end.
+    D = np.zeros((n, m))  # (n, m) [unit²]
+    for c in range(p.shape[1]):  # per coordinate: no (n, m, d) temporary
+        diff = np.subtract.outer(p[:, c], q[:, c])
+        diff *= diff
+        D += diff
+    if n == 1 or m == 1:
+        return float(math.sqrt(D.max()))
+    flat = D.ravel()  # cell (i, k - i) sits at k + i * (m - 1)
+    inf = np.inf
+    # Three rotating buffers over rows, padded at index 0 with the row "-1" (inf).
+    prev2 = np.full(n + 1, inf)
+    prev2[0] = 0.0  # lets cell (0, 0) start the recursion at k = 0
+    prev1 = np.full(n + 1, inf)
+    cur = np.full(n + 1, inf)
+    tmp = np.empty(n)
+    for k in range(n + m - 1):
+        lo = k - m + 1 if k >= m else 0
+        hi = k if k < n else n - 1
+        dk = flat[k + lo * (m - 1): k + hi * (m - 1) + 1: m - 1]  # (hi - lo + 1,)
+        t = tmp[: hi - lo + 1]
+        np.minimum(prev1[lo: hi + 1], prev1[lo + 1: hi + 2], out=t)  # up, left
+        np.minimum(t, prev2[lo: hi + 1], out=t)  # diagonal
+        np.maximum(dk, t, out=cur[lo + 1: hi + 2])
+        if k == 0:
+            prev2[0] = inf
+        prev2, prev1, cur = prev1, cur, prev2
+    return float(math.sqrt(prev1[n]))
+
+
+def _derivative_error(a: Any, b: Any, fps: float, order: int, name: str) -> float:
+    x = np.asarray(a, dtype=np.float64)
+    y = np.asarray(b, dtype=np.float64)
+    if x.shape != y.shape:
+        raise NloLabError(f"{name}: a and b must have the same shape, got {x.shape} and {y.shape}")
+    if x.ndim < 2:
+        raise NloLabError(f"{name}: expected (T, ..., d) trajectories, got shape {x.shape}")
+    try:
+        rate = float(fps)
+    except (TypeError, ValueError):
+        raise NloLabError(f"{name}: fps must be a number, got {fps!r}") from None
+    if not math.isfinite(rate) or rate <= 0:
+        raise NloLabError(f"{name}: fps must be > 0, got {fps!r}")
+    if x.shape[0] <= order:
+        raise NloLabError(f"{name}: needs more than {order} frames, got {x.shape[0]}")
+    dx = np.diff(x, n=order, axis=0) * rate**order  # (T - order, ..., d)
+    dy = np.diff(y, n=order, axis=0) * rate**order
+    err = np.linalg.norm(dx - dy, axis=-1)  # NaN where a point is masked
+    err = err[np.isfinite(err)]
+    return float(err.mean()) if err.size else float("nan")
+
+
+def velocity_error(a: Any, b: Any, fps: float) -> float:
+    """Mean norm of the velocity difference between two trajectories.
+
+    Args:
+        a: ``(T, ..., d)`` positions [m]; NaN marks a missing point.
+        b: same shape as ``a``.
+        fps: frames per second (> 0).
+
+    Returns:
+        Mean over frames and points of ``|v_a - v_b|`` [m/s]; velocities are
+        forward differences times ``fps``. Entries touching a NaN are skipped
+        (NaN if none is left).
+    """
+    return _derivative_error(a, b, fps, 1, "velocity_error")
+
+
+def acceleration_error(a: Any, b: Any, fps: float) -> float:
+    """Mean norm of the acceleration difference (second differences times ``fps²``) [m/s²].
+
+    Args and NaN handling as :func:`velocity_error`.
+    """
+    return _derivative_error(a, b, fps, 2, "acceleration_error")
+
+
+# ----------------------------------------------------------------- robot side
+def _angles(robot, angles: Any) -> np.ndarray:
+    q = np.asarray(angles, dtype=np.float64)
+    if q.ndim == 1:
+        q = q[None]
+    if q.ndim != 2 or q.shape[1] != robot.n_joints:
+        raise NloLabError(f"angles must be (T, {robot.n_joints}) for robot {robot.name!r}, got shape {np.shape(angles)}")
+    if not np.isfinite(q).all():
+        frame = int(np.argwhere(~np.isfinite(q))[0][0])
+        raise NloLabError(f"angles hold NaN or inf at frame {frame}")
+    return q
+
+
+def _poses_torch(robot, q: np.ndarray):
+    """FK of ``(T, n)`` angles in the robot's dtype and device: link -> ``(T, 4, 4)`` tensors."""
+    import torch
+
+    ref = robot.lower_limits
+    qt = torch.as_tensor(q, dtype=ref.dtype, device=ref.device)
+    with torch.no_grad():
+        return robot.forward_kinematics(qt)
+
+
+def _forward(robot, q: np.ndarray) -> dict[str, np.ndarray]:
+    """FK as numpy: link -> ``(T, 4, 4)`` float64."""
+    return {k: v.detach().cpu().double().numpy() for k, v in _poses_torch(robot, q).items()}
+
+
+def _mapped_human(demo: "Demonstration", robot) -> np.ndarray:
+    from nlo_lab.human import map_to_robot
+
+    mapped = np.asarray(map_to_robot(demo, robot), dtype=np.float64)
+    if mapped.shape != (len(demo), 2, 3, 3):
+        raise NloLabError(f"map_to_robot returned shape {mapped.shape}, expected {(len(demo), 2, 3, 3)}")
+    return mapped
+
+
+def tracking_errors(demo: "Demonstration", robot, angles: Any) -> dict[str, float]:
+    """Tracking error of a robot trajectory against a human demonstration.
+
+    Args:
+        demo: the human demonstration (``T`` frames).
+        robot: a ``nlo_lab.robots.Robot``.
+        angles: ``(T, n_joints)`` joint angles [rad].
+
+    Returns:
+        ``frechet_wrist_m`` and ``frechet_elbow_m`` (each averaged over the arms
+        that are observed), ``frechet_m`` (their mean), ``velocity_error``
+        [m/s] and ``acceleration_error`` [m/s²] over wrists and elbows of both
+        arms. Frames where a human point is masked are dropped from that curve.
+    """
+    q = _angles(robot, angles)
+    if q.shape[0] != len(demo):
+        raise NloLabError(f"angles have {q.shape[0]} frames but the demonstration {demo.name!r} has {len(demo)}")
+    human = _mapped_human(demo, robot)  # (T, 2, 3, 3): side x (shoulder, elbow, wrist)
+    poses = _forward(robot, q)
+    robot_pts = np.empty((q.shape[0], 2, 2, 3))  # (T, side, (elbow, wrist), 3) [m]
+    for s, side in enumerate(SIDES):
+        arm = robot.arm(side)
+        robot_pts[:, s, 0] = poses[arm.elbow][:, :3, 3]
+        robot_pts[:, s, 1] = poses[arm.wrist][:, :3, 3]
+    human_pts = human[:, :, 1:].copy()  # (T, 2, 2, 3)
+    human_pts[~demo.arm_mask[:, :, 1:]] = np.nan
+    per_point: dict[str, list[float]] = {"elbow": [], "wrist": []}
+    for s in range(2):
+        for j, joint in enumerate(("elbow", "wrist")):
+            h = human_pts[:, s, j]
+            valid = np.isfinite(h).all(-1)
+            if valid.sum() == 0:
+                continue
+            per_point[joint].append(frechet_distance(h[valid], robot_pts[valid, s, j]))
+    if not per_point["wrist"] or not per_point["elbow"]:
+        raise NloLabError(f"demonstration {demo.name!r} has no observed elbow or wrist on either arm")
+    wrist = float(np.mean(per_point["wrist"]))
+    elbow = float(np.mean(per_point["elbow"]))
+    return {
+        "frechet_wrist_m": wrist,
+        "frechet_elbow_m": elbow,
+        "frechet_m": 0.5 * (wrist + elbow),
+        "velocity_error": velocity_error(human_pts, robot_pts, demo.fps) if len(demo) > 1 else float("nan"),
+        "acceleration_error": acceleration_error(human_pts, robot_pts, demo.fps) if len(demo) > 2 else float("nan"),
+    }
+
+
+def self_collision_frames(robot, angles: Any) -> int:
+    """Number of frames where any checked capsule pair penetrates (distance < 0).
+
+    Args:
+        robot: a ``nlo_lab.robots.Robot``.
+        angles: ``(T, n_joints)`` [rad].
+    """
+    q = _angles(robot, angles)
+    import torch
+
+    with torch.no_grad():
+        d = robot.capsule_distances(_poses_torch(robot, q))  # (T, P) [m]
+    if d.numel() == 0:
+        return 0
+    return int((d < 0).any(dim=-1).sum().item())
+
+
+def limit_violations(robot, angles: Any, tol: float = 1e-6) -> int:
+    """Number of (frame, joint) entries outside the joint limits by more than ``tol``.
+
+    Args:
+        robot: anything with ``n_joints``, ``lower_limits`` and ``upper_limits`` (n,).
+        angles: ``(T, n_joints)`` [rad].
+        tol: slack [rad] for round-off.
+    """
+    q = _angles(robot, angles)
+    lower = np.asarray(robot.lower_limits.detach().cpu() if hasattr(robot.lower_limits, "detach") else robot.lower_limits, dtype=np.float64)
+    upper = np.asarray(robot.upper_limits.detach().cpu() if hasattr(robot.upper_limits, "detach") else robot.upper_limits, dtype=np.float64)
+    return int(((q < lower - tol) | (q > upper + tol)).sum())

@@ -1,0 +1,161 @@
+# %% [markdown]
+# # 01. Robots and forward kinematics
+#
+# ## Learning goals
+#
+# - Load the three robots of the lab (ABB YuMi with two Inspire hands, NAO, Pepper) and read their joint tables.
+# - Move a robot joint by joint with sliders and watch it in the 3-D viewer.
+# - Compute forward kinematics (FK): joint angles `q` [rad] → the pose `T_world_link` (4×4) of every link, batched.
+# - Check our FK against the field's reference, pytorch-kinematics, and see why ours is faster.
+# - Read the robot structure graph that the decoder of the method is built on.
+
+# %%
+from nlo_lab.notebook import TEST_MODE, budget, setup
+setup()
+
+# %% [markdown]
+# ## The three robots
+#
+# A robot is a URDF (links, joints, limits) plus a small spec file that names the roles of links
+# (shoulder, elbow, wrist, finger base and tip) and the capsules used for self-collision.
+# `joint_names` fixes the order of the angle vector `q`.
+
+# %%
+from nlo_lab.robots import load_robot
+robots = {name: load_robot(name) for name in ("yumi", "nao", "pepper")}
+for name, robot in robots.items():
+    print(f"{name:7s} {robot.n_joints:2d} actuated joints, fingers: {robot.has_fingers}")
+
+# %%
+from nlo_lab.notebook import joint_table
+joint_table(robots["nao"])
+
+# %%
+from nlo_lab.notebook import show_robot
+yumi = robots["yumi"]
+show_robot(yumi)  # the neutral pose; live meshcat viewer if one can start, else a static view
+
+# %% [markdown]
+# ## Joint sliders
+#
+# Each slider moves one joint inside its limits; the 3-D view and the position of the chosen link
+# (computed by FK) follow.
+
+# %%
+from nlo_lab.widgets import JointPanel
+JointPanel(robots["nao"])
+
+# %% [markdown]
+# The same with `ipywidgets.interact`, for one joint: the height of NAO's left wrist as its first joint moves.
+
+# %%
+from ipywidgets import interact
+nao = robots["nao"]
+j, wrist = 0, nao.arm("left").wrist
+lo, hi = float(nao.lower_limits[j]), float(nao.upper_limits[j])
+
+@interact(angle=(lo, hi, 0.01))
+def wrist_height(angle=0.0):
+    q = nao.neutral_q.clone()
+    q[j] = angle
+    z = float(nao.forward_kinematics(q[None])[wrist][0, 2, 3])
+    print(f"{nao.joint_names[j]} = {angle:+.2f} rad -> left wrist height {z:+.3f} m")
+
+# %% [markdown]
+# ## Forward kinematics
+#
+# `robot.forward_kinematics(q)` takes a batch `q (B, n)` and returns `{link: T_world_link (B, 4, 4)}`
+# for every link. The translation column is the link's position [m] in the robot frame
+# (origin between the shoulders, X forward, Y left, Z up).
+
+# %%
+import torch
+q = yumi.neutral_q[None]                     # (1, n)
+poses = yumi.forward_kinematics(q)           # {link: (1, 4, 4)}
+wrist = yumi.arm("left").wrist
+print(wrist)
+print(poses[wrist][0].numpy().round(3))
+
+# %% [markdown]
+# FK is batched and differentiable: thousands of random poses inside the limits at once give a picture of
+# the workspace of the left wrist.
+
+# %%
+import matplotlib.pyplot as plt
+B = budget(5000, 500)
+lo, hi = yumi.lower_limits, yumi.upper_limits
+q = lo + (hi - lo) * torch.rand(B, yumi.n_joints, dtype=lo.dtype)
+p = yumi.forward_kinematics(q)[wrist][:, :3, 3].numpy()    # (B, 3) [m]
+fig, axes = plt.subplots(1, 2, figsize=(8, 3.5))
+axes[0].scatter(p[:, 0], p[:, 1], s=1); axes[0].set(xlabel="x [m]", ylabel="y [m]", title="top view")
+axes[1].scatter(p[:, 1], p[:, 2], s=1); axes[1].set(xlabel="y [m]", ylabel="z [m]", title="front view")
+fig.tight_layout()
+
+# %% [markdown]
+# ### Our FK beside pytorch-kinematics
+#
+# [pytorch-kinematics](https://github.com/UM-ARM-Lab/pytorch_kinematics) is the library robotics users
+# reach for to get differentiable FK from a URDF. `PKChain(robot)` builds its chain from the same URDF
+# and feeds it our angle vector: pytorch-kinematics does not read `<mimic>`, so the coupled finger joints
+# of the Inspire hands are expanded first (`ref.angles(q)`: 26 actuated angles → 38 joints). Both give the
+# same poses, to the float32 rounding of the URDF's numbers that pytorch-kinematics does when it reads them.
+
+# %%
+from nlo_lab.pk_chain import PKChain
+ref = PKChain(yumi)                              # ref.chain is the pytorch_kinematics.Chain
+print(f"{len(ref.joint_names)} joints in the chain, {yumi.n_joints} actuated angles")
+ours, theirs = yumi.forward_kinematics(q), ref.forward_kinematics(q)
+print(f"{len(theirs)} links, largest difference {max(float((ours[k] - theirs[k]).abs().max()) for k in theirs):.1e}")
+
+# %% [markdown]
+# Same numbers, different cost. pytorch-kinematics walks the tree in a Python loop, one link after the
+# other, with a few 4×4 products and some bookkeeping per link (55 links on YuMi). Ours does the walk once
+# when the robot is loaded and keeps constants: every joint's local transform comes out of **one** matrix
+# product (Rodrigues' formula is linear in sin θ and cos θ), and the chain is composed by pointer jumping
+# in ⌈log₂(depth + 1)⌉ batched products over all links at once. At batch 1 nearly all the time is the
+# per-operation overhead of torch, so fewer operations win by two orders of magnitude; at large batches
+# the arithmetic dominates and the gap shrinks (`benchmarks/fk.py` measures both, see `docs/RESULTS.md`).
+
+# %%
+import time
+def median_ms(fn, runs=budget(30, 5)):
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter(); fn(); times.append(time.perf_counter() - t0)
+    return 1e3 * sorted(times)[len(times) // 2]
+
+with torch.no_grad():
+    for B in (1, 256):
+        qb = lo + (hi - lo) * torch.rand(B, yumi.n_joints, dtype=lo.dtype)
+        t_ours, t_pk = median_ms(lambda: yumi.forward_kinematics(qb)), median_ms(lambda: ref.forward_kinematics(qb))
+        print(f"batch {B:3d}: ours {t_ours:6.2f} ms, pytorch-kinematics {t_pk:6.2f} ms, ratio {t_pk / t_ours:5.1f}")
+
+# %% [markdown]
+# Self-collision is measured between capsules attached to links: `capsule_distances` gives the surface
+# distance of every pair that may collide (< 0: penetration). The neutral pose is collision-free.
+
+# %%
+d = yumi.capsule_distances(yumi.forward_kinematics(yumi.neutral_q[None]))   # (1, P) [m]
+print(f"{d.shape[1]} capsule pairs, closest {float(d.min()):.3f} m apart")
+print(f"random poses with a penetrating pair: {float((yumi.capsule_distances(yumi.forward_kinematics(q)).min(1).values < 0).float().mean()):.0%}")
+
+# %% [markdown]
+# ## The robot structure graph
+#
+# Nodes are the actuated joints, edges go from a joint to the next one down the chain (edge features:
+# the joint origin, xyz + rpy). The decoder of the method is a graph network over this graph.
+
+# %%
+from nlo_lab.notebook import plot_graph
+plot_graph(yumi.graph, yumi.joint_names, title="YuMi with two Inspire hands");
+plot_graph(nao.graph, nao.joint_names, title="NAO");
+
+# %% [markdown]
+# ## Exercises
+#
+# 1. Find the joint of NAO that moves the left wrist highest when set to its upper limit. Predict first, then check with the sliders.
+# 2. Compute the distance between YuMi's two wrists at the neutral pose with `forward_kinematics`.
+# 3. Plot Pepper's left-wrist workspace as above. How does it compare with NAO's (scale, shape)?
+# 4. What fraction of uniformly random YuMi poses self-collides? Why does that matter for an optimiser that samples poses?
+# 5. Count the nodes of each arm and each hand in `yumi.graph` from `node_type`.
+# 6. Time both FKs at batch 1, 16, 64, 256 and 1024 and plot the ratio. Where does pytorch-kinematics catch up, and why there?

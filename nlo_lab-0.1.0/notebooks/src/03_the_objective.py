@@ -1,0 +1,114 @@
+# %% [markdown]
+# # 03. The objective
+#
+# ## Learning goals
+#
+# - Know the five terms of the retargeting objective `L(D, K(q))`: end effector, wrist orientation,
+#   elbow→wrist direction, finger directions, self-collision, and what each one measures.
+# - See how the loss weights trade the terms against each other.
+# - Optimise the joint angles of one frame directly (the joint-space baseline) and see how it fails:
+#   local minima that depend on the start, and joint limits that need clamping or a penalty.
+
+# %%
+from nlo_lab.notebook import TEST_MODE, budget, setup
+setup()
+
+# %%
+import matplotlib.pyplot as plt
+import torch
+from nlo_lab.human import corpus_clip, corpus_names
+from nlo_lab.losses import LossWeights, objective, targets_from_demonstration
+from nlo_lab.robots import load_robot
+robot = load_robot("yumi")
+demo = corpus_clip(corpus_names("test")[0])
+targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
+t = len(demo) // 2
+one = targets.index(slice(t, t + 1))            # the targets of one frame
+print(f"{demo.name}, frame {t}")
+
+# %% [markdown]
+# ## Each term on one frame
+#
+# At the robot's neutral pose, before any optimisation. `objective` returns the weighted total and the
+# *unweighted* terms; the weights (the paper's by default) decide how much each one counts.
+
+# %%
+from nlo_lab.viz import plot_loss_terms
+q0 = robot.neutral_q[None]
+total, terms = objective(robot, q0, one)
+fig, axes = plt.subplots(1, 2, figsize=(10, 3))
+plot_loss_terms(terms, ax=axes[0], title="unweighted terms")
+plot_loss_terms(terms, ax=axes[1], weights=LossWeights().as_dict(), title=f"weighted (total {float(total):.1f})");
+
+# %% [markdown]
+# ## Weight sliders
+#
+# Move a weight and watch the share of each term in the total change (the pose is fixed here; in notebook 05
+# the sliders re-optimise the pose).
+
+# %%
+from ipywidgets import FloatLogSlider, interact
+sliders = {n: FloatLogSlider(value=getattr(LossWeights(), n), base=10, min=-1, max=4, description=n) for n in terms}
+
+@interact(**sliders)
+def shares(**w):
+    weighted = {n: float(w[n] * terms[n]) for n in terms}
+    total = sum(weighted.values())
+    print("  ".join(f"{n} {v / total:5.1%}" for n, v in weighted.items()))
+
+# %% [markdown]
+# ## Joint-space optimisation of one frame
+#
+# The obvious approach: gradient descent (Adam) on the angles `q` themselves. Joint limits are kept by
+# clamping after each step (projected gradient). It starts from the robot's collision-free neutral pose
+# (`JointOptimizeSettings(init="neutral")`, the default).
+
+# %%
+from nlo_lab.optimize import JointOptimizeSettings, optimize_joints
+from nlo_lab.viz import plot_convergence
+ITERS = budget(300, 30)
+res = optimize_joints(robot, one, JointOptimizeSettings(iterations=ITERS, patience=ITERS))
+print(f"loss {res.history[0]:.1f} -> {res.history[-1]:.2f} in {res.iterations} steps, {res.seconds * 1000:.0f} ms")
+plot_convergence({"joint space, from the neutral pose": res.history});
+
+# %%
+from nlo_lab.notebook import show_robot
+show_robot(robot, res.q[0])
+
+# %% [markdown]
+# ### Local minima
+#
+# The objective is not convex in `q`. From different random starts inside the limits, the same frame ends at
+# different losses: the result depends on where we start.
+
+# %%
+gen = torch.Generator().manual_seed(0)
+lo, hi = robot.lower_limits, robot.upper_limits
+histories = {}
+for seed in range(budget(6, 3)):
+    q_start = lo + (hi - lo) * torch.rand(1, robot.n_joints, generator=gen, dtype=lo.dtype)
+    r = optimize_joints(robot, one, JointOptimizeSettings(iterations=ITERS, patience=ITERS), q0=q_start)
+    histories[f"start {seed}: {r.history[-1]:.2f}"] = r.history
+plot_convergence(histories, title="joint space from random starts");
+
+# %% [markdown]
+# ### Limits
+#
+# Without clamping, limits can only be encouraged by a penalty. A weak penalty lets the optimiser leave
+# the limits to lower the tracking terms: the result is not a pose the robot can take.
+
+# %%
+from nlo_lab.metrics import limit_violations
+for limits, penalty in (("clamp", 1e4), ("penalty", 1e4), ("penalty", 1.0)):
+    r = optimize_joints(robot, one, JointOptimizeSettings(iterations=ITERS, patience=ITERS, limits=limits, penalty=penalty))
+    print(f"{limits:8s} penalty {penalty:8.0f}: loss {r.history[-1]:8.2f}, joints outside their limits: {limit_violations(robot, r.q)}")
+
+# %% [markdown]
+# ## Exercises
+#
+# 1. Set the collision weight to 0.1 and re-run the joint-space optimisation: does the result self-collide?
+#    (`nlo_lab.metrics.self_collision_frames(robot, res.q)`)
+# 2. Which term dominates the total at the neutral pose? After optimisation?
+# 3. Optimise 20 random starts and histogram the final losses. How many distinct minima do you see?
+# 4. Optimise every frame of the clip in joint space (`targets` instead of `one`) and plot one joint over time. Is it smooth?
+# 5. Try NAO (no fingers): which term is always zero, and why?

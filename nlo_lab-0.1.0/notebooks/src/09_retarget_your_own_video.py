@@ -1,0 +1,143 @@
+# %% [markdown]
+# # 09. Retarget your own video
+#
+# ## Learning goals
+#
+# - Turn a video of signing into a human demonstration: MediaPipe Holistic finds the body and hand
+#   landmarks in every frame (through the `pose-format` library), the `.pose` reader of notebook 08 does the rest.
+# - See what the pose estimator saw: the video's frames beside the human skeleton and the robot, played in sync.
+# - Know the limits of a single camera: hands that leave the picture are masked, depth is a guess.
+# - Export the robot trajectory, and do the same from the command line: `nlo-lab retarget VIDEO`.
+
+# %%
+from nlo_lab.notebook import TEST_MODE, budget, setup
+setup()
+
+# %% [markdown]
+# ## Your video
+#
+# Film yourself signing (upper body, both hands in the picture, good light), then choose the file below:
+# `.mp4`, `.mov`, `.webm` or `.avi`. Without an upload the notebook uses the short sample shipped with the
+# lab (58 frames of a webcam video, MIT licence, see `assets/recordings/README.md`). After choosing a file,
+# run the cells below again.
+
+# %%
+import ipywidgets as W
+upload = W.FileUpload(accept=".mp4,.mov,.webm,.avi", multiple=False, description="your video")
+upload
+
+# %%
+import tempfile
+from pathlib import Path
+from nlo_lab.notebook import recording_path
+from nlo_lab.video_view import save_upload
+work = Path(tempfile.mkdtemp()) if TEST_MODE else Path("my_video")
+path = save_upload(upload, work) or recording_path("signer_webcam_58f.mp4")
+print(path.name)
+
+# %% [markdown]
+# ## Pose estimation
+#
+# `estimate_pose` decodes the video and runs MediaPipe Holistic on every frame (the model ships inside the
+# `mediapipe` wheel: nothing is downloaded). It keeps the image landmarks and the *world* landmarks, which
+# MediaPipe gives in metres about the hips. `threads` runs that many Holistic instances side by side; the
+# default is one (or `NLO_LAB_THREADS`), never more than asked.
+#
+# `pose_to_demonstration` then reads the landmarks exactly as the `.pose` reader reads a file: body frame
+# from the shoulders, arms from the world landmarks, wrists and fingers from the 21 hand points, short gaps
+# filled, long ones masked. A hand that is never seen gives a warning and masked fingers.
+
+# %%
+from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration, read_video_frames
+video = estimate_pose(path, progress=True)
+demo = pose_to_demonstration(video)
+frames = read_video_frames(path, max_side=360)
+print(f"{len(demo)} frames at {demo.fps:.2f} fps; pose estimation {video.seconds:.1f} s "
+      f"({len(demo) / video.seconds:.1f} frames/s, {video.workers} worker)")
+for side, seen in demo.meta["hands"].items():
+    print(f"{side} hand seen in {seen['observed_frames']} of {len(demo)} frames")
+
+# %% [markdown]
+# ## Retarget
+#
+# The same call as in notebook 08: the encoder's guess, then latent optimisation of the whole clip.
+
+# %%
+from nlo_lab.optimize import OptimizeSettings
+from nlo_lab.retarget import retarget
+from nlo_lab.robots import load_robot
+robot = load_robot("yumi")                 # or "nao", "pepper"
+result = retarget(demo, robot, settings=OptimizeSettings(iterations=budget(100, 10)))
+for key in ("frames", "seconds", "frechet_m", "self_collision_frames", "limit_violations"):
+    print(f"{key:22s} {result.summary[key]}")
+
+# %% [markdown]
+# ## Video, skeleton and robot in sync
+#
+# Press play, or drag the slider: the video frame on the left, the human skeleton MediaPipe found (scaled to
+# the robot's arms) and the robot on the right, always the same frame. Look for the frames where a hand
+# is masked: the robot's hand holds its pose instead of following noise.
+
+# %%
+from nlo_lab.video_view import VideoView
+view = VideoView(frames, robot, result.trajectory.angles, demo)
+view.frame = len(demo) // 2
+view
+
+# %%
+import numpy as np
+from nlo_lab.viz import plot_joint_trajectories
+plot_joint_trajectories(result.trajectory.angles, robot.joint_names, robot.lower_limits, robot.upper_limits,
+                        fps=demo.fps, joints=range(min(8, robot.n_joints)));
+
+# %% [markdown]
+# ## Export
+#
+# The trajectory (`.npz`, and `.csv` for a real robot's controller), the self-contained viewer page, and the
+# landmarks as a `.pose` file: reading that file back gives the same demonstration without running the
+# pose estimator again.
+
+# %%
+from nlo_lab.human import load_demonstration
+from nlo_lab.viz import export_html
+out = work / "retargeted"
+out.mkdir(parents=True, exist_ok=True)
+result.trajectory.save_npz(out / "trajectory.npz")
+result.trajectory.save_csv(out / "trajectory.csv")
+export_html(out / "viewer.html", robot, result.trajectory.angles, demo=demo)
+pose_file = out / f"{path.stem}.pose"
+pose_file.write_bytes(video.to_bytes())
+again = load_demonstration(pose_file)
+print(sorted(p.name for p in out.iterdir()))
+print("same demonstration from the .pose:", np.array_equal(again.arm_positions, demo.arm_positions, equal_nan=True))
+
+# %% [markdown]
+# ## From the command line
+#
+# ```
+# nlo-lab retarget my_signing.mp4 --robot nao --out retargeted_nao --save-pose my_signing.pose --json
+# ```
+#
+# The JSON summary adds `pose_seconds`, the time the pose estimation took; a progress bar shows it running
+# when the terminal is interactive. A damaged file, a file that is not a video, or a video without a person
+# ends with exit status 2 and one line that says so. (In test mode the cell below runs on the `.pose` saved
+# above, which skips the pose estimation.)
+
+# %%
+import json, subprocess, sys
+source = budget(path, pose_file)
+cmd = [sys.executable, "-m", "nlo_lab.cli", "retarget", str(source), "--robot", "nao", "--iters", str(budget(100, 5)), "--json"]
+run = subprocess.run(cmd, capture_output=True, text=True, check=True)
+print(json.dumps(json.loads(run.stdout), indent=1))
+print(run.stderr.strip())
+
+# %% [markdown]
+# ## Exercises
+#
+# 1. Film one sign twice, once with your hands always in the picture and once with one hand leaving it.
+#    Before running: which fingers will be masked, and what will the robot's hand do in those frames?
+# 2. Run the pose estimation with `threads=2`. Predict the speed-up on this machine, then measure it
+#    (`video.seconds`). Do the landmarks change? (Each instance tracks every second frame.)
+# 3. Retarget the same video to NAO and Pepper. Which robot's Fréchet distance is lowest, and why?
+# 4. Film yourself from the side instead of the front. Which joint do you expect to be estimated worst?
+# 5. Open `viewer.html` from the export folder and compare a fast movement with the video: does the robot keep up?

@@ -1,0 +1,100 @@
+"""Tests of nlo_lab._atomic and of the three writers that use it (trajectory, demonstration, viewer page)."""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nlo_lab._atomic import atomic_path, atomic_write_bytes, current_umask
+from nlo_lab.human import Demonstration, save_npz
+from nlo_lab.robots import load_robot
+from nlo_lab.trajectory import RobotTrajectory
+from nlo_lab.viz import export_html
+
+
+@pytest.fixture(params=[0o022, 0o027, 0o002])
+def umask(request):
+    old = os.umask(request.param)
+    try:
+        yield request.param
+    finally:
+        os.umask(old)
+
+
+def _mode(path: Path) -> int:
+    return stat.S_IMODE(path.stat().st_mode)
+
+
+def _demo(T=4):
+    arm = np.zeros((T, 2, 3, 3))
+    for s, y in enumerate((0.18, -0.18)):
+        arm[:, s] = [[0, y, 0], [0.05, y, -0.28], [0.3, y, -0.23]]
+    rot = np.broadcast_to(np.eye(3), (T, 2, 3, 3)).copy()
+    fingers = np.broadcast_to(arm[:, :, 2, None, None, :], (T, 2, 5, 2, 3)).copy()
+    fingers[..., 0] += np.linspace(0.05, 0.1, 2)[None, None, None, :]
+    return Demonstration(25.0, arm, np.ones((T, 2, 3), bool), rot, np.ones((T, 2), bool), fingers, np.ones((T, 2, 5), bool), name="d")
+
+
+def test_current_umask_reads_without_changing(umask):
+    assert current_umask() == umask
+    assert current_umask() == umask
+
+
+def test_every_writer_gives_the_umask_mode(tmp_path, umask):
+    expected = 0o666 & ~umask
+    traj = RobotTrajectory("nao", ["a", "b"], np.zeros((3, 2)), 10.0)
+    written = [
+        traj.save_npz(tmp_path / "t.npz"),
+        traj.save_json(tmp_path / "t.json"),
+        traj.save_csv(tmp_path / "t.csv"),
+        save_npz(_demo(), tmp_path / "d.npz"),
+        atomic_write_bytes(tmp_path / "raw.bin", b"x"),
+    ]
+    robot = load_robot("nao")
+    written.append(export_html(tmp_path / "v.html", robot, np.zeros((2, robot.n_joints))))
+    for path in written:
+        assert _mode(path) == expected, f"{path.name}: mode {oct(_mode(path))}, expected {oct(expected)}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in written)  # no temporaries left
+
+
+def test_failed_write_leaves_nothing_and_keeps_the_old_file(tmp_path):
+    target = tmp_path / "out.bin"
+    with pytest.raises(RuntimeError, match="half way"):
+        with atomic_path(target) as tmp:
+            tmp.write_bytes(b"partial")
+            raise RuntimeError("half way")
+    assert list(tmp_path.iterdir()) == []
+    atomic_write_bytes(target, b"old")
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_path(target) as tmp:
+            tmp.write_bytes(b"new")
+            raise KeyboardInterrupt
+    assert target.read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.bin"]
+
+
+def test_failed_writers_leave_nothing(tmp_path, monkeypatch):
+    def boom(*a, **k):
+        raise OSError("disk full")
+
+    robot = load_robot("nao")
+    monkeypatch.setattr(np, "savez", boom)
+    from nlo_lab.errors import DemonstrationError
+
+    with pytest.raises(DemonstrationError, match="disk full"):
+        save_npz(_demo(), tmp_path / "d.npz")
+    monkeypatch.undo()
+    monkeypatch.setattr(Path, "write_text", boom)
+    with pytest.raises(OSError, match="disk full"):
+        export_html(tmp_path / "v.html", robot, np.zeros((2, robot.n_joints)))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_missing_folder_is_an_error(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        atomic_write_bytes(tmp_path / "nope" / "x.bin", b"x")
+    assert list(tmp_path.iterdir()) == []

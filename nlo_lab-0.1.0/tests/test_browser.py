@@ -1,0 +1,145 @@
+"""A real browser draws the exported viewer: headless Chromium screenshots of export_html pages.
+
+Needs Debian's ``chromium`` (``apt-get install -y chromium``); skipped with that
+reason when it is not installed. ``--enable-unsafe-swiftshader`` gives WebGL in
+software; ``--use-gl=swiftshader`` would give a blank page.
+
+Slow-ish (~15 s): four screenshots at ~2 s each of software WebGL, which two cores
+cannot overlap. Each one earns its place: YuMi alone (all group colours, framing),
+NAO beside its human (the smallest robot, framing), and two negative controls (no
+robot: the colour checks fail; a far camera: the framing check fails).
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nlo_lab.human import Demonstration
+from nlo_lab.robots import load_robot
+from nlo_lab.viz import GROUP_COLOURS, RetargetScene, export_html, recording_visualizer, style_viewer
+from nlo_lab.viz.export import scene_html
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium is not installed (apt-get install -y chromium)")
+
+
+def _screenshot(html: Path, out: Path, profile: Path) -> subprocess.Popen:
+    return subprocess.Popen(
+        [
+            CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run",
+            f"--user-data-dir={profile}", "--window-size=800,600", "--virtual-time-budget=5000",
+            f"--screenshot={out}", html.resolve().as_uri(),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _hue_mask(png: Path, colour: int, hue_tol: float = 0.03) -> np.ndarray:
+    """``(H, W)`` pixels whose hue is that of ``colour`` (saturated, not dark): shading changes brightness, not hue."""
+    import matplotlib.colors as mcolors
+    import matplotlib.image as mimage
+
+    img = mimage.imread(str(png))[..., :3].astype(np.float64)  # (H, W, 3) in [0, 1]
+    hsv = mcolors.rgb_to_hsv(img)
+    target = mcolors.rgb_to_hsv(np.array([(colour >> 16) & 255, (colour >> 8) & 255, colour & 255]) / 255.0)
+    dh = np.abs(hsv[..., 0] - target[0])
+    dh = np.minimum(dh, 1.0 - dh)
+    return (dh < hue_tol) & (hsv[..., 1] > 0.45) & (hsv[..., 2] > 0.2)
+
+
+def _hue_fraction(png: Path, colour: int, hue_tol: float = 0.03) -> float:
+    """Fraction of pixels of ``colour``'s hue."""
+    return float(_hue_mask(png, colour, hue_tol).mean())
+
+
+def _robot_span(png: Path) -> float:
+    """How much of the picture the robot spans: the larger of its pixel bounding box's width and height fractions."""
+    mask = np.zeros_like(_hue_mask(png, GROUP_COLOURS["arm"]))
+    for colour in GROUP_COLOURS.values():
+        mask |= _hue_mask(png, colour)
+    if mask.sum() < 50:
+        return 0.0
+    rows, cols = np.nonzero(mask)
+    H, W = mask.shape
+    return max((cols.max() - cols.min() + 1) / W, (rows.max() - rows.min() + 1) / H)
+
+
+def _shoot_all(pages: list[Path], tmp_path: Path, parallel: int = 2) -> dict[str, Path]:
+    """Screenshots of ``pages`` (a few browsers at a time: many at once starve a 2-core machine)."""
+    shots = {}
+    for i in range(0, len(pages), parallel):
+        jobs = [(_screenshot(p, tmp_path / f"{p.stem}.png", tmp_path / f"profile-{p.stem}"), p.stem) for p in pages[i:i + parallel]]
+        for proc, stem in jobs:
+            try:
+                _, err = proc.communicate(timeout=120)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                _, err = proc.communicate()
+            assert (tmp_path / f"{stem}.png").is_file(), f"chromium made no screenshot of {stem}.html:\n{err[-2000:]}"
+            shots[stem] = tmp_path / f"{stem}.png"
+    return shots
+
+
+def _sign_demo(T: int = 10) -> Demonstration:
+    """Both arms forward, the hands moving a little; fingers ahead of the wrists [m]."""
+    arm = np.zeros((T, 2, 3, 3))
+    wave = 0.05 * np.sin(np.linspace(0, np.pi, T))[:, None]
+    for s, y in enumerate((0.18, -0.18)):
+        arm[:, s, 0] = [0.0, y, 0.0]
+        arm[:, s, 1] = [0.05, y, -0.28]
+        arm[:, s, 2] = np.array([0.28, y, -0.15]) + wave * [0, 0, 1]
+    fingers = np.zeros((T, 2, 5, 2, 3))
+    for f in range(5):
+        fingers[:, :, f, 0] = arm[:, :, 2] + [0.08, 0.02 * (f - 2), 0]
+        fingers[:, :, f, 1] = arm[:, :, 2] + [0.15, 0.02 * (f - 2), 0]
+    rot = np.broadcast_to(np.eye(3), (T, 2, 3, 3)).copy()
+    return Demonstration(20.0, arm, np.ones((T, 2, 3), bool), rot, np.ones((T, 2), bool), fingers, np.ones((T, 2, 5), bool), name="sign")
+
+
+def test_chromium_draws_the_exported_robot_and_frames_it(tmp_path):
+    yumi = load_robot("yumi")
+    lo, hi = yumi.lower_limits.double().numpy(), yumi.upper_limits.double().numpy()
+    q = lo + (hi - lo) * (0.5 + 0.2 * np.sin(np.linspace(0, np.pi, 20)))[:, None]  # (20, n) inside the limits
+    page = export_html(tmp_path / "robot.html", yumi, q, fps=20)
+    # The smallest robot beside its human: the case where a far camera left NAO as a speck.
+    nao = load_robot("nao")
+    demo = _sign_demo()
+    q_nao = np.tile(0.5 * (nao.lower_limits + nao.upper_limits).double().numpy(), (len(demo), 1))
+    nao_page = export_html(tmp_path / "nao.html", nao, q_nao, demo=demo, layout="side", play=False)
+    # Negative controls: the same viewer and background with no robot (the colour checks must fail on it), and
+    # the NAO scene seen from meshcat's default-sized camera 2 m away (the framing check must fail on it).
+    vis = recording_visualizer()
+    style_viewer(vis)
+    empty = tmp_path / "empty.html"
+    empty.write_text(scene_html(vis.window.tree), encoding="utf-8")
+    vis = recording_visualizer()
+    RetargetScene(vis, nao, q_nao, demo=demo)
+    style_viewer(vis, camera=(2.0, -0.6, 0.6))
+    far = tmp_path / "far.html"
+    far.write_text(scene_html(vis.window.tree), encoding="utf-8")
+
+    shots = _shoot_all([page, nao_page, empty, far], tmp_path)
+    import matplotlib.image as mimage
+
+    img = mimage.imread(str(shots["robot"]))[..., :3]
+    assert img.shape[:2] == (600, 800)
+    assert img.std() > 0.02, "the page is blank"
+    thresholds = {"arm": 0.005, "hand": 0.0005, "torso": 0.002}
+    for key, fraction in thresholds.items():
+        found = _hue_fraction(shots["robot"], GROUP_COLOURS[key])
+        assert found > fraction, f"{key} colour covers only {found:.4%} of the screenshot"
+        assert _hue_fraction(shots["empty"], GROUP_COLOURS[key]) < fraction / 2, f"{key} colour found on the page without a robot"
+    for key in ("arm", "torso", "head"):
+        assert _hue_fraction(shots["nao"], GROUP_COLOURS[key]) > 0.002, f"NAO's {key} colour is missing"
+    # Framing: the robot spans a good part of the picture (and not when the camera stands far away).
+    for stem in ("robot", "nao"):
+        assert _robot_span(shots[stem]) > 0.3, f"{stem}: the robot spans only {_robot_span(shots[stem]):.0%} of the picture"
+    assert _robot_span(shots["far"]) < 0.3, f"the far camera's robot spans {_robot_span(shots['far']):.0%}: the framing check cannot fail"

@@ -1,0 +1,271 @@
+"""The MediaPipe Holistic ``.pose`` reader: files written here with pose-format's own writer, and the shared recordings."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pose_format = pytest.importorskip("pose_format")
+from pose_format import Pose  # noqa: E402
+from pose_format.numpy import NumPyPoseBody  # noqa: E402
+from pose_format.pose_header import PoseHeader, PoseHeaderComponent, PoseHeaderDimensions  # noqa: E402
+
+from nlo_lab.errors import DemonstrationError  # noqa: E402
+from nlo_lab.human import load_demonstration  # noqa: E402
+from nlo_lab.human.io_pose import MAX_GAP_SECONDS  # noqa: E402
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "pose"
+BODY8 = ["LEFT_SHOULDER", "RIGHT_SHOULDER", "LEFT_ELBOW", "RIGHT_ELBOW", "LEFT_WRIST", "RIGHT_WRIST", "LEFT_HIP", "RIGHT_HIP"]
+HAND21 = ["WRIST"] + [f"{f}_{p}" for f in ("THUMB",) for p in ("CMC", "MCP", "IP", "TIP")] + [
+    f"{f}_FINGER_{p}" if f != "PINKY" else f"PINKY_{p}" for f in ("INDEX", "MIDDLE", "RING", "PINKY") for p in ("MCP", "PIP", "DIP", "TIP")
+]
+W, H, PX_PER_M, FPS = 640, 480, 800.0, 25
+
+
+def body_truth(T: int) -> dict[str, np.ndarray]:
+    """Known body-frame points [m] (X forward, Y left, Z up): name -> (T, 3)."""
+    t = np.arange(T)[:, None] / FPS
+    pts = {}
+    for side, sign in (("LEFT", 1.0), ("RIGHT", -1.0)):
+        sh = np.array([0.0, 0.18 * sign, 0.0]) + 0 * t
+        el = sh + np.concatenate([0.05 + 0.05 * np.sin(3 * t), 0.06 * sign + 0 * t, -0.18 + 0 * t], 1)
+        wr = el + np.concatenate([0.2 + 0 * t, -0.04 * sign + 0.05 * np.cos(2 * t), 0.12 + 0 * t], 1)
+        pts[f"{side}_SHOULDER"], pts[f"{side}_ELBOW"], pts[f"{side}_WRIST"] = sh, el, wr
+        pts[f"{side}_HIP"] = np.array([0.0, 0.12 * sign, -0.5]) + 0 * t
+    return pts
+
+
+def hand_truth(T: int, sign: float) -> np.ndarray:
+    """(T, 21, 3) hand points relative to the wrist [m], body frame: fingers forward (+X), palm down."""
+    pts = np.zeros((21, 3))
+    for f, y in enumerate((0.035, 0.022, 0.0, -0.02, -0.035)):  # thumb..pinky from the left for the right hand
+        start = 1 + 4 * f
+        base = np.array([0.03 if f == 0 else 0.09, -sign * y, 0.0])
+        for k in range(4):
+            pts[start + k] = base + (k - (1 if f == 0 else 0)) * np.array([0.025, 0.0, -0.005])
+    return np.broadcast_to(pts, (T, 21, 3)).copy()
+
+
+def to_camera(p: np.ndarray) -> np.ndarray:
+    """Body frame (X fwd, Y left, Z up) -> camera-aligned axes (x right, y down, z away) for a person facing the camera."""
+    return np.stack([p[..., 1], -p[..., 2], -p[..., 0]], -1)
+
+
+def write_pose(path, T=40, world=True, hand_missing=(), left_hand=True, conf_overrides=None, data_overrides=None,
+               fps=FPS, people=1):
+    """Write a Holistic-like .pose with pose-format's writer; returns the body and hand truth."""
+    body = body_truth(T)
+    comps = [("POSE_LANDMARKS", BODY8), ("LEFT_HAND_LANDMARKS", HAND21), ("RIGHT_HAND_LANDMARKS", HAND21)]
+    if world:
+        comps.append(("POSE_WORLD_LANDMARKS", BODY8))
+    header = PoseHeader(0.2, PoseHeaderDimensions(W, H, 0),
+                        [PoseHeaderComponent(n, pts, [], [], "XYZC") for n, pts in comps])
+    cols = []
+    confs = []
+    centre = np.array([W / 2, H / 2])
+    hip_c = (body["LEFT_HIP"] + body["RIGHT_HIP"]) / 2
+    # POSE_LANDMARKS: orthographic image, z on MediaPipe's normalised scale (the reader ignores it)
+    img = np.stack([to_camera(body[n]) for n in BODY8], 1)
+    cols.append(np.concatenate([img[..., :2] * PX_PER_M + centre, img[..., 2:] * PX_PER_M / W], -1))
+    confs.append(np.full((T, 8), 0.9))
+    hands = {}
+    for side, sign in (("LEFT", 1.0), ("RIGHT", -1.0)):
+        rel = hand_truth(T, sign)
+        hands[side] = rel
+        cam = to_camera(rel)
+        wrist_px = to_camera(body[f"{side}_WRIST"])[:, :2] * PX_PER_M + centre + 7.0  # hand model's wrist a bit off
+        h = np.concatenate([cam[..., :2] * PX_PER_M + wrist_px[:, None], cam[..., 2:] * PX_PER_M / W], -1)
+        c = np.ones((T, 21))
+        missing = list(hand_missing) if side == "RIGHT" else ([] if left_hand else list(range(T)))
+        h[missing], c[missing] = 0.0, 0.0  # what pose-format stores for an undetected hand
+        cols.append(h)
+        confs.append(c)
+    if world:  # metres about the hip centre, stored as (x * W, y * H, z)
+        wl = np.stack([to_camera(body[n] - hip_c) for n in BODY8], 1)
+        cols.append(wl * np.array([W, H, 1.0]))
+        confs.append(np.full((T, 8), 0.9))
+    data = np.concatenate(cols, 1)[:, None].repeat(people, 1).astype(np.float32)
+    conf = np.concatenate(confs, 1)[:, None].repeat(people, 1).astype(np.float32)
+    for (t, p), v in (conf_overrides or {}).items():
+        conf[t, :, p] = v
+    for (t, p), v in (data_overrides or {}).items():
+        data[t, :, p] = v
+    pose = Pose(header, NumPyPoseBody(fps, data, conf))
+    with open(path, "wb") as f:
+        pose.write(f)
+    return body, hands
+
+
+def test_world_file_reads_back_the_truth(tmp_path):
+    path = tmp_path / "w.pose"
+    body, hands = write_pose(path)
+    d = load_demonstration(path)
+    assert len(d) == 40 and d.fps == FPS and d.meta["arm_source"] == "POSE_WORLD_LANDMARKS"
+    for side in ("left", "right"):
+        for joint in ("shoulder", "elbow", "wrist"):
+            np.testing.assert_allclose(d.position(side, joint), body[f"{side.upper()}_{joint.upper()}"], atol=2e-5)
+        rel = hands[side.upper()]
+        wrist = d.position(side, "wrist")[:, None]
+        np.testing.assert_allclose(d.fingers(side)[:, :, 0], wrist + rel[:, [2, 5, 9, 13, 17]], atol=2e-4)
+        np.testing.assert_allclose(d.fingers(side)[:, :, 1], wrist + rel[:, [4, 8, 12, 16, 20]], atol=2e-4)
+        R = d.wrist_rotation(side)
+        np.testing.assert_allclose(R[:, :, 0], np.broadcast_to([1.0, 0, 0], (40, 3)), atol=1e-3)  # fingers forward
+        # y from pinky to index: towards the thumb, which is on the body's midline side for both hands
+        assert np.all(R[:, 1, 1] * (1 if side == "right" else -1) > 0.99)
+        np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-9)
+    # palm down: for the right hand z is the back of the hand (up), for the left hand the palm (down)
+    assert np.all(d.wrist_rotation("right")[:, 2, 2] > 0.99) and np.all(d.wrist_rotation("left")[:, 2, 2] < -0.99)
+
+
+def test_image_only_file_scales_by_the_nominal_shoulder_width(tmp_path):
+    path = tmp_path / "i.pose"
+    body, _ = write_pose(path, world=False)
+    d = load_demonstration(path)
+    assert d.meta["arm_source"] == "POSE_LANDMARKS"
+    # image plane only: X (depth) is dropped, Y and Z are exact because the true shoulder width is 0.36 m
+    for side in ("left", "right"):
+        for joint in ("shoulder", "elbow", "wrist"):
+            truth = body[f"{side.upper()}_{joint.upper()}"]
+            np.testing.assert_allclose(d.position(side, joint)[:, 1:], truth[:, 1:], atol=1e-4)
+            np.testing.assert_allclose(d.position(side, joint)[:, 0], 0.0, atol=1e-4)
+
+
+def test_short_hand_gaps_interpolated_long_gaps_masked(tmp_path):
+    path = tmp_path / "g.pose"
+    short = list(range(5, 8))  # 3 frames < 0.25 s at 25 fps
+    long = list(range(15, 30))  # 15 frames
+    write_pose(path, hand_missing=short + long, left_hand=False)
+    d = load_demonstration(path)
+    assert d.meta["max_gap_frames"] == round(MAX_GAP_SECONDS * FPS)
+    r = 1  # right
+    assert d.finger_mask[short, r].all() and d.wrist_mask[short, r].all()
+    assert np.isfinite(d.finger_positions[short, r]).all()
+    assert not d.finger_mask[long, r].any() and not d.wrist_mask[long, r].any()
+    assert np.isnan(d.finger_positions[long, r]).all() and np.isnan(d.wrist_rotations[long, r]).all()
+    # never a silent zero: the missing left hand is NaN + masked
+    assert not d.finger_mask[:, 0].any() and np.isnan(d.finger_positions[:, 0]).all() and not d.wrist_mask[:, 0].any()
+
+
+def test_second_person_is_ignored(tmp_path):
+    path = tmp_path / "p.pose"
+    body, _ = write_pose(path, people=2)
+    np.testing.assert_allclose(load_demonstration(path).position("left", "wrist"), body["LEFT_WRIST"], atol=2e-5)
+
+
+# ---------------------------------------------------------------- bad input
+def test_required_landmark_missing_everywhere(tmp_path):
+    path = tmp_path / "m.pose"
+    elbow = BODY8.index("LEFT_ELBOW")
+    world_elbow = 8 + 42 + elbow
+    write_pose(path, T=10, conf_overrides={**{(t, elbow): 0.0 for t in range(10)}, **{(t, world_elbow): 0.0 for t in range(10)}})
+    with pytest.raises(DemonstrationError, match="missing in every frame") as err:
+        load_demonstration(path)
+    assert "LEFT_ELBOW" in err.value.field and "m.pose" in str(err.value)
+
+
+def test_nan_in_an_observed_landmark(tmp_path):
+    path = tmp_path / "n.pose"
+    write_pose(path, T=10, data_overrides={(4, BODY8.index("RIGHT_WRIST")): np.nan})
+    with pytest.raises(DemonstrationError, match="NaN") as err:
+        load_demonstration(path)
+    assert err.value.frame == 4 and err.value.field == "POSE_LANDMARKS/RIGHT_WRIST"
+
+
+def test_zero_length_arm(tmp_path):
+    path = tmp_path / "z.pose"
+    T = 10
+    body = body_truth(T)
+    hip_c = (body["LEFT_HIP"] + body["RIGHT_HIP"]) / 2
+    shoulder_world = to_camera(body["RIGHT_SHOULDER"][6] - hip_c[6]) * np.array([W, H, 1.0])
+    write_pose(path, T=T, data_overrides={(6, 8 + 42 + BODY8.index("RIGHT_ELBOW")): shoulder_world})
+    with pytest.raises(DemonstrationError, match="zero length") as err:
+        load_demonstration(path)
+    assert err.value.frame == 6 and err.value.field == "right/upper_arm"
+
+
+def test_bad_fps_no_frames_truncated_garbage(tmp_path):
+    write_pose(tmp_path / "f.pose", T=5, fps=0)
+    with pytest.raises(DemonstrationError, match="fps"):
+        load_demonstration(tmp_path / "f.pose")
+    write_pose(tmp_path / "e.pose", T=0)
+    with pytest.raises(DemonstrationError, match="no frames"):
+        load_demonstration(tmp_path / "e.pose")
+    write_pose(tmp_path / "ok.pose", T=30)
+    raw = (tmp_path / "ok.pose").read_bytes()
+    (tmp_path / "cut.pose").write_bytes(raw[: len(raw) // 2])
+    with pytest.raises(DemonstrationError, match="cut.pose"):
+        load_demonstration(tmp_path / "cut.pose")
+    (tmp_path / "junk.pose").write_bytes(b"\x00\x01junk" * 3)
+    with pytest.raises(DemonstrationError, match="junk.pose"):
+        load_demonstration(tmp_path / "junk.pose")
+    (tmp_path / "empty.pose").write_bytes(b"")
+    with pytest.raises(DemonstrationError, match="empty"):
+        load_demonstration(tmp_path / "empty.pose")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.pose", "e.pose", "empty.pose", "f.pose", "junk.pose", "ok.pose"]
+
+
+# ---------------------------------------------------------------- the shared real recordings
+REAL = ["mediapipe_right_hand_170f.pose", "holistic_both_hands_47f.pose", "holistic_world_97f.pose"]
+# Upper-arm length CV bound: the reader gives 0.036-0.103 on these files (monocular MediaPipe is noisy);
+# a wrong depth scale (image z at MediaPipe's nominal scale) gives 0.28-0.32, a mixed-up axis far more.
+MAX_UPPER_ARM_CV = 0.15
+
+
+@pytest.fixture(params=REAL)
+def real(request):
+    path = SHARED / request.param
+    if not path.exists():
+        pytest.skip(f"shared recordings not available at {SHARED}")
+    return load_demonstration(path)
+
+
+def test_real_origin_between_shoulders_left_at_plus_y(real):
+    ls, rs = real.position("left", "shoulder"), real.position("right", "shoulder")
+    m = real.arm_mask[:, 0, 0] & real.arm_mask[:, 1, 0]
+    assert m.mean() > 0.9
+    np.testing.assert_allclose((ls + rs)[m], 0.0, atol=1e-9)
+    np.testing.assert_allclose(ls[m][:, [0, 2]], 0.0, atol=1e-9)
+    assert np.all(ls[m][:, 1] > 0.1) and np.all(rs[m][:, 1] < -0.1)
+    # not only the shoulders: the whole left arm chain lies on the left of the right one
+    lw, rw = real.position("left", "wrist"), real.position("right", "wrist")
+    assert np.nanmean(lw[:, 1]) > np.nanmean(rw[:, 1]) + 0.1
+
+
+def test_real_upper_arm_length_consistent(real):
+    for s, side in enumerate(("left", "right")):
+        ok = real.arm_mask[:, s, 0] & real.arm_mask[:, s, 1]
+        length = np.linalg.norm(real.position(side, "elbow") - real.position(side, "shoulder"), axis=-1)[ok]
+        assert ok.sum() >= 0.9 * len(real)
+        cv = length.std() / length.mean()
+        assert cv < MAX_UPPER_ARM_CV, f"{real.name} {side}: upper arm CV {cv:.3f}"
+        assert 0.15 < np.median(length) < 0.45  # metres, a human upper arm
+
+
+def test_real_wrist_rotations_are_rotations(real):
+    R = real.wrist_rotations[real.wrist_mask]
+    assert len(R) > 0
+    np.testing.assert_allclose(R @ np.swapaxes(R, 1, 2), np.broadcast_to(np.eye(3), R.shape), atol=1e-9)
+    np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-9)
+    assert np.isnan(real.wrist_rotations[~real.wrist_mask]).all()
+
+
+def test_real_world_files_have_the_hands_in_front(real):
+    if real.meta["arm_source"] != "POSE_WORLD_LANDMARKS":
+        pytest.skip("image-only recording: no depth, X is 0")
+    # signing happens in front of the body: X (forward) of both wrists is positive on average
+    for side in ("left", "right"):
+        assert np.nanmean(real.position(side, "wrist")[:, 0]) > 0.1
+
+
+def test_real_missing_left_hand_is_masked_not_zero():
+    path = SHARED / "mediapipe_right_hand_170f.pose"
+    if not path.exists():
+        pytest.skip(f"shared recordings not available at {SHARED}")
+    d = load_demonstration(path)
+    assert d.meta["arm_source"] == "POSE_LANDMARKS"  # the 8-point layout, no world landmarks
+    assert not d.finger_mask[:, 0].any() and not d.wrist_mask[:, 0].any()
+    assert np.isnan(d.finger_positions[:, 0]).all() and np.isnan(d.wrist_rotations[:, 0]).all()
+    assert 0.8 * len(d) <= d.finger_mask[:, 1, 0].sum() < len(d)  # the right hand: present in about 85 % of frames
+    assert np.isnan(d.finger_positions[~d.finger_mask[:, 1, 0], 1]).all()

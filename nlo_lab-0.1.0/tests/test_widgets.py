@@ -1,0 +1,141 @@
+"""The ipywidgets panels, driven headlessly: set a control, the pose and the plot change."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from nlo_lab.errors import NloLabError, SettingsError
+from nlo_lab.human import load_demonstration
+from nlo_lab.notebook import budget, recording_path, show_robot, show_view, is_test_mode
+from nlo_lab.robots import load_robot
+from nlo_lab.train import new_model
+from nlo_lab.viz import recording_visualizer
+from nlo_lab.widgets import JointPanel, RetargetPanel, svg_convergence
+
+
+@pytest.fixture(scope="module")
+def demo():
+    return load_demonstration(recording_path()).slice(10, 16)  # 6 frames of the shipped real recording
+
+
+def _loader(robot):
+    torch.manual_seed(0)  # an untrained model: the panels' plumbing does not depend on training
+    return new_model(robot, in_features=13)
+
+
+@pytest.fixture
+def panel(demo):
+    return RetargetPanel(demo, "nao", model_loader=_loader, iterations=6, frame_iterations=4, view=None)
+
+
+def _changed(panel, action):
+    q, plot, data = panel.q.copy(), panel.plot.value, panel.plot_data
+    action()
+    return float(np.abs(panel.q - q).max()), panel.plot.value != plot, panel.plot_data != data
+
+
+def test_weight_slider_reoptimises_the_current_frame(panel):
+    dq, plot_changed, data_changed = _changed(panel, lambda: setattr(panel.controls["ee"], "value", 10.0))
+    assert panel.weights.ee == pytest.approx(10.0)
+    assert dq > 1e-6 and plot_changed and data_changed
+    assert 1 <= len(panel.history) <= 4 + 1  # warm start: at most frame_iterations steps
+    assert panel.history == panel.plot_data[-1][1]
+
+
+def test_init_and_iterations_restart_from_the_chosen_initialisation(panel):
+    dq, plot_changed, _ = _changed(panel, lambda: setattr(panel.controls["init"], "value", "random"))
+    assert dq > 1e-6 and plot_changed
+    assert panel.last.init == "random" and len(panel.history) == 6 + 1  # full budget, untrained: no early stop
+    dq, plot_changed, _ = _changed(panel, lambda: setattr(panel.controls["iterations"], "value", 10))
+    assert plot_changed and len(panel.history) == 10 + 1
+
+
+def test_frame_scrubber_and_play_are_linked(panel, demo):
+    before = panel.angles.copy()
+    panel.play.value = 3  # the Play widget drives the frame slider
+    assert panel.controls["frame"].value == 3 and panel.frame == 3
+    changed = np.abs(panel.angles - before).max(axis=1) > 1e-9
+    assert changed[3] and not changed[[0, 1, 2, 4, 5]].any()  # only the current frame was re-optimised
+    assert panel.plot_data[-1][0].startswith("frame 3")
+
+
+def test_robot_switch_changes_the_joint_space(panel):
+    assert panel.q.shape == (10,)
+    panel.controls["robot"].value = "pepper"
+    assert panel.robot.name == "pepper" and panel.q.shape == (panel.robot.n_joints,)
+    lo, hi = panel.robot.lower_limits.numpy(), panel.robot.upper_limits.numpy()
+    assert np.all(panel.angles >= lo - 1e-5) and np.all(panel.angles <= hi + 1e-5)  # the decoder keeps the limits
+
+
+def test_sequence_button_optimises_every_frame(panel, demo):
+    before = panel.angles.copy()
+    panel.button.click()
+    assert panel.last.q.shape[0] == len(demo)
+    assert (np.abs(panel.angles - before).max(axis=1) > 1e-9).sum() >= len(demo) - 1
+    assert panel.plot_data[-1][0].startswith("sequence")
+
+
+def test_view_is_updated_when_injected(demo):
+    vis = recording_visualizer()
+    p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=4, frame_iterations=3, view=vis)
+    page = vis.static_html()
+    p.controls["collision"].value = 1.0
+    assert vis.static_html() != page  # the robot moved in the scene
+
+
+def test_static_view_widget(demo, monkeypatch):
+    monkeypatch.setenv("NLO_LAB_STATIC_VIEWER", "1")
+    p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2, view="static")
+    first = p._view.widget.value
+    assert first.startswith("<iframe srcdoc=")
+    p.controls["frame"].value = 2
+    assert p._view.widget.value != first
+
+
+def test_bad_arguments(demo):
+    with pytest.raises(SettingsError, match="init"):
+        RetargetPanel(demo, "nao", model_loader=_loader, init="magic", view=None)
+    with pytest.raises(SettingsError, match="frame 99"):
+        RetargetPanel(demo, "nao", model_loader=_loader, frame=99, view=None)
+    with pytest.raises(SettingsError, match="view"):
+        RetargetPanel(demo, "nao", model_loader=_loader, view="3d")
+
+
+def test_joint_panel_moves_the_link():
+    robot = load_robot("nao")
+    vis = recording_visualizer()
+    jp = JointPanel(robot, view=vis)
+    arm = robot.arm("left")
+    jp.link.value = arm.wrist
+    pos, page = jp.position.copy(), vis.static_html()
+    name = robot.joint_names[0]
+    s = jp.sliders[name]
+    s.value = s.min if s.value - s.min > s.max - s.value else s.max
+    assert np.linalg.norm(jp.position - pos) > 1e-3 and vis.static_html() != page
+    q = torch.as_tensor(jp.q, dtype=robot.lower_limits.dtype)[None]
+    expected = robot.forward_kinematics(q)[arm.wrist][0, :3, 3].numpy()
+    np.testing.assert_allclose(jp.position, expected, atol=1e-6)
+
+
+def test_svg_convergence():
+    svg = svg_convergence([("a", [10.0, 5.0, 1.0]), ("b", [3.0])])
+    assert svg.startswith("<svg") and svg.count("<polyline") == 2 and "(log)" in svg
+    assert "(log)" not in svg_convergence([("a", [1.0, -1.0])])
+    assert svg_convergence([]).startswith("<svg")
+
+
+def test_notebook_helpers(monkeypatch):
+    monkeypatch.setenv("NLO_LAB_TEST_MODE", "1")
+    assert is_test_mode() and budget(100, 3) == 3
+    monkeypatch.setenv("NLO_LAB_TEST_MODE", "0")
+    assert budget(100, 3) == 100
+    monkeypatch.setenv("NLO_LAB_STATIC_VIEWER", "1")
+    robot = load_robot("nao")
+    out = show_robot(robot)
+    assert "<iframe srcdoc=" in out.data and "MeshCat" in out.data
+    with pytest.raises(NloLabError, match="one pose"):
+        show_robot(robot, np.zeros((2, robot.n_joints)))
+    with pytest.raises(NloLabError, match="no live viewer"):
+        show_view(robot, live=True)

@@ -1,0 +1,198 @@
+"""Build the sdist and the wheel, install the wheel into a venv outside the repository, use it.
+
+What a researcher does: ``pip install nlo_lab-*.whl`` into their own
+environment and work from another folder. This script proves that works:
+
+1. builds the sdist, then the wheel *from the sdist* (so both must carry the
+   robots, checkpoints, recording and notebooks);
+2. checks the wheel's file list (assets, notebooks, LICENSE);
+3. installs the wheel into a venv in the user cache (not in the checkout). The
+   venv is kept between runs so that torch and the other heavy dependencies are
+   installed once per dependency set; nlo_lab itself is uninstalled and
+   reinstalled from the new wheel every run, then ``pip check`` runs;
+4. from an empty temporary folder, with the checkout out of reach: imports
+   the package from site-packages, ``load_robot`` and ``load_pretrained`` for
+   every robot, ``nlo-lab retarget demo:…``, ``nlo-lab demo``,
+   ``nlo-lab lab --copy-only``, and a damaged install (a checkpoint moved
+   away) giving one error line that names the file and the repair.
+
+Run: ``make wheel-check`` (``make test`` runs it). Exit status 1 on the first
+failure, with what failed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import zipfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+TORCH = "torch==2.13.0"  # the Makefile's CPU build: a bare `torch` may pull a multi-GB GPU build
+ROBOTS = ("nao", "pepper", "yumi")
+
+
+def fail(message: str) -> None:
+    print(f"wheel-check: FAILED: {message}", file=sys.stderr)
+    sys.exit(1)
+
+
+def run(cmd: list[str], cwd: Path | None = None, env: dict | None = None, expect: int = 0) -> subprocess.CompletedProcess:
+    proc = subprocess.run([str(c) for c in cmd], cwd=cwd, env=env, capture_output=True, text=True)
+    if proc.returncode != expect:
+        fail(f"`{' '.join(map(str, cmd))}` exited {proc.returncode} (expected {expect})\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+    return proc
+
+
+def cache_root() -> Path:
+    base = os.environ.get("NLO_LAB_WHEEL_CHECK_CACHE") or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "nlo_lab"
+    return Path(base) / "wheel-check"
+
+
+def dependency_key() -> str:
+    """Changes when the declared dependencies or the Python version change (then the venv is rebuilt)."""
+    text = (ROOT / "pyproject.toml").read_text()
+    deps = re.search(r"^dependencies = \[(.*?)^\]", text, re.S | re.M)
+    payload = f"{sys.version_info[:2]} {TORCH} {deps.group(1) if deps else text}"
+    return hashlib.sha256(payload.encode()).hexdigest()[:12]
+
+
+def build(out: Path) -> Path:
+    """The sdist, then the wheel built from it; returns the wheel."""
+    t0 = time.perf_counter()
+    # The dev venv's setuptools (>= 77, as pyproject asks), without build isolation: no download.
+    build_sdist = f"from setuptools import build_meta; print(build_meta.build_sdist({str(out)!r}))"
+    sdist = out / run([sys.executable, "-c", build_sdist], cwd=ROOT).stdout.strip().splitlines()[-1]
+    names = tarfile_names(sdist)
+    for needed in ("assets/checkpoints/yumi.pt", "assets/robots/yumi.urdf", "notebooks/01_robots_and_kinematics.ipynb", "LICENSE"):
+        if not any(n.endswith(needed) for n in names):
+            fail(f"the sdist {sdist.name} lacks {needed}")
+    run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--no-build-isolation", "-w", out, sdist])
+    wheels = sorted(out.glob("nlo_lab-*.whl"))
+    if len(wheels) != 1:
+        fail(f"expected one wheel in {out}, found {[w.name for w in wheels]}")
+    print(f"wheel-check: built {sdist.name} ({sdist.stat().st_size / 1e6:.1f} MB) and {wheels[0].name} "
+          f"({wheels[0].stat().st_size / 1e6:.1f} MB) in {time.perf_counter() - t0:.0f} s")  # fmt: skip
+    return wheels[0]
+
+
+def tarfile_names(path: Path) -> list[str]:
+    import tarfile
+
+    with tarfile.open(path) as tar:
+        return tar.getnames()
+
+
+def check_wheel_contents(wheel: Path) -> None:
+    with zipfile.ZipFile(wheel) as zf:
+        names = set(zf.namelist())
+    needed = [f"nlo_lab/assets/robots/{r}.{ext}" for r in ROBOTS for ext in ("json", "urdf")]
+    needed += [f"nlo_lab/assets/checkpoints/{r}.pt" for r in ROBOTS]
+    needed += ["nlo_lab/assets/recordings/holistic_both_hands_47f.pose", "nlo_lab/notebooks/README.md"]
+    needed += [f"nlo_lab/notebooks/{p.name}" for p in sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb"))]
+    missing = [n for n in needed if n not in names]
+    if missing:
+        fail(f"the wheel lacks {missing}")
+    if not any(n.endswith(".dist-info/licenses/LICENSE") for n in names):
+        fail("the wheel lacks LICENSE in its .dist-info/licenses")
+    stray = sorted(n for n in names if n.startswith("nlo_lab/assets/") and n.endswith(".py"))
+    if stray:
+        fail(f"the wheel carries the asset generator scripts {stray}")
+
+
+def venv_with_deps(wheel: Path) -> Path:
+    """The cached venv, with the new wheel installed in place of the last one; returns its python."""
+    key = dependency_key()
+    root = cache_root()
+    venv = root / f"venv-{key}"
+    py = venv / "bin" / "python"
+    if not (venv / ".ready").exists():
+        for old in root.glob("venv-*"):  # another dependency set: rebuild from scratch
+            shutil.rmtree(old, ignore_errors=True)
+        t0 = time.perf_counter()
+        run([sys.executable, "-m", "venv", "--clear", venv])
+        run([py, "-m", "pip", "install", "--quiet", TORCH])
+        run([py, "-m", "pip", "install", "--quiet", wheel])
+        (venv / ".ready").touch()
+        print(f"wheel-check: created {venv} with the dependencies in {time.perf_counter() - t0:.0f} s (cached for later runs)")
+    run([py, "-m", "pip", "uninstall", "--quiet", "--yes", "nlo_lab"])
+    run([py, "-m", "pip", "install", "--quiet", wheel])  # new dependencies, if any, come in here
+    run([py, "-m", "pip", "check"])
+    return py
+
+
+SMOKE = r"""
+import json, sys
+import nlo_lab, nlo_lab.paths as paths
+from nlo_lab.robots import load_robot, known_robots
+from nlo_lab.train import load_pretrained
+assert "site-packages" in nlo_lab.__file__, nlo_lab.__file__
+assert paths.ASSETS.parent == paths.PACKAGE_DIR, paths.ASSETS
+out = {"version": nlo_lab.__version__, "robots": known_robots(), "assets": str(paths.ASSETS)}
+for name in known_robots():
+    robot = load_robot(name)
+    model = load_pretrained(robot)
+    out[name] = [robot.n_joints, sum(p.numel() for p in model.parameters())]
+print(json.dumps(out))
+"""
+
+
+def smoke(py: Path, work: Path) -> None:
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV", "NLO_LAB"))}
+    env["PATH"] = f"{py.parent}{os.pathsep}{env.get('PATH', '')}"
+    env["HOME"] = str(work / "home")  # `nlo-lab lab`'s default folder lands here, not in the real home
+    cli = py.parent / "nlo-lab"
+    t0 = time.perf_counter()
+    info = json.loads(run([py, "-c", SMOKE], cwd=work, env=env).stdout.strip().splitlines()[-1])
+    if info["robots"] != list(ROBOTS):
+        fail(f"known_robots() in the installed package is {info['robots']}")
+    summary = json.loads(run([cli, "retarget", "demo:introduction_06", "--robot", "nao", "--iters", "5", "--json", "--out", "nao_out"],
+                             cwd=work, env=env).stdout.strip().splitlines()[-1])  # fmt: skip
+    for name in ("trajectory.npz", "trajectory.csv", "viewer.html"):
+        if not (work / "nao_out" / name).is_file():
+            fail(f"nlo-lab retarget --out nao_out wrote no {name}")
+    demo = run([cli, "demo"], cwd=work, env=env).stdout
+    if "retargeted" not in demo or not (work / "out" / "demo" / "trajectory.csv").is_file():
+        fail(f"nlo-lab demo did not retarget:\n{demo[-2000:]}")
+    folder = run([cli, "lab", "--copy-only"], cwd=work, env=env).stdout.strip().splitlines()[-1]
+    copied = sorted(p.name for p in Path(folder).glob("*.ipynb"))
+    if len(copied) != len(list((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb"))) or not Path(folder).is_relative_to(work / "home"):
+        fail(f"nlo-lab lab --copy-only copied {copied} to {folder}")
+    # A damaged install: one line naming the file and the repair, exit 2.
+    ckpt = Path(info["assets"]) / "checkpoints" / "yumi.pt"
+    moved = ckpt.with_suffix(".moved")
+    ckpt.rename(moved)
+    try:
+        err = run([cli, "retarget", "demo:introduction_06", "--robot", "yumi", "--iters", "1"], cwd=work, env=env, expect=2).stderr
+    finally:
+        moved.rename(ckpt)
+    lines = err.strip().splitlines()
+    if len(lines) != 1 or str(ckpt) not in lines[0] or "pip install --force-reinstall" not in lines[0]:
+        fail(f"a missing bundled checkpoint gave:\n{err}")
+    print(f"wheel-check: from {work}: nlo_lab {info['version']} imported from site-packages; load_robot + load_pretrained "
+          f"{', '.join(ROBOTS)}; retarget (frechet {summary['frechet_m']:.3f} m); demo; lab --copy-only ({len(copied)} notebooks); "
+          f"damaged install -> exit 2 naming {ckpt.name} ({time.perf_counter() - t0:.0f} s)")  # fmt: skip
+
+
+def main() -> int:
+    with tempfile.TemporaryDirectory(prefix="nlo_lab-wheel-check-") as tmp:
+        tmp = Path(tmp)
+        (tmp / "dist").mkdir()
+        (tmp / "work" / "home").mkdir(parents=True)
+        wheel = build(tmp / "dist")
+        check_wheel_contents(wheel)
+        py = venv_with_deps(wheel)
+        smoke(py, tmp / "work")
+    print("wheel-check: OK")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
