@@ -32,9 +32,11 @@ lint: setup
 
 # Build the sdist and the wheel, install the wheel into a venv outside the checkout
 # (cached in ~/.cache/nlo_lab/wheel-check: torch and friends install once) and use it
-# from an empty folder: tools/wheel_check.py says what it checks.
+# from an empty folder; then the same with every dependency at its lowest allowed
+# version (--lowest). tools/wheel_check.py says what it checks.
 wheel-check: setup
 	$(PY) tools/wheel_check.py
+	$(PY) tools/wheel_check.py --lowest
 
 # The browser test needs Debian's chromium; install it when we can (root + apt),
 # otherwise that one test says why it skipped.

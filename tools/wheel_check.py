@@ -16,8 +16,13 @@ environment and work from another folder. This script proves that works:
    ``nlo-lab lab --copy-only``, and a damaged install (a checkpoint moved
    away) giving one error line that names the file and the repair.
 
-Run: ``make wheel-check`` (``make test`` runs it). Exit status 1 on the first
-failure, with what failed.
+``--lowest`` does the same in a second cached venv where every runtime
+dependency is the lowest release ``pyproject.toml`` allows (``name>=X`` becomes
+``name==X``; torch stays the machine's CPU build, the only one reachable here):
+the lower bounds are tested, not guessed.
+
+Run: ``make wheel-check`` (``make test`` runs it with and without ``--lowest``).
+Exit status 1 on the first failure, with what failed.
 """
 
 from __future__ import annotations
@@ -56,11 +61,28 @@ def cache_root() -> Path:
     return Path(base) / "wheel-check"
 
 
-def dependency_key() -> str:
+def runtime_requirements() -> list[str]:
+    """The ``dependencies`` of pyproject.toml, as written."""
+    import tomllib
+
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["dependencies"]
+
+
+def lowest_constraints() -> list[str]:
+    """``name==X`` for every runtime requirement with a lower bound ``>=X`` (torch excepted)."""
+    out = []
+    for req in runtime_requirements():
+        m = re.match(r"\s*([A-Za-z0-9_.-]+)\s*(?:\[.*?\])?\s*(.*)", req)
+        name, spec = m.group(1), m.group(2)
+        low = re.search(r">=\s*([0-9][^,;\s]*)", spec)
+        if low and name.lower() != "torch":
+            out.append(f"{name}=={low.group(1)}")
+    return out
+
+
+def dependency_key(lowest: bool) -> str:
     """Changes when the declared dependencies or the Python version change (then the venv is rebuilt)."""
-    text = (ROOT / "pyproject.toml").read_text()
-    deps = re.search(r"^dependencies = \[(.*?)^\]", text, re.S | re.M)
-    payload = f"{sys.version_info[:2]} {TORCH} {deps.group(1) if deps else text}"
+    payload = f"{sys.version_info[:2]} {TORCH} {runtime_requirements()} {lowest}"
     return hashlib.sha256(payload.encode()).hexdigest()[:12]
 
 
@@ -107,24 +129,30 @@ def check_wheel_contents(wheel: Path) -> None:
         fail(f"the wheel carries the asset generator scripts {stray}")
 
 
-def venv_with_deps(wheel: Path) -> Path:
+def venv_with_deps(wheel: Path, lowest: bool) -> Path:
     """The cached venv, with the new wheel installed in place of the last one; returns its python."""
-    key = dependency_key()
+    kind = "lowest" if lowest else "latest"  # folder names that no glob of the other kind matches
     root = cache_root()
-    venv = root / f"venv-{key}"
+    venv = root / f"{kind}-{dependency_key(lowest)}"
     py = venv / "bin" / "python"
+    constraints = root / f"{venv.name}.constraints.txt"
+    pins = ["-c", constraints] if lowest else []
+    root.mkdir(parents=True, exist_ok=True)
+    constraints.write_text("\n".join(lowest_constraints()) + "\n")
     if not (venv / ".ready").exists():
-        for old in root.glob("venv-*"):  # another dependency set: rebuild from scratch
-            shutil.rmtree(old, ignore_errors=True)
+        for old in root.glob(f"{kind}-*"):  # another dependency set: rebuild from scratch
+            shutil.rmtree(old, ignore_errors=True) if old.is_dir() else old.unlink()
         t0 = time.perf_counter()
         run([sys.executable, "-m", "venv", "--clear", venv])
         run([py, "-m", "pip", "install", "--quiet", TORCH])
-        run([py, "-m", "pip", "install", "--quiet", wheel])
+        run([py, "-m", "pip", "install", "--quiet", *pins, wheel])
         (venv / ".ready").touch()
         print(f"wheel-check: created {venv} with the dependencies in {time.perf_counter() - t0:.0f} s (cached for later runs)")
     run([py, "-m", "pip", "uninstall", "--quiet", "--yes", "nlo_lab"])
-    run([py, "-m", "pip", "install", "--quiet", wheel])  # new dependencies, if any, come in here
+    run([py, "-m", "pip", "install", "--quiet", *pins, wheel])  # new dependencies, if any, come in here
     run([py, "-m", "pip", "check"])
+    if lowest:  # pip installed exactly these (constraints are binding) or failed above
+        print(f"wheel-check: lowest versions: {', '.join(lowest_constraints())} (torch: {TORCH})")
     return py
 
 
@@ -140,6 +168,20 @@ for name in known_robots():
     robot = load_robot(name)
     model = load_pretrained(robot)
     out[name] = [robot.n_joints, sum(p.numel() for p in model.parameters())]
+# what the lowest versions must also do: the reference FK, a .pose file, a plot, the widgets
+import matplotlib
+matplotlib.use("Agg")
+from nlo_lab.pk_chain import PKChain
+from nlo_lab.human import load_demonstration
+from nlo_lab.viz import plot_convergence
+import nlo_lab.widgets
+robot = load_robot("yumi")
+q = robot.neutral_q[None]
+ours, ref = robot.forward_kinematics(q), PKChain(robot).forward_kinematics(q)
+out["pk_max_diff"] = max(float((ours[k] - ref[k]).abs().max()) for k in ref)
+assert out["pk_max_diff"] < 1e-4, out["pk_max_diff"]
+out["pose_frames"] = len(load_demonstration(paths.RECORDINGS_DIR / "holistic_both_hands_47f.pose"))
+plot_convergence([3.0, 2.0, 1.0])
 print(json.dumps(out))
 """
 
@@ -177,20 +219,21 @@ def smoke(py: Path, work: Path) -> None:
     if len(lines) != 1 or str(ckpt) not in lines[0] or "pip install --force-reinstall" not in lines[0]:
         fail(f"a missing bundled checkpoint gave:\n{err}")
     print(f"wheel-check: from {work}: nlo_lab {info['version']} imported from site-packages; load_robot + load_pretrained "
-          f"{', '.join(ROBOTS)}; retarget (frechet {summary['frechet_m']:.3f} m); demo; lab --copy-only ({len(copied)} notebooks); "
+          f"{', '.join(ROBOTS)}; PKChain; the .pose sample ({info['pose_frames']} frames); a plot; retarget (frechet {summary['frechet_m']:.3f} m); demo; lab --copy-only ({len(copied)} notebooks); "
           f"damaged install -> exit 2 naming {ckpt.name} ({time.perf_counter() - t0:.0f} s)")  # fmt: skip
 
 
 def main() -> int:
+    lowest = "--lowest" in sys.argv[1:]
     with tempfile.TemporaryDirectory(prefix="nlo_lab-wheel-check-") as tmp:
         tmp = Path(tmp)
         (tmp / "dist").mkdir()
         (tmp / "work" / "home").mkdir(parents=True)
         wheel = build(tmp / "dist")
         check_wheel_contents(wheel)
-        py = venv_with_deps(wheel)
+        py = venv_with_deps(wheel, lowest)
         smoke(py, tmp / "work")
-    print("wheel-check: OK")
+    print(f"wheel-check{' --lowest' if lowest else ''}: OK")
     return 0
 
 
