@@ -341,7 +341,8 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
                 from tqdm.auto import tqdm
 
                 source = tqdm(frames, total=info.frames or None, desc=f"pose estimation {path.name}", unit="frame",
-                              file=bar_stream or sys.stderr, leave=False, dynamic_ncols=True)
+                              file=bar_stream or sys.stderr, leave=False, dynamic_ncols=True,
+                              mininterval=0)  # draw every frame (a few per second): the last count always shows
             try:
                 pose = load_holistic(source, fps=info.fps, width=info.width, height=info.height, progress=False,
                                      additional_holistic_config={"model_complexity": MODEL_COMPLEXITY},
