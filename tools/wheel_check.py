@@ -8,8 +8,10 @@ environment and work from another folder. This script proves that works:
 2. checks the wheel's file list (assets, notebooks, LICENSE);
 3. installs the wheel into a venv in the user cache (not in the checkout). The
    venv is kept between runs so that torch and the other heavy dependencies are
-   installed once per dependency set; nlo_lab itself is uninstalled and
-   reinstalled from the new wheel every run, then ``pip check`` runs;
+   installed once per dependency set (venvs unused for three days are removed);
+   nlo_lab itself is uninstalled and reinstalled from the new wheel every run,
+   then ``pip check`` runs. A lock lets one check at a time use the cache, since
+   several checkouts on one machine share it;
 4. from an empty temporary folder, with the checkout out of reach: imports
    the package from site-packages, ``load_robot`` and ``load_pretrained`` for
    every robot, ``nlo-lab retarget demo:…``, ``nlo-lab demo``,
@@ -27,6 +29,7 @@ Exit status 1 on the first failure, with what failed.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -131,7 +134,7 @@ def check_wheel_contents(wheel: Path) -> None:
 
 def venv_with_deps(wheel: Path, lowest: bool) -> Path:
     """The cached venv, with the new wheel installed in place of the last one; returns its python."""
-    kind = "lowest" if lowest else "latest"  # folder names that no glob of the other kind matches
+    kind = "lowest" if lowest else "latest"
     root = cache_root()
     venv = root / f"{kind}-{dependency_key(lowest)}"
     py = venv / "bin" / "python"
@@ -140,14 +143,14 @@ def venv_with_deps(wheel: Path, lowest: bool) -> Path:
     root.mkdir(parents=True, exist_ok=True)
     constraints.write_text("\n".join(lowest_constraints()) + "\n")
     if not (venv / ".ready").exists():
-        for old in root.glob(f"{kind}-*"):  # another dependency set: rebuild from scratch
-            shutil.rmtree(old, ignore_errors=True) if old.is_dir() else old.unlink()
+        shutil.rmtree(venv, ignore_errors=True)  # a half-made venv from an interrupted run
         t0 = time.perf_counter()
         run([sys.executable, "-m", "venv", "--clear", venv])
         run([py, "-m", "pip", "install", "--quiet", TORCH])
         run([py, "-m", "pip", "install", "--quiet", *pins, wheel])
         (venv / ".ready").touch()
         print(f"wheel-check: created {venv} with the dependencies in {time.perf_counter() - t0:.0f} s (cached for later runs)")
+    (venv / ".ready").touch()  # its time says when it was last used (see prune)
     run([py, "-m", "pip", "uninstall", "--quiet", "--yes", "nlo_lab"])
     run([py, "-m", "pip", "install", "--quiet", *pins, wheel])  # new dependencies, if any, come in here
     run([py, "-m", "pip", "check"])
@@ -223,9 +226,32 @@ def smoke(py: Path, work: Path) -> None:
           f"damaged install -> exit 2 naming {ckpt.name} ({time.perf_counter() - t0:.0f} s)")  # fmt: skip
 
 
+def prune(root: Path, days: float = 3.0) -> None:
+    """Remove cached venvs not used for ``days`` (other checkouts may still use other dependency sets)."""
+    for ready in root.glob("*/.ready"):
+        if time.time() - ready.stat().st_mtime > days * 86400:
+            shutil.rmtree(ready.parent, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def cache_lock():
+    """One wheel check at a time per cache: checkouts on one machine share it."""
+    import fcntl
+
+    root = cache_root()
+    root.mkdir(parents=True, exist_ok=True)
+    with open(root / ".lock", "w") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)  # waits for another checkout's run to finish
+        try:
+            yield root
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
 def main() -> int:
     lowest = "--lowest" in sys.argv[1:]
-    with tempfile.TemporaryDirectory(prefix="nlo_lab-wheel-check-") as tmp:
+    with cache_lock() as root, tempfile.TemporaryDirectory(prefix="nlo_lab-wheel-check-") as tmp:
+        prune(root)
         tmp = Path(tmp)
         (tmp / "dist").mkdir()
         (tmp / "work" / "home").mkdir(parents=True)
