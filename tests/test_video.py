@@ -265,11 +265,12 @@ def test_cli_no_person_exit_2_nothing_written(nobody, tmp_path, capsys):
     (["demo:introduction_06", "--save-pose", "x.pose"], "needs a video"),
     ([str(SAMPLE), "--save-pose", "x.json"], "must end in .pose"),
     ([str(SAMPLE), "--save-pose", "no/such/folder/x.pose"], "does not exist"),
+    ([str(SAMPLE), "--threads", "0"], "must be in [1, 256]"),
 ])
-def test_cli_save_pose_checked_before_the_work(argv, needle, capsys):
+def test_cli_video_flags_checked_before_the_work(argv, needle, capsys):
     code = main(["retarget", *argv, "--robot", "nao"])
     _, err = capsys.readouterr()
-    assert_one_line_error(code, err, "--save-pose", needle)
+    assert_one_line_error(code, err, argv[1], needle)
 
 
 def test_progress_bar_counts_the_frames(tmp_path, capsys):
