@@ -139,7 +139,7 @@ def _guarded(panel, action: Callable[..., Any]) -> Callable[..., Any]:
         except Exception as exc:
             text = f"{type(exc).__name__}: {exc}"
             panel.error = text
-            panel.status.value = f'<span style="color: #b00020"><b>error</b>: {html.escape(text)}</span>'
+            panel.status.value = f'<span class="nlo-lab-panel-error" style="color: #b00020"><b>error</b>: {html.escape(text)}</span>'
             panel._view.show_message(f"Not updated: {text}")
             raise
         if panel.error:
@@ -206,7 +206,7 @@ class JointPanel:
             s.observe(update, names="value")
         self.link.observe(update, names="value")
         self._update()
-        sliders = W.VBox(list(self.sliders.values()), layout=W.Layout(max_height=f"{height}px", overflow_y="auto", flex="0 0 440px"))
+        sliders = W.VBox(list(self.sliders.values()), layout=W.Layout(max_height=f"{height}px", overflow="auto", flex="0 0 440px"))
         parts = [sliders]
         if self._view.widget is not None:
             parts.append(W.Box([self._view.widget], layout=W.Layout(flex="1 1 360px", min_width="320px")))
@@ -347,7 +347,7 @@ class RetargetPanel:
         left = W.VBox([W.HBox([weights_box, setup_box], layout=W.Layout(flex_flow="row wrap")), frames, self.status, self.plot], layout=W.Layout(flex="0 1 auto"))
         parts = [left]
         if self._view.widget is not None:
-            parts.append(W.Box([self._view.widget], layout=W.Layout(flex="1 1 380px", min_width="320px")))
+            parts.append(W.Box([self._view.widget], layout=W.Layout(flex="1 1 420px", min_width="320px")))
         self.widget = W.HBox(parts, layout=W.Layout(flex_flow="row wrap", width="100%"))
 
     # ----------------------------------------------------------- state

@@ -104,6 +104,7 @@ class SceneWidget(anywidget.AnyWidget):
     message = traitlets.Unicode("").tag(sync=True)
 
     def __init__(self, height: int = 400, message: str = "", **kwargs) -> None:
+        kwargs.setdefault("layout", ipywidgets.Layout(width="100%"))
         super().__init__(_bundle=meshcat_bundle(), height=int(height), message=message, **kwargs)
         self.vis = Visualizer(window=WidgetWindow(self))
         self._version = 0  # commands issued so far; the page's views count the same way
