@@ -96,8 +96,8 @@ class Lab:
                 raise RuntimeError(f"JupyterLab did not start:\n{self.log()[-3000:]}")
             time.sleep(0.3)
 
-    def url(self, path: str) -> str:
-        return f"{self.origin}/{path.lstrip('/')}?token={self.token}"
+    def url(self, path: str, query: str = "") -> str:
+        return f"{self.origin}/{path.lstrip('/')}?token={self.token}{'&' + query if query else ''}"
 
     def log(self) -> str:
         if not self._log.closed:
@@ -154,7 +154,7 @@ class LabPage:
 
     # ---------------------------------------------------------------- notebooks
     def open_notebook(self, name: str, timeout: float = 120.0) -> None:
-        self.page.goto(self.lab.url(f"lab/tree/{name}"))
+        self.page.goto(self.lab.url(f"lab/tree/{name}", "reset"))  # reset: this notebook alone, no tabs restored
         self.page.locator(".jp-Notebook").first.wait_for(timeout=timeout * 1000)
         # JupyterLab may ask which kernel to start: the notebook's own (python3) is the default choice.
         accept = self.page.locator(".jp-Dialog .jp-mod-accept")
@@ -189,7 +189,7 @@ class LabPage:
         self.page.locator(".lm-Menu-itemLabel", has_text=re.compile(r"^Run All Cells$")).click()
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            prompts = self.page.locator(".jp-CodeCell .jp-InputPrompt").all_text_contents()
+            prompts = self.cells().locator(".jp-InputPrompt").all_text_contents()
             if prompts and all(re.fullmatch(r"\[\d+\]:", p.strip()) for p in prompts):
                 self.wait_kernel_idle(timeout)
                 return
@@ -215,13 +215,13 @@ class LabPage:
     def wait_views(self, count: int, timeout: float = 60.0) -> None:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            if self.page.locator(".nlo-lab-view canvas").count() >= count and not self.view_messages():
+            if self.page.locator(".jp-NotebookPanel:not(.lm-mod-hidden) .nlo-lab-view canvas").count() >= count and not self.view_messages():
                 return
             time.sleep(0.2)
         raise TimeoutError(f"{self.page.locator('.nlo-lab-view canvas').count()} views drew, {count} expected; messages {self.view_messages()}")
 
     def canvas(self, index: int):
-        return self.page.locator(".nlo-lab-view canvas").nth(index)
+        return self.page.locator(".jp-NotebookPanel:not(.lm-mod-hidden) .nlo-lab-view canvas").nth(index)
 
     def canvas_image(self, index: int, path: Path) -> np.ndarray:
         """``(H, W, 3)`` RGB in [0, 1] of the ``index``-th 3-D view, as on screen."""
@@ -233,9 +233,21 @@ class LabPage:
         loc.screenshot(path=str(path))
         return mimage.imread(str(path))[..., :3].astype(np.float64)
 
+    def cells(self):
+        """The code cells of the notebook on show."""
+        return self.page.locator(".jp-NotebookPanel:not(.lm-mod-hidden) .jp-CodeCell")
+
+    def cell_with(self, text: str) -> int:
+        """Index of the first code cell whose source contains ``text``."""
+        cells = self.cells()
+        for i in range(cells.count()):
+            if text in cells.nth(i).locator(".jp-InputArea").text_content():
+                return i
+        raise LookupError(f"no code cell contains {text!r}")
+
     def slider_handles(self, cell_index: int):
         """The slider handles (noUiSlider) in the output of the ``cell_index``-th code cell."""
-        return self.page.locator(".jp-CodeCell").nth(cell_index).locator(".noUi-handle")
+        return self.cells().nth(cell_index).locator(".noUi-handle")
 
     def move_slider(self, handle, key: str = "ArrowRight", settle: float = 1.0, timeout: float = 60.0) -> dict:
         """Press ``key`` on a slider handle; wait for the view's update and for the kernel to be idle.
