@@ -193,6 +193,8 @@ class LabPage:
             if prompts and all(re.fullmatch(r"\[\d+\]:", p.strip()) for p in prompts):
                 self.wait_kernel_idle(timeout)
                 return
+            if self.kernel_status() == "idle" and self.error_outputs():  # a cell failed: the rest will not run
+                raise RuntimeError(f"Run All stopped on an error: {self.error_outputs()[0][-2000:]}")
             time.sleep(0.5)
         raise TimeoutError(f"Run All did not finish in {timeout:.0f} s: prompts {prompts}")
 
@@ -218,7 +220,8 @@ class LabPage:
             if self.page.locator(".jp-NotebookPanel:not(.lm-mod-hidden) .nlo-lab-view canvas").count() >= count and not self.view_messages():
                 return
             time.sleep(0.2)
-        raise TimeoutError(f"{self.page.locator('.nlo-lab-view canvas').count()} views drew, {count} expected; messages {self.view_messages()}")
+        raise TimeoutError(f"{self.page.locator('.nlo-lab-view canvas').count()} views drew, {count} expected; "
+                           f"messages {self.view_messages()}; server log:\n{self.lab.log()[-3000:]}")
 
     def canvas(self, index: int):
         return self.page.locator(".jp-NotebookPanel:not(.lm-mod-hidden) .nlo-lab-view canvas").nth(index)
@@ -249,11 +252,12 @@ class LabPage:
         """The slider handles (noUiSlider) in the output of the ``cell_index``-th code cell."""
         return self.cells().nth(cell_index).locator(".noUi-handle")
 
-    def move_slider(self, handle, key: str = "ArrowRight", settle: float = 1.0, timeout: float = 60.0) -> dict:
-        """Press ``key`` on a slider handle; wait for the view's update and for the kernel to be idle.
+    def move_slider(self, handle, key: str = "ArrowRight", settle: float = 0.5, timeout: float = 60.0) -> dict:
+        """Press ``key`` on a slider handle; wait until the kernel is idle and the page has received nothing for ``settle`` s.
 
         Returns:
-            ``{"bytes": WebSocket bytes received, "messages": view messages applied, "seconds": ...}``.
+            ``{"bytes": WebSocket bytes received, "messages": view updates applied,
+            "seconds": until the first view update (None without one)}``.
         """
         before_msgs = self.view_stats().get("messages", 0)
         handle.scroll_into_view_if_needed()
@@ -261,13 +265,18 @@ class LabPage:
         received = self.received
         start = time.monotonic()
         handle.press(key)
-        deadline = start + timeout
-        while self.view_stats().get("messages", 0) == before_msgs and time.monotonic() < deadline:
-            time.sleep(0.05)
-        seconds = time.monotonic() - start
-        self.wait_kernel_idle(timeout, settle=settle)
-        return {"bytes": self.received - received, "messages": self.view_stats().get("messages", 0) - before_msgs, "seconds": seconds}
-
+        first, last_bytes, quiet_since = None, self.received, time.monotonic()
+        while time.monotonic() - start < timeout:
+            time.sleep(0.03)
+            now = time.monotonic()
+            if first is None and self.view_stats().get("messages", 0) > before_msgs:
+                first = now - start
+            if self.received != last_bytes:
+                last_bytes, quiet_since = self.received, now
+            answered = self.received > received  # the kernel's status messages at least
+            if answered and now - quiet_since >= settle and self.kernel_status() == "idle":
+                break
+        return {"bytes": self.received - received, "messages": self.view_stats().get("messages", 0) - before_msgs, "seconds": first}
 
 def hue_mask(img: np.ndarray, colour: int, hue_tol: float = 0.03) -> np.ndarray:
     """``(H, W)`` pixels of ``img`` whose hue is that of ``colour`` (saturated, not dark): shading changes brightness, not hue."""

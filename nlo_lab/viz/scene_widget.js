@@ -4,7 +4,8 @@
 
 const PREFIX = "IPY_MODEL_";
 // What a test or a benchmark reads from the page: views, commands applied, frames drawn after an update.
-const STATS = (globalThis.__nloLabView ??= { views: 0, messages: 0, commands: 0, bytes: 0, frames: [] });
+const STATS = (globalThis.__nloLabView ??= { views: 0, messages: 0, commands: 0, bytes: 0, frames: [], arrivals: [], renderMs: [] });
+const keep = (list, value) => { list.push(value); if (list.length > 2000) list.splice(0, 1000); };
 
 // meshcat's bundle is a UMD script that sets self.MeshCat. Evaluate it once per page, as a module
 // (what anywidget itself does with a widget's code); `define` is hidden from it so that a
@@ -103,6 +104,7 @@ async function render({ model, el }) {
     try {
       if (msg.type === "commands" && msg.version > version) {
         STATS.messages += 1;
+        keep(STATS.arrivals, performance.now());
         run(buffers[0]);
         version = msg.version;
       } else if ((msg.type === "scene" || msg.type === "current") && msg.view === id) {
@@ -132,11 +134,13 @@ async function render({ model, el }) {
     requestAnimationFrame(loop);
     viewer.animator.update();
     if (viewer.needs_render) {
+      const t0 = performance.now();
       viewer.render();
       viewer.needs_render = false;
+      const t1 = performance.now();
+      keep(STATS.renderMs, t1 - t0);
       if (updated) {
-        STATS.frames.push(performance.now());
-        if (STATS.frames.length > 2000) STATS.frames.splice(0, 1000);
+        keep(STATS.frames, t1);
         updated = false;
       }
     }
