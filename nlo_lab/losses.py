@@ -25,7 +25,16 @@ collision pairs as in the paper's equations (Sec. "Problem Statement"):
   continuous with its gradient, and always pushes the capsules apart.
 
 The latent regulariser ``||z||²/σ²`` (:func:`latent_loss`) is added where ``z``
-lives (optimisation, training). Masks: a masked target contributes exactly
+lives (optimisation, training).
+
+Temporal coherence (not in the paper, which has "no mechanism to ensure smoothness"):
+``smooth`` (:func:`smoothness_loss`) couples consecutive frames of a sequence,
+``sum_j ((q_t,j - q_t-1,j) fps / v_max,j)²``: each joint's speed in units of its
+published velocity limit, squared. It removes jitter and branch flips (a jump between
+two arm configurations costs the square of its speed), and it weighs a joint by how
+slow the robot is there, so the motion the robot cannot follow is what it trades
+against tracking. It is added by the optimisers, which see the whole sequence; it is
+not one of the per-frame :data:`TERMS`. Masks: a masked target contributes exactly
 nothing: its value is replaced by a finite placeholder *and* its term is
 selected away with ``torch.where``, so neither the loss nor its gradient ever
 sees NaN or depends on the masked value.
@@ -61,6 +70,7 @@ __all__ = [
     "finger_loss",
     "collision_loss",
     "latent_loss",
+    "smoothness_loss",
     "robot_points",
 ]
 
@@ -84,6 +94,8 @@ class LossWeights:
         finger: finger base -> tip direction term.
         collision: self-collision term.
         latent: weight of ``||z||²`` (``1/σ²``, σ = 1 in the paper).
+        smooth: weight of the joint-speed term over consecutive frames
+            (:func:`smoothness_loss`; not in the paper; 0 = frames independent).
     """
 
     ee: float = 1000.0
@@ -92,6 +104,7 @@ class LossWeights:
     finger: float = 100.0
     collision: float = 1000.0
     latent: float = 1.0
+    smooth: float = 1.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -154,6 +167,7 @@ class Targets:
         fore_length: ``(T, 2)`` demonstrator's forearm length [m].
         node_features: ``(T, N_h, F)`` encoder input, or None.
         edge_features: ``(T, E_h, 3)`` encoder edge input, or None.
+        fps: frame rate of the sequence (the smoothness term's time step), or None.
     """
 
     shoulder: torch.Tensor
@@ -169,6 +183,7 @@ class Targets:
     fore_length: torch.Tensor
     node_features: Optional[torch.Tensor] = None
     edge_features: Optional[torch.Tensor] = None
+    fps: Optional[float] = None
 
     def __len__(self) -> int:
         return int(self.shoulder.shape[0])
@@ -178,7 +193,8 @@ class Targets:
         return self.shoulder.dtype
 
     def _map(self, fn) -> "Targets":
-        return Targets(**{f.name: None if getattr(self, f.name) is None else fn(f.name, getattr(self, f.name)) for f in fields(self)})
+        out = {f.name: None if getattr(self, f.name) is None else fn(f.name, getattr(self, f.name)) for f in fields(self) if f.name != "fps"}
+        return Targets(**out, fps=self.fps)
 
     def to(self, device=None, dtype=None) -> "Targets":
         """A copy on ``device``; ``dtype`` applies to the float tensors only."""
@@ -193,8 +209,11 @@ class Targets:
         """Concatenate along frames (encoder features kept only if all have them)."""
         if not items:
             raise DemonstrationError("no targets to concatenate")
-        out = {}
+        rates = {t.fps for t in items}
+        out = {"fps": rates.pop() if len(rates) == 1 else None}
         for f in fields(Targets):
+            if f.name == "fps":
+                continue
             values = [getattr(t, f.name) for t in items]
             out[f.name] = None if any(v is None for v in values) else torch.cat(values, dim=0)
         return Targets(**out)
@@ -240,6 +259,7 @@ def targets_from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.f
         fore_length=tensor(np.broadcast_to(lengths[:, 1], (T, 2))),
         node_features=node_x,
         edge_features=edge_x,
+        fps=float(demo.fps),
     )
 
 
@@ -444,6 +464,22 @@ def collision_loss(distances: torch.Tensor, margins: torch.Tensor, form: str = "
 def latent_loss(z: torch.Tensor, sigma: float = 1.0) -> torch.Tensor:
     """``||z||²/σ²`` per sample: ``z (B, ...)`` -> ``(B,)``."""
     return z.pow(2).flatten(1).sum(1) / (sigma * sigma)
+
+
+def smoothness_loss(q: torch.Tensor, fps: float, velocity_limits: torch.Tensor) -> torch.Tensor:
+    """Joint speed between consecutive frames in units of each joint's velocity limit, squared.
+
+    Args:
+        q: ``(T, n)`` joint angles of consecutive frames [rad].
+        fps: frame rate [1/s].
+        velocity_limits: ``(n,)`` [rad/s]; an unlimited joint (inf) counts at π rad/s.
+
+    Returns:
+        ``(T,)``: frame t holds ``sum_j ((q_t,j - q_t-1,j) fps / v_j)²``, frame 0 holds 0.
+    """
+    v = torch.where(torch.isfinite(velocity_limits), velocity_limits, torch.full_like(velocity_limits, math.pi))
+    speed = (q[1:] - q[:-1]) * (fps / v.to(q.dtype))  # (T-1, n) in units of the limit
+    return torch.cat([q.new_zeros(1), speed.pow(2).sum(-1)]) if q.shape[0] > 0 else q.new_zeros(0)
 
 
 # ---------------------------------------------------------------------- objective
