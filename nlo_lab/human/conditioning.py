@@ -1,0 +1,181 @@
+"""Conditioning of noisy landmark trajectories (monocular pose estimation) before retargeting.
+
+MediaPipe Holistic on a video gives each frame on its own: points jitter by a
+centimetre or more, a forearm can halve in length for one frame, a wrist can jump
+0.6 m in depth and back, a hand orientation can flip. The reader
+(:mod:`nlo_lab.human.io_pose`) runs these steps, each a small function here:
+
+1. :func:`spike_frames`: a point far from the median of its neighbours (a Hampel
+   filter on the 3-D position) is an outlier of that frame.
+2. :func:`segment_jump_frames`: a segment (upper arm, forearm, palm) whose length
+   differs from the median of its neighbours by more than :data:`JUMP_RATIO` marks its
+   distal point as an outlier of that frame.
+3. Outliers become missing points; gaps of at most ``MAX_GAP_SECONDS`` are then
+   interpolated (``transforms.fill_gaps``): repaired, not dropped.
+4. :func:`savgol`: Savitzky-Golay smoothing (a local least-squares polynomial, zero
+   lag, keeps the peaks of a fast sign better than a moving average), on each run of
+   valid frames separately.
+5. :func:`depth_from_lengths`: for image-only recordings, the depth of elbow and
+   wrist from the projected and the true segment lengths.
+6. :func:`orthonormalize`: rotations filtered entry-wise are projected back onto
+   rotations (nearest in the Frobenius norm).
+
+Parameters (chosen by measurement, ``benchmarks/conditioning.py``; see docs/RESULTS.md,
+"Input conditioning"): window :data:`SMOOTH_SECONDS`, polynomial order
+:data:`SMOOTH_ORDER`, Hampel half-window :data:`SPIKE_HALF_WINDOW`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "SMOOTH_SECONDS",
+    "SMOOTH_ORDER",
+    "SPIKE_HALF_WINDOW",
+    "SPIKE_SIGMAS",
+    "SPIKE_FLOOR",
+    "JUMP_RATIO",
+    "savgol",
+    "window_frames",
+    "spike_frames",
+    "segment_jump_frames",
+    "depth_from_lengths",
+    "orthonormalize",
+    "rotation_steps",
+]
+
+SMOOTH_SECONDS = 0.28  # Savitzky-Golay window [s] (7 frames at 25 fps)
+SMOOTH_ORDER = 2  # its polynomial order
+SPIKE_HALF_WINDOW = 3  # neighbours on each side the Hampel filter compares a frame with
+SPIKE_SIGMAS = 4.0  # outlier beyond this many robust standard deviations (1.4826 MAD) ...
+SPIKE_FLOOR = 0.05  # [m] ... and at least this far from the neighbours' median
+JUMP_RATIO = 1.4  # a segment longer or shorter than its neighbours' median by this factor jumped
+
+
+def window_frames(fps: float, seconds: float = SMOOTH_SECONDS, order: int = SMOOTH_ORDER) -> int:
+    """An odd window length [frames] of about ``seconds``, at least ``order + 2``."""
+    w = int(round(seconds * fps))
+    w = max(w, order + 2)
+    return w if w % 2 else w + 1
+
+
+def _runs(valid: np.ndarray):
+    """``(start, stop)`` of each run of True."""
+    v = np.concatenate([[False], np.asarray(valid, bool), [False]])
+    edges = np.flatnonzero(np.diff(v.astype(np.int8)))
+    return zip(edges[::2], edges[1::2])
+
+
+def _savgol_run(x: np.ndarray, window: int, order: int) -> np.ndarray:
+    """Smooth one run ``(n, D)``: least-squares polynomial of ``order`` over ``window``
+    samples, evaluated at the centre; the first and last ``window // 2`` samples are
+    evaluated on the polynomial fitted to the first / last window (no padding)."""
+    n = x.shape[0]
+    w = min(window, n if n % 2 else n - 1)
+    if w < order + 2:
+        return x.copy()
+    h = w // 2
+    t = np.arange(-h, h + 1, dtype=np.float64)
+    A = np.vander(t, order + 1, increasing=True)  # (w, order + 1)
+    P = np.linalg.pinv(A)  # (order + 1, w): polynomial coefficients from samples
+    out = np.empty_like(x)
+    win = np.lib.stride_tricks.sliding_window_view(x, w, axis=0)  # (n - w + 1, D, w)
+    out[h : n - h] = win @ P[0]  # the fitted value at t = 0
+    edge = A[:h] @ P  # (h, w): values at t = -h .. -1 from the first window
+    out[:h] = edge @ x[:w]
+    out[n - h :] = (A[h + 1 :] @ P) @ x[n - w :]
+    return out
+
+
+def savgol(values: np.ndarray, valid: np.ndarray, window: int, order: int = SMOOTH_ORDER) -> np.ndarray:
+    """Savitzky-Golay smoothing along axis 0 of ``values (T, ...)``, on each run of ``valid`` frames.
+
+    Invalid frames are returned unchanged; a run shorter than ``order + 2`` frames too.
+    """
+    x = np.array(values, dtype=np.float64, copy=True)
+    flat = x.reshape(x.shape[0], -1)
+    for a, b in _runs(valid):
+        flat[a:b] = _savgol_run(flat[a:b], window, order)
+    return x
+
+
+def _local_median(x: np.ndarray, valid: np.ndarray, half: int) -> np.ndarray:
+    """Per frame, the median over the valid frames in ``[t - half, t + half]`` without t itself; NaN if none."""
+    T = x.shape[0]
+    out = np.full(x.shape, np.nan)
+    xs = np.where(valid.reshape((T,) + (1,) * (x.ndim - 1)), x, np.nan)
+    for t in range(T):
+        idx = [i for i in range(max(0, t - half), min(T, t + half + 1)) if i != t]
+        block = xs[idx]
+        if np.isfinite(block).any():
+            out[t] = np.nanmedian(block, axis=0)
+    return out
+
+
+def spike_frames(points: np.ndarray, valid: np.ndarray, half: int = SPIKE_HALF_WINDOW,
+                 sigmas: float = SPIKE_SIGMAS, floor: float = SPIKE_FLOOR) -> np.ndarray:
+    """``(T,)`` frames where the point ``(T, 3)`` is an outlier (Hampel filter on the position).
+
+    A frame is an outlier when its distance to the median of its neighbours exceeds both
+    ``floor`` [m] and ``sigmas`` robust standard deviations of that distance over the clip.
+    """
+    valid = np.asarray(valid, bool)
+    med = _local_median(points, valid, half)
+    d = np.linalg.norm(points - med, axis=-1)
+    ok = valid & np.isfinite(d)
+    if ok.sum() < 3:
+        return np.zeros(len(points), bool)
+    mad = 1.4826 * np.median(np.abs(d[ok] - np.median(d[ok])))
+    threshold = max(floor, np.median(d[ok]) + sigmas * mad)
+    return ok & (d > threshold)
+
+
+def segment_jump_frames(parent: np.ndarray, child: np.ndarray, valid: np.ndarray,
+                        ratio: float = JUMP_RATIO, half: int = SPIKE_HALF_WINDOW) -> np.ndarray:
+    """``(T,)`` frames where the segment parent -> child is ``ratio`` times longer or shorter
+    than the median of its neighbours (a mis-detected child point)."""
+    valid = np.asarray(valid, bool)
+    length = np.linalg.norm(child - parent, axis=-1)
+    med = _local_median(length, valid, half)
+    ok = valid & np.isfinite(med) & (med > 0)
+    r = np.where(ok, length / np.where(ok, med, 1.0), 1.0)
+    return ok & ((r > ratio) | (r < 1.0 / ratio))
+
+
+def depth_from_lengths(parent: np.ndarray, child: np.ndarray, length: float, toward: np.ndarray) -> np.ndarray:
+    """Depth offset of ``child`` from ``parent`` so that the segment has its true ``length``.
+
+    With the image-plane offset ``(dx, dy)`` of the segment, ``|dz| = sqrt(L² - dx² - dy²)``
+    (0 where the projection is already as long as ``L``). The sign is ambiguous in one
+    image; ``toward (T,)`` gives it: -1 towards the camera (image z decreases), +1 away.
+
+    Args:
+        parent, child: ``(T, 3)`` points whose first two coordinates are the image plane [m].
+        length: the segment's true length [m].
+        toward: ``(T,)`` sign of the depth offset.
+
+    Returns:
+        ``(T,)`` depth offsets [m].
+    """
+    planar = np.linalg.norm((child - parent)[:, :2], axis=-1)
+    return np.asarray(toward, float) * np.sqrt(np.clip(length * length - planar * planar, 0.0, None))
+
+
+def orthonormalize(R: np.ndarray) -> np.ndarray:
+    """The rotation nearest to each ``(..., 3, 3)`` matrix (SVD; NaN stays NaN)."""
+    out = np.full(R.shape, np.nan)
+    ok = np.isfinite(R).all(axis=(-1, -2))
+    if ok.any():
+        U, _, Vt = np.linalg.svd(R[ok])
+        d = np.sign(np.linalg.det(U @ Vt))
+        U[..., :, -1] *= d[..., None]
+        out[ok] = U @ Vt
+    return out
+
+
+def rotation_steps(R: np.ndarray) -> np.ndarray:
+    """``(T-1,)`` angle [rad] between consecutive rotations ``(T, 3, 3)`` (NaN where either is NaN)."""
+    rel = np.einsum("tji,tjk->tik", R[:-1], R[1:])
+    c = (np.trace(rel, axis1=-2, axis2=-1) - 1.0) / 2.0
+    return np.arccos(np.clip(c, -1.0, 1.0))
