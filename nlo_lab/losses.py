@@ -71,6 +71,7 @@ __all__ = [
     "collision_loss",
     "latent_loss",
     "smoothness_loss",
+    "smoothness_scale",
     "robot_points",
 ]
 
@@ -80,6 +81,10 @@ TERMS = ("ee", "ori", "elbow", "finger", "collision")
 # 32: 2.0 vs 2.3 ms, 64: equal, 200: 7.7 vs 7.2 ms.
 FUSED_MAX_FRAMES = 64
 COLLISION_FORMS = ("hinge", "paper")
+# A joint faster than this [rad/s] is smoothed as if its limit were this: NAO's wrist
+# (24.6 rad/s) could otherwise jump 0.85 rad between two frames at little cost, though
+# a jump is jitter whatever the motor (measured: docs/RESULTS.md, "Robot-ready motion").
+SMOOTH_SPEED_CAP = 2 * math.pi
 
 
 # ---------------------------------------------------------------------- weights
@@ -466,19 +471,24 @@ def latent_loss(z: torch.Tensor, sigma: float = 1.0) -> torch.Tensor:
     return z.pow(2).flatten(1).sum(1) / (sigma * sigma)
 
 
+def smoothness_scale(velocity_limits: torch.Tensor) -> torch.Tensor:
+    """``(n,)`` the speed unit of each joint in :func:`smoothness_loss`: its velocity limit,
+    at most :data:`SMOOTH_SPEED_CAP` (unlimited joints count at the cap)."""
+    return velocity_limits.clamp(max=SMOOTH_SPEED_CAP)
+
+
 def smoothness_loss(q: torch.Tensor, fps: float, velocity_limits: torch.Tensor) -> torch.Tensor:
     """Joint speed between consecutive frames in units of each joint's velocity limit, squared.
 
     Args:
         q: ``(T, n)`` joint angles of consecutive frames [rad].
         fps: frame rate [1/s].
-        velocity_limits: ``(n,)`` [rad/s]; an unlimited joint (inf) counts at π rad/s.
+        velocity_limits: ``(n,)`` [rad/s] (see :func:`smoothness_scale`).
 
     Returns:
         ``(T,)``: frame t holds ``sum_j ((q_t,j - q_t-1,j) fps / v_j)²``, frame 0 holds 0.
     """
-    v = torch.where(torch.isfinite(velocity_limits), velocity_limits, torch.full_like(velocity_limits, math.pi))
-    speed = (q[1:] - q[:-1]) * (fps / v.to(q.dtype))  # (T-1, n) in units of the limit
+    speed = (q[1:] - q[:-1]) * (fps / smoothness_scale(velocity_limits).to(q.dtype))  # (T-1, n) in units of the limit
     return torch.cat([q.new_zeros(1), speed.pow(2).sum(-1)]) if q.shape[0] > 0 else q.new_zeros(0)
 
 

@@ -43,7 +43,7 @@ from typing import Callable, Optional
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import COLLISION_FORMS, TERMS, LossWeights, Objective, Targets, smoothness_loss
+from nlo_lab.losses import COLLISION_FORMS, TERMS, LossWeights, Objective, Targets, smoothness_loss, smoothness_scale
 
 __all__ = [
     "INITS",
@@ -277,8 +277,7 @@ def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: Lo
             angles.append(q)
     unary_np = torch.stack(unary, 1).double().numpy()  # (T, K)
     Q = torch.stack(angles, 1).double()  # (T, K, n)
-    v = robot.velocity_limits.double()
-    v = torch.where(torch.isfinite(v), v, torch.full_like(v, math.pi))
+    v = smoothness_scale(robot.velocity_limits.double())
     step = (Q[1:, None] - Q[:-1, :, None]) * (float(targets.fps) / v)  # (T-1, K_prev, K_next, n)
     pair = (weights.smooth * step.pow(2).sum(-1)).numpy()
     cost, back = unary_np[0], []

@@ -43,6 +43,9 @@ __all__ = [
     "depth_from_lengths",
     "orthonormalize",
     "rotation_steps",
+    "continuous_rotations",
+    "condition_demonstration",
+    "ROTATION_JUMP",
 ]
 
 SMOOTH_SECONDS = 0.28  # Savitzky-Golay window [s] (7 frames at 25 fps)
@@ -179,3 +182,63 @@ def rotation_steps(R: np.ndarray) -> np.ndarray:
     rel = np.einsum("tji,tjk->tik", R[:-1], R[1:])
     c = (np.trace(rel, axis1=-2, axis2=-1) - 1.0) / 2.0
     return np.arccos(np.clip(c, -1.0, 1.0))
+
+
+def condition_demonstration(demo, max_gap_seconds: float = 0.25):
+    """A copy of ``demo`` (any source, body frame) with the conditioning of the module docstring.
+
+    Arm points: spikes and segment-length jumps removed, gaps of at most
+    ``max_gap_seconds`` interpolated, Savitzky-Golay smoothing. Finger points: smoothed.
+    Wrist rotations: isolated flips (more than 1 rad from both neighbours) repaired,
+    smoothed entry-wise, projected back onto rotations. The ``.pose`` reader does the same
+    in the camera frame (plus hand scaling and depth); this is for other sources, e.g. a
+    demonstration with injected noise.
+    """
+    from nlo_lab.human.demonstration import Demonstration
+    from nlo_lab.human.transforms import fill_gaps
+
+    fps = float(demo.fps)
+    max_gap = int(round(max_gap_seconds * fps))
+    window = window_frames(fps)
+    arms, arm_mask = demo.arm_positions.copy(), demo.arm_mask.copy()
+    for s in range(2):
+        bad = [spike_frames(arms[:, s, j], arm_mask[:, s, j]) for j in range(3)]
+        for parent, child in ((0, 1), (1, 2)):
+            ok = arm_mask[:, s, parent] & arm_mask[:, s, child] & ~bad[parent]
+            bad[child] = bad[child] | (segment_jump_frames(arms[:, s, parent], arms[:, s, child], ok) & ~bad[child])
+        for j in range(3):
+            values, valid = fill_gaps(arms[:, s, j], arm_mask[:, s, j] & ~bad[j], max_gap)
+            arms[:, s, j] = savgol(values, valid, window)
+            arm_mask[:, s, j] = valid
+    fingers, finger_mask = demo.finger_positions.copy(), demo.finger_mask.copy()
+    for s in range(2):
+        for f in range(fingers.shape[2]):
+            fingers[:, s, f] = savgol(fingers[:, s, f], finger_mask[:, s, f], window)
+    rots, wrist_mask = demo.wrist_rotations.copy(), demo.wrist_mask.copy()
+    for s in range(2):
+        rots[:, s], wrist_mask[:, s], _ = continuous_rotations(rots[:, s], wrist_mask[:, s], max_gap, fps)
+    meta = dict(demo.meta)
+    meta["conditioned"] = True
+    return Demonstration(fps, arms, arm_mask, rots, wrist_mask, fingers, finger_mask, name=demo.name, meta=meta)
+
+
+ROTATION_JUMP = 1.0  # [rad] a wrist rotation this far from both neighbours is an outlier frame
+
+
+def continuous_rotations(R: np.ndarray, ok: np.ndarray, max_gap: int, fps: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Rotations ``(T, 3, 3)`` without isolated flips (more than :data:`ROTATION_JUMP` from both
+    neighbours: repaired by interpolation), smoothed entry-wise and projected back onto rotations.
+
+    Returns:
+        ``(rotations, valid, repaired)``: NaN where not valid; the number of flipped frames.
+    """
+    from nlo_lab.human.transforms import fill_gaps
+
+    ok = np.asarray(ok, bool) & np.isfinite(R).all(axis=(1, 2))
+    steps = np.nan_to_num(rotation_steps(np.where(ok[:, None, None], R, np.nan)))  # (T-1,)
+    jump = np.concatenate([[0.0], steps]) > ROTATION_JUMP  # turned away from the previous frame
+    back = np.concatenate([steps, [0.0]]) > ROTATION_JUMP  # and away from the next
+    flip = ok & jump & back
+    values, valid = fill_gaps(R, ok & ~flip, max_gap)
+    values = savgol(values, valid, window_frames(fps))
+    return np.where(valid[:, None, None], orthonormalize(values), np.nan), valid, int(flip.sum())

@@ -109,7 +109,7 @@ HIP_MIN_CONFIDENCE = 0.5  # hips below this median confidence are MediaPipe's gu
 _BODY = BodyParams()  # the synthetic corpus' default adult (nlo_lab.human.body)
 HAND_PER_FOREARM = _BODY.hand_length / _BODY.forearm  # 0.19 / 0.26
 _SEGMENT_PER_SHOULDER = {"upper": _BODY.upper_arm / _BODY.shoulder_width, "fore": _BODY.forearm / _BODY.shoulder_width}
-ROTATION_JUMP = 1.0  # [rad] a wrist rotation this far from both neighbours is an outlier frame
+ROTATION_JUMP = cond.ROTATION_JUMP  # [rad] a wrist rotation this far from both neighbours is an outlier frame
 DEPTH_SIGN_MARGIN = 0.05  # [m] MediaPipe's z must put a point this much further away to count as "away"
 _FACE_POINTS = (("LEFT_EAR", "RIGHT_EAR"), ("LEFT_EYE", "RIGHT_EYE"), ("NOSE",))
 
@@ -184,12 +184,14 @@ def _median_shoulder_distance(ls: np.ndarray, rs: np.ndarray, ok: np.ndarray, di
     return float(np.median(d)) if d.size else float("nan")
 
 
-def _condition_arms(pts: dict, fps: float, max_gap: int) -> tuple[dict, dict]:
+def _condition_arms(pts: dict, fps: float, max_gap: int, condition: bool = True) -> tuple[dict, dict]:
     """Outlier frames of every arm point removed, gaps interpolated, points smoothed.
 
     Returns the conditioned ``{(side, joint): (values (T, 3), valid (T,))}`` and counts of
     repaired frames per kind (``meta["conditioning"]``).
     """
+    if not condition:
+        return {k: fill_gaps(v, ok, max_gap) for k, (v, ok) in pts.items()}, {}
     bad = {k: cond.spike_frames(v, ok) for k, (v, ok) in pts.items()}
     counts = {"spike_frames": int(sum(b.sum() for b in bad.values())), "segment_jump_frames": 0}
     for side in SIDES:
@@ -294,22 +296,14 @@ def _up_direction(ls, rs, shoulders_ok, hips, face) -> tuple[np.ndarray, str]:
     return _IMAGE_UP, "image"
 
 
-def _continuous_rotations(R: np.ndarray, ok: np.ndarray, max_gap: int, fps: float) -> tuple[np.ndarray, int]:
-    """Wrist rotations ``(T, 3, 3)`` without isolated flips, smoothed; and the number of repaired frames."""
-    steps = cond.rotation_steps(np.where(ok[:, None, None], R, np.nan))  # (T-1,)
-    jump = np.concatenate([[0.0], np.nan_to_num(steps)]) > ROTATION_JUMP  # turned away from the previous frame
-    back = np.concatenate([np.nan_to_num(steps), [0.0]]) > ROTATION_JUMP  # and away from the next
-    flip = ok & jump & back
-    values, valid = fill_gaps(R, ok & ~flip, max_gap)
-    values = cond.savgol(values, valid, cond.window_frames(fps))
-    return np.where(valid[:, None, None], cond.orthonormalize(values), np.nan), int(flip.sum())
-
-
-def load_pose(path) -> Demonstration:
+def load_pose(path, condition: bool = True) -> Demonstration:
     """Read a MediaPipe Holistic ``.pose`` recording into a :class:`Demonstration` (see the module docstring).
 
     Args:
         path: the ``.pose`` file.
+        condition: repair, smooth and scale as the module docstring says (default); False
+            reads the landmarks as they are (gaps still interpolated, depth still
+            reconstructed for image-only files): the raw geometry, for tests and comparison.
 
     Returns:
         The demonstration; ``meta`` records the source file name, the arm source
@@ -389,10 +383,12 @@ def load_pose(path) -> Demonstration:
         hips = [(comps.point(_POSE, n)[0] * flat, comps.point(_POSE, n)[2] * comps.point(_POSE, n)[1]) for n in hip_names]
 
     # outliers removed, gaps interpolated (long ones stay masked), then smoothed
-    filled, repaired = _condition_arms(pts, fps, max_gap)
+    filled, repaired = _condition_arms(pts, fps, max_gap, condition)
     depth = "world" if use_world else "image"
     if not use_world:
-        filled, lengths = _reconstruct_depth(filled, image, W * m_per_px)
+        zs = np.concatenate([v[ok][:, 2] for v, ok in image.values()])
+        z_normalised = zs.size == 0 or np.abs(zs).max() <= 10.0  # MediaPipe's scale (like x / width), else pixels
+        filled, lengths = _reconstruct_depth(filled, image, (W if z_normalised and W > 0 else 1.0) * m_per_px)
         meta_scale["segment_lengths_m"] = lengths
         warnings.warn(f"{path.name}: no world landmarks: depth reconstructed from the image and the limb lengths "
                       "(less reliable than a recording with world landmarks)", UserWarning, stacklevel=2)
@@ -440,12 +436,13 @@ def load_pose(path) -> Demonstration:
         rel_m = rel * np.array([m_per_px, m_per_px, m_per_px * (W if z_normalised and W > 0 else 1.0)])
         rel_body = np.einsum("tij,tpj->tpi", R_body_src, np.where(seen[:, None, None], rel_m, 0.0))
         seen = seen & frame_ok
-        palm_jump = cond.segment_jump_frames(rel_body[:, _HAND_WRIST], rel_body[:, _HAND_MIDDLE], seen)
+        palm_jump = cond.segment_jump_frames(rel_body[:, _HAND_WRIST], rel_body[:, _HAND_MIDDLE], seen) & condition
         rel_body, ok = fill_gaps(rel_body, seen & ~palm_jump, max_gap)
-        rel_body = cond.savgol(rel_body, ok, cond.window_frames(fps))
+        if condition:
+            rel_body = cond.savgol(rel_body, ok, cond.window_frames(fps))
         hand_len = np.linalg.norm(np.diff(rel_body[:, [0, 9, 10, 11, 12]], axis=1), axis=-1).sum(-1)  # (T,) along the middle finger
         scale = 1.0
-        if ok.any() and np.median(hand_len[ok]) > 0:
+        if condition and ok.any() and np.median(hand_len[ok]) > 0:
             try:
                 fore = float(np.median(np.linalg.norm(arms[:, s, 2] - arms[:, s, 1], axis=-1)[arm_mask[:, s, 1] & arm_mask[:, s, 2]]))
             except ValueError:
@@ -456,8 +453,11 @@ def load_pose(path) -> Demonstration:
         ok &= arm_mask[:, s, 2]
         hand = arms[:, s, 2][:, None] + rel_body  # (T, 21, 3) body frame, wrist pinned on the arm's wrist
         R = wrist_frame_from_hand(hand[:, _HAND_WRIST], hand[:, _HAND_INDEX], hand[:, _HAND_PINKY], hand[:, _HAND_MIDDLE])
-        R, rot_repaired = _continuous_rotations(R, ok & np.isfinite(R).all(axis=(1, 2)), max_gap, fps)
-        r_ok = ok & np.isfinite(R).all(axis=(1, 2))
+        if condition:
+            R, r_ok, rot_repaired = cond.continuous_rotations(R, ok, max_gap, fps)
+            r_ok &= ok
+        else:
+            r_ok, rot_repaired = ok & np.isfinite(R).all(axis=(1, 2)), 0
         rots[:, s] = np.where(r_ok[:, None, None], R, np.nan)
         wrist_mask[:, s] = r_ok
         for f, (b, t) in enumerate(HAND_FINGER_POINTS):
