@@ -72,6 +72,7 @@ __all__ = [
     "latent_loss",
     "smoothness_loss",
     "smoothness_scale",
+    "step_cost",
     "robot_points",
 ]
 
@@ -84,7 +85,9 @@ COLLISION_FORMS = ("hinge", "paper")
 # A joint faster than this [rad/s] is smoothed as if its limit were this: NAO's wrist
 # (24.6 rad/s) could otherwise jump 0.85 rad between two frames at little cost, though
 # a jump is jitter whatever the motor (measured: docs/RESULTS.md, "Robot-ready motion").
-SMOOTH_SPEED_CAP = 2 * math.pi
+SMOOTH_SPEED_CAP = math.pi
+SMOOTH_MAX_STEP = 0.35  # [rad] a joint step beyond this between two frames costs steeply ...
+SMOOTH_STEP_WIDTH = 0.02  # [rad] ... (one more width: one more unit, squared)
 
 
 # ---------------------------------------------------------------------- weights
@@ -109,7 +112,7 @@ class LossWeights:
     finger: float = 100.0
     collision: float = 1000.0
     latent: float = 1.0
-    smooth: float = 1.0
+    smooth: float = 10.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -488,8 +491,23 @@ def smoothness_loss(q: torch.Tensor, fps: float, velocity_limits: torch.Tensor) 
     Returns:
         ``(T,)``: frame t holds ``sum_j ((q_t,j - q_t-1,j) fps / v_j)²``, frame 0 holds 0.
     """
-    speed = (q[1:] - q[:-1]) * (fps / smoothness_scale(velocity_limits).to(q.dtype))  # (T-1, n) in units of the limit
-    return torch.cat([q.new_zeros(1), speed.pow(2).sum(-1)]) if q.shape[0] > 0 else q.new_zeros(0)
+    if q.shape[0] == 0:
+        return q.new_zeros(0)
+    return torch.cat([q.new_zeros(1), step_cost(q[1:] - q[:-1], fps, velocity_limits)])
+
+
+def step_cost(step: torch.Tensor, fps: float, velocity_limits: torch.Tensor) -> torch.Tensor:
+    """The smoothness cost of joint changes ``step (..., n)`` [rad] between two frames -> ``(...)``.
+
+    ``sum_j (step_j fps / s_j)²`` with ``s`` = :func:`smoothness_scale`, plus
+    ``sum_j ((|step_j| - MAX_STEP) / STEP_WIDTH)²`` over the joints that move more than
+    :data:`SMOOTH_MAX_STEP` in one frame: a fast joint (NAO's wrist, 24.6 rad/s) may follow
+    a fast human rotation within its speed limit, but not by jumping half a radian
+    between two samples (the robot's controller would see a step, not a motion).
+    """
+    speed = step * (fps / smoothness_scale(velocity_limits).to(step.dtype))
+    jump = (step.abs() - SMOOTH_MAX_STEP).clamp_min(0.0) / SMOOTH_STEP_WIDTH
+    return speed.pow(2).sum(-1) + jump.pow(2).sum(-1)
 
 
 # ---------------------------------------------------------------------- objective

@@ -29,7 +29,12 @@ Step size: Adam ``lr = 0.01`` on ``z``. Measured on 4 clips of the synthetic
 test split with a YuMi model (mean Fréchet, encoder alone 0.216 m): lr 0.003
 -> 0.179 m, 0.01 -> 0.172 m, 0.03 -> 0.172 m but the patience stop fires
 after a few steps on some clips (Adam's first steps overshoot), 0.1 -> 0.207 m
-(stops after 5 steps on most clips).
+(stops after 5 steps on most clips). With the smoothness term (issue 14) the default is
+``lr = 0.005``: at 0.01 Adam's first steps, the same size for every latent coordinate,
+make neighbouring frames move apart, the coupled loss jumps (NAO, introduction_12: mean
+84 -> 267 after two steps) and the patience stop ends the run after 5 steps with the
+jumps still in; at 0.005 YuMi's mean Fréchet on the test split is 0.0568 m (0.0582 m
+before issue 14), and the loss descends from the first step.
 """
 
 from __future__ import annotations
@@ -43,7 +48,7 @@ from typing import Callable, Optional
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import COLLISION_FORMS, TERMS, LossWeights, Objective, Targets, smoothness_loss, smoothness_scale
+from nlo_lab.losses import COLLISION_FORMS, TERMS, LossWeights, Objective, Targets, smoothness_loss, step_cost
 
 __all__ = [
     "INITS",
@@ -102,7 +107,7 @@ class OptimizeSettings:
     init: str = "encoder"
     iterations: int = 100
     patience: int = 5
-    lr: float = 0.01
+    lr: float = 0.005
     latent_sigma: float = 1.0
     warm_start: bool = True
     warm_window: int = 2
@@ -277,9 +282,8 @@ def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: Lo
             angles.append(q)
     unary_np = torch.stack(unary, 1).double().numpy()  # (T, K)
     Q = torch.stack(angles, 1).double()  # (T, K, n)
-    v = smoothness_scale(robot.velocity_limits.double())
-    step = (Q[1:, None] - Q[:-1, :, None]) * (float(targets.fps) / v)  # (T-1, K_prev, K_next, n)
-    pair = (weights.smooth * step.pow(2).sum(-1)).numpy()
+    step = Q[1:, None] - Q[:-1, :, None]  # (T-1, K_prev, K_next, n)
+    pair = (weights.smooth * step_cost(step, float(targets.fps), robot.velocity_limits.double())).numpy()
     cost, back = unary_np[0], []
     for t in range(1, T):
         total = cost[:, None] + pair[t - 1]  # (K_prev, K_next)

@@ -116,16 +116,38 @@ def _local_median(x: np.ndarray, valid: np.ndarray, half: int) -> np.ndarray:
     return out
 
 
+def _neighbour_distance(points: np.ndarray, valid: np.ndarray, half: int) -> np.ndarray:
+    """Per frame, how far the point is from the midpoint of its neighbours ``k`` frames before and
+    after, the smallest over ``k = 1 .. half`` where both are valid; NaN where none is.
+
+    A smooth motion, however fast, passes close to the midpoint of its neighbours at
+    ``k = 1`` (the error is its acceleration times ``dt²``); a spike of one or two frames
+    is far from every such midpoint. Distances, not coordinates: rotation-invariant.
+    """
+    T = points.shape[0]
+    out = np.full(T, np.inf)
+    for k in range(1, half + 1):
+        if T <= 2 * k:
+            break
+        mid = (points[: T - 2 * k] + points[2 * k :]) / 2.0  # midpoint of frames t - k and t + k, for t = k .. T-k-1
+        both = valid[: T - 2 * k] & valid[2 * k :] & valid[k : T - k]
+        d = np.where(both, np.linalg.norm(points[k : T - k] - mid, axis=-1), np.inf)
+        out[k : T - k] = np.minimum(out[k : T - k], d)
+    out[~np.isfinite(out)] = np.nan
+    return out
+
+
 def spike_frames(points: np.ndarray, valid: np.ndarray, half: int = SPIKE_HALF_WINDOW,
                  sigmas: float = SPIKE_SIGMAS, floor: float = SPIKE_FLOOR) -> np.ndarray:
-    """``(T,)`` frames where the point ``(T, 3)`` is an outlier (Hampel filter on the position).
+    """``(T,)`` frames where the point ``(T, 3)`` is an outlier (a Hampel filter on the position).
 
-    A frame is an outlier when its distance to the median of its neighbours exceeds both
-    ``floor`` [m] and ``sigmas`` robust standard deviations of that distance over the clip.
+    A frame is an outlier when its distance to its neighbours' midpoint exceeds both
+    ``floor`` [m] and the clip's median of that distance plus ``sigmas`` robust standard
+    deviations (1.4826 MAD). Distances, not coordinates: the test does not depend on the
+    camera's orientation.
     """
     valid = np.asarray(valid, bool)
-    med = _local_median(points, valid, half)
-    d = np.linalg.norm(points - med, axis=-1)
+    d = _neighbour_distance(points, valid, half)
     ok = valid & np.isfinite(d)
     if ok.sum() < 3:
         return np.zeros(len(points), bool)
