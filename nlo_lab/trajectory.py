@@ -116,6 +116,10 @@ class RobotTrajectory:
         """Length in seconds: the last frame's time plus one frame period (``T / fps`` when not retimed)."""
         return float(self.times[-1]) + 1.0 / self.fps
 
+    def at_frame_rate(self) -> "RobotTrajectory":
+        """The same samples ``1/fps`` apart, as recorded (a retimed trajectory without its retiming)."""
+        return RobotTrajectory(self.robot, self.joint_names, self.angles, self.fps)
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, RobotTrajectory):
             return NotImplemented

@@ -310,6 +310,8 @@ class RetargetPanel:
             for name in TERMS
         }
         self._latent_weight = weights.latent
+        # smoothness over consecutive frames: acts in "re-optimise the whole sequence" (one frame has no neighbours)
+        self.controls["smooth"] = W.FloatSlider(value=weights.smooth, min=0.0, max=100.0, step=1.0, description="smooth", style=style, continuous_update=False)
         names = list(ROBOTS) + ([robot_obj.name] if robot_obj.name not in ROBOTS else [])
         self.controls["init"] = W.Dropdown(options=list(INITS), value=init, description="init", style=style)
         self.controls["iterations"] = W.IntSlider(value=iterations, min=0, max=300, step=5, description="iterations", style=style, continuous_update=False)
@@ -341,7 +343,7 @@ class RetargetPanel:
         self.controls["robot"].observe(_guarded(self, lambda ch: self._set_robot(ch["new"])), names="value")
         self.button.on_click(_guarded(self, lambda b: self.optimise_sequence()))
 
-        weights_box = W.VBox([self.controls[n] for n in TERMS], layout=W.Layout(flex="0 0 auto"))
+        weights_box = W.VBox([self.controls[n] for n in (*TERMS, "smooth")], layout=W.Layout(flex="0 0 auto"))
         setup_box = W.VBox([self.controls[n] for n in ("robot", "init", "iterations")] + [self.button], layout=W.Layout(flex="0 0 auto"))
         frames = W.HBox([self.play, self.controls["frame"]])
         left = W.VBox([W.HBox([weights_box, setup_box], layout=W.Layout(flex_flow="row wrap")), frames, self.status, self.plot], layout=W.Layout(flex="0 1 auto"))
@@ -366,7 +368,8 @@ class RetargetPanel:
     @property
     def weights(self) -> LossWeights:
         """The weights the sliders show (``latent`` as given at construction)."""
-        return LossWeights(**{n: float(self.controls[n].value) for n in TERMS}, latent=self._latent_weight)
+        return LossWeights(**{n: float(self.controls[n].value) for n in TERMS}, latent=self._latent_weight,
+                           smooth=float(self.controls["smooth"].value))
 
     def settings(self, iterations: int | None = None) -> OptimizeSettings:
         """Optimisation settings from the controls."""
