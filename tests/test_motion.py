@@ -353,3 +353,17 @@ def test_savgol_matches_scipy_where_available():
     x = np.sin(np.linspace(0, 6, 60))[:, None] + np.random.default_rng(1).normal(0, 0.05, (60, 1))
     ours = savgol(x, np.ones(60, bool), 7, 2)
     np.testing.assert_allclose(ours, signal.savgol_filter(x, 7, 2, axis=0, mode="interp"), atol=1e-10)
+
+
+def test_panel_has_a_smoothness_slider_that_reaches_the_sequence(robots):
+    from nlo_lab.widgets import RetargetPanel
+
+    demo = corpus_clip("hospital_11").slice(35, 60)
+    panel = RetargetPanel(demo, "nao", iterations=20, frame_iterations=2, view=None)
+    assert panel.weights.smooth == LossWeights().smooth
+    panel.controls["smooth"].value = 0.0
+    assert panel.weights.smooth == 0.0
+    rough = max_joint_step(panel.optimise_sequence().q.double().numpy())
+    panel.controls["smooth"].value = 30.0
+    smooth = max_joint_step(panel.optimise_sequence().q.double().numpy())
+    assert smooth < rough
