@@ -49,6 +49,8 @@ bench: setup
 	$(PY) benchmarks/quality.py --robot yumi $(if $(QUICK),--quick --no-write,)
 	$(PY) benchmarks/headroom.py --robot yumi $(if $(QUICK),--limit 3 --no-write,)
 	$(PY) benchmarks/video.py $(if $(QUICK),--repeats 1 --no-cli --no-write,)
+	$(PY) benchmarks/conditioning.py
+	$(PY) benchmarks/motion.py $(if $(QUICK),--robots yumi --clips 3 --no-write,)
 
 clean:
 	rm -rf $(VENV) build *.egg-info
