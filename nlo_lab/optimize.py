@@ -29,8 +29,8 @@ Step size: Adam ``lr = 0.01`` on ``z``. Measured on 4 clips of the synthetic
 test split with a YuMi model (mean Fréchet, encoder alone 0.216 m): lr 0.003
 -> 0.179 m, 0.01 -> 0.172 m, 0.03 -> 0.172 m but the patience stop fires
 after a few steps on some clips (Adam's first steps overshoot), 0.1 -> 0.207 m
-(stops after 5 steps on most clips). With the smoothness term (issue 14) the default is
-``lr = 0.005``: at 0.01 Adam's first steps, the same size for every latent coordinate,
+(stops after 5 steps on most clips). With the smoothness term (issue 14) the default
+(``lr=None``) is 0.005 instead (:data:`SMOOTH_LR`): at 0.01 Adam's first steps, the same size for every latent coordinate,
 make neighbouring frames move apart, the coupled loss jumps (NAO, introduction_12: mean
 84 -> 267 after two steps) and the patience stop ends the run after 5 steps with the
 jumps still in; at 0.005 YuMi's mean Fréchet on the test split is 0.0568 m (0.0582 m
@@ -63,6 +63,8 @@ __all__ = [
 ]
 
 INITS = ("encoder", "random", "train-stats", "zeros")
+PAPER_LR = 0.01  # Adam step on z, frames independent (module docstring, "Step size")
+SMOOTH_LR = 0.005  # the same with the smoothness term coupling the frames
 JOINT_INITS = ("neutral", "midpoint", "zeros")
 JOINT_LIMITS = ("clamp", "penalty")
 
@@ -93,7 +95,8 @@ class OptimizeSettings:
             training latents) or ``"zeros"``.
         iterations: maximum number of Adam steps (>= 0; 0 = the start point).
         patience: stop after this many evaluations without improvement.
-        lr: Adam step size on ``z``.
+        lr: Adam step size on ``z``; None: :data:`PAPER_LR` (0.01) when the frames are
+            independent, :data:`SMOOTH_LR` (0.005) with the smoothness term (module docstring).
         latent_sigma: σ of the random initialisation.
         warm_start: in :func:`optimize_stream`, frame t starts from frame t-1's best z;
             in :func:`optimize_latent` with smoothing on, the start latents are chosen
@@ -107,7 +110,7 @@ class OptimizeSettings:
     init: str = "encoder"
     iterations: int = 100
     patience: int = 5
-    lr: float = 0.005
+    lr: float | None = None
     latent_sigma: float = 1.0
     warm_start: bool = True
     warm_window: int = 2
@@ -121,7 +124,8 @@ class OptimizeSettings:
         _check_int("patience", self.patience, 1)
         _check_int("seed", self.seed, 0)
         _check_int("warm_window", self.warm_window, 0)
-        object.__setattr__(self, "lr", _check_positive("lr", self.lr))
+        if self.lr is not None:
+            object.__setattr__(self, "lr", _check_positive("lr", self.lr))
         object.__setattr__(self, "latent_sigma", _check_positive("latent_sigma", self.latent_sigma))
         if self.collision_form not in COLLISION_FORMS:
             raise SettingsError(f"unknown collision_form {self.collision_form!r}; expected one of {COLLISION_FORMS}")
@@ -426,8 +430,9 @@ def optimize_latent(
         return torch.add(total, z.pow(2).flatten(1).sum(1).to(dtype), alpha=weights.latent), q, terms
 
     with _frozen(model):
+        lr = settings.lr if settings.lr is not None else (PAPER_LR if smooth is None else SMOOTH_LR)
         z, q, loss, terms, history, steps = _descend(
-            z0.to(_model_dtype(model)), evaluate, None, settings.iterations, settings.patience, settings.lr, callback,
+            z0.to(_model_dtype(model)), evaluate, None, settings.iterations, settings.patience, lr, callback,
             per_sample=smooth is None,
         )
     return OptimizeResult(q, z, history, dict(zip(TERMS, terms.unbind(1))), loss, steps, time.perf_counter() - start, init)
