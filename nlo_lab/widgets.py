@@ -254,8 +254,10 @@ class RetargetPanel:
 
     Attributes:
         controls: ``{"ee", "ori", "elbow", "finger", "collision", "init", "iterations", "robot", "frame"}`` widgets.
-        play: the ``Play`` widget linked to the frame slider; while it plays, frames are shown as
-            optimised (no re-optimisation), at ``1000 / play.interval`` frames/s.
+        play: the ``Play`` widget linked to the frame slider. With a view, playing runs in the browser:
+            the clip as optimised so far becomes a meshcat animation at the clip's rate (no kernel round
+            trip per frame); stopping shows the slider's frame again. Without one, frames are shown as
+            optimised (no re-optimisation) at ``1000 / play.interval`` frames/s.
         button: re-optimises the whole sequence.
         plot: ``HTML`` widget with the convergence plot (SVG; ``plot_data`` holds its curves).
         angles: ``(T, n)`` current joint angles of every frame [rad].
@@ -340,6 +342,7 @@ class RetargetPanel:
         self.controls["init"].observe(cold, names="value")
         self.controls["iterations"].observe(cold, names="value")
         self.controls["frame"].observe(_guarded(self, self._frame_changed), names="value")
+        self.play.observe(_guarded(self, self._playing_changed), names="playing")
         self.controls["robot"].observe(_guarded(self, lambda ch: self._set_robot(ch["new"])), names="value")
         self.button.on_click(_guarded(self, lambda b: self.optimise_sequence()))
 
@@ -413,11 +416,26 @@ class RetargetPanel:
         self.reoptimise_frame(warm=True)
 
     def _frame_changed(self, change=None) -> None:
-        """A new frame: re-optimise it, or, while Play plays, just show it as optimised so far."""
-        if self.play.playing:
-            self._show_frame(self.frame)
-        else:
+        """A new frame: re-optimise it; while Play plays, the page animates (or, without a widget view, show the frame)."""
+        if not self.play.playing:
             self.reoptimise_frame(warm=True)
+        elif self._view.widget is None:
+            self._show_frame(self.frame)
+
+    def _playing_changed(self, change) -> None:
+        """Play starts: the clip plays as a meshcat animation in the page. Play stops: back to the slider's frame."""
+        if self.scene is None or self._view.widget is None:
+            return
+        from meshcat.animation import Animation
+
+        with self._view.hold():
+            if change["new"]:
+                self.scene.animate(play=True, repetitions=0)
+            else:
+                self._view.vis.set_animation(Animation(), play=False)  # stops the page's animation
+                with self._view.widget.resend():
+                    self.scene.set_frame(self.frame)
+                self._shown_frame = self.frame
 
     def reoptimise_frame(self, warm: bool = True) -> OptimizeResult:
         """Re-optimise the current frame and update the plot and the view.

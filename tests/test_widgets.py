@@ -127,6 +127,30 @@ def test_play_shows_frames_without_reoptimising(demo):
     assert p.last is not last  # scrubbing by hand re-optimises
 
 
+def test_play_runs_in_the_page_as_an_animation(demo):
+    p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2)
+    widget = p._view.widget
+    sent = []
+    widget.send = lambda content, buffers=None: sent.append([c["type"] for c in _unpack_all(buffers[0])])
+    p.play.playing = True
+    assert sent == [["set_animation"]], "Play starts: the whole clip goes to the page once"
+    for t in range(1, 4):
+        p.play.value = t  # the Play widget ticks: the page animates, the kernel sends nothing
+    assert len(sent) == 1 and p.frame == 3
+    p.play.playing = False
+    assert sent[-1][0] == "set_animation" and sent[-1].count("set_transform") >= len(p.scene.robot_scene.links)
+    assert p.play.interval <= 66
+
+
+def _unpack_all(data) -> list[dict]:
+    data, out, at = bytes(data), [], 0
+    while at < len(data):
+        n = int.from_bytes(data[at:at + 4], "little")
+        out.append(umsgpack.unpackb(data[at + 4:at + 4 + n]))
+        at += 4 + n
+    return out
+
+
 def test_callback_errors_are_shown_in_the_panel(demo, monkeypatch):
     p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2)
 

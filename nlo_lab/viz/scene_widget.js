@@ -4,7 +4,7 @@
 
 const PREFIX = "IPY_MODEL_";
 // What a test or a benchmark reads from the page: views, commands applied, frames drawn after an update.
-const STATS = (globalThis.__nloLabView ??= { views: 0, messages: 0, commands: 0, bytes: 0, frames: [], arrivals: [], renderMs: [] });
+const STATS = (globalThis.__nloLabView ??= { views: 0, messages: 0, commands: 0, bytes: 0, frames: [], arrivals: [], renderMs: [], draws: [] });
 const keep = (list, value) => { list.push(value); if (list.length > 2000) list.splice(0, 1000); };
 
 // meshcat's bundle is a UMD script that sets self.MeshCat. Evaluate it once per page, as a module
@@ -139,6 +139,7 @@ async function render({ model, el }) {
       viewer.needs_render = false;
       const t1 = performance.now();
       keep(STATS.renderMs, t1 - t0);
+      keep(STATS.draws, t1);
       if (updated) {
         keep(STATS.frames, t1);
         updated = false;

@@ -66,11 +66,12 @@ class WidgetWindow(RecordingWindow):
     def __init__(self, widget: "SceneWidget") -> None:
         super().__init__()
         self.widget = widget
+        self.force = False  # send unchanged transforms too (see SceneWidget.resend)
 
     def send(self, command) -> None:
         before = self._transform_of(command)
         super().send(command)  # the tree: the whole scene for a view that (re)connects
-        if before is None or before != self.last_payload:  # a transform that did not change is not sent
+        if self.force or before is None or before != self.last_payload:  # a transform that did not change is not sent
             self.widget._forward(self.last_payload)
 
     def _transform_of(self, command) -> bytes | None:
@@ -143,6 +144,16 @@ class SceneWidget(anywidget.AnyWidget):
             if self._held_depth == 0:
                 held, self._held = self._held, None
                 self._send_commands(held)
+
+    @contextlib.contextmanager
+    def resend(self) -> Iterator["SceneWidget"]:
+        """Send every transform set inside the block, changed or not (after an animation in the page moved things)."""
+        window = self.vis.window
+        window.force = True
+        try:
+            yield self
+        finally:
+            window.force = False
 
     def snapshot(self) -> bytes:
         """The whole current scene: a delete of meshcat's root, then every command of the tree."""
