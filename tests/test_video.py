@@ -117,7 +117,7 @@ def test_saved_pose_reads_back_to_the_same_demonstration(sample):
 
 
 def test_sample_retargets_feasibly(sample):
-    from nlo_lab.metrics import limit_violations, self_collision_frames
+    from nlo_lab.metrics import limit_violations, max_joint_step, self_collision_frames, velocity_violations
     from nlo_lab.optimize import OptimizeSettings
     from nlo_lab.retarget import retarget
     from nlo_lab.robots import load_robot
@@ -129,6 +129,12 @@ def test_sample_retargets_feasibly(sample):
     assert angles.shape == (SAMPLE_FRAMES, robot.n_joints) and np.isfinite(angles).all()
     assert limit_violations(robot, angles) == 0
     assert self_collision_frames(robot, angles) == 0
+    # playable: every joint within its velocity limit on the file's own time base
+    times = result.trajectory.time
+    assert times is not None and times.shape == (SAMPLE_FRAMES,)
+    assert velocity_violations(robot, angles, times) == 0
+    assert result.summary["velocity_violations"] == 0
+    assert max_joint_step(angles) <= 0.5
     assert result.summary["frames"] == SAMPLE_FRAMES
     assert result.summary["frechet_m"] < 0.15  # it follows the arms (0.06 m measured with 100 iterations)
 
