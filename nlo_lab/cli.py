@@ -1,4 +1,4 @@
-"""The ``nlo-lab`` command (DESIGN.md, "Command line": a contract).
+"""The ``nlo-lab`` command (README.md, "Command line": a contract).
 
 One error path: every failure the command meets (input files, flags, output
 places, disk, permissions, memory) ends with exit status 2 and one line on stderr

@@ -2,7 +2,7 @@
 
 This is the glue the command line, the notebooks and ``make demo`` share:
 targets from the demonstration, latent optimisation with the shipped model,
-the trajectory, and the metric of DESIGN.md ("Metric").
+the trajectory, and the metric of ``nlo_lab.metrics`` (Fréchet distance of wrists and elbows).
 """
 
 from __future__ import annotations
@@ -174,7 +174,7 @@ def _progress_bar(show: bool, total: int, desc: str):
 
 
 def summary(demo: Demonstration, robot: Robot, result: RetargetResult) -> dict[str, Any]:
-    """The command line's JSON object (DESIGN.md, "Command line").
+    """The command line's JSON object (README.md, "Command line").
 
     Joint speed keys: ``velocity_violations`` (frame pairs x joints over the velocity limit)
     and ``max_joint_speed_ratio`` on the trajectory file's own time base;

@@ -429,7 +429,7 @@ NEUTRAL_DEG = {1: -100.0, 2: -120.0, 7: 40.0, 3: 50.0, 4: 10.0, 5: -35.0, 6: -12
 
 
 # Joint velocity limits [rad/s]. Arms: the `velocity` of each joint's <limit> in yumi_description
-# (Örebro University, BSD-2), as listed in ROBOT_FACTS: axes 1, 2, 7, 3 at 180 deg/s, axes 4-6 at 400 deg/s.
+# (Örebro University, BSD-2): axes 1, 2, 7, 3 at 180 deg/s, axes 4-6 at 400 deg/s.
 # Hands: we found no published joint-speed figure for the Inspire RH56 (the vendor page only says
 # "moderate speed"); ASSUMED 2.0 rad/s for every actuated hand joint (a full 1.47 rad finger stroke
 # in about 0.75 s).
