@@ -21,9 +21,9 @@ demo: setup
 	$(VENV)/bin/nlo-lab demo
 
 # Tests and every notebook (nbval runs each cell, fails on any error). Test mode
-# shortens the notebooks' loops; the static viewer means CI opens no ports.
+# shortens the notebooks' loops; tests/test_browser.py runs 01 and 05 in JupyterLab + chromium.
 test: setup browser lint wheel-check
-	NLO_LAB_TEST_MODE=1 NLO_LAB_STATIC_VIEWER=1 $(PY) -m pytest -q -p no:cacheprovider tests notebooks \
+	NLO_LAB_TEST_MODE=1 $(PY) -m pytest -q -p no:cacheprovider tests notebooks \
 		--nbval-lax --nbval-current-env --nbval-cell-timeout=300
 
 # ruff: the rules and exclusions are in pyproject.toml.
@@ -56,10 +56,13 @@ bench: setup
 	$(PY) benchmarks/retarget_speed.py
 	$(PY) benchmarks/long_recording.py --robot yumi $(if $(QUICK),--frames 1000 2000,)
 	$(PY) benchmarks/panel.py
+	$(PY) benchmarks/viewer.py
 	$(PY) benchmarks/speed.py --robot yumi
 	$(PY) benchmarks/quality.py --robot yumi $(if $(QUICK),--quick --no-write,)
 	$(PY) benchmarks/headroom.py --robot yumi $(if $(QUICK),--limit 3 --no-write,)
 	$(PY) benchmarks/video.py $(if $(QUICK),--repeats 1 --no-cli --no-write,)
+	$(PY) benchmarks/conditioning.py
+	$(PY) benchmarks/motion.py $(if $(QUICK),--robots yumi --clips 3 --no-write,)
 
 clean:
 	rm -rf $(VENV) build *.egg-info

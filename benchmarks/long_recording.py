@@ -95,6 +95,7 @@ def main(argv=None) -> int:
     table = ["| frames | wall s | CPU s | retarget s | peak MB | MB per 1k frames above the first | viewer.html MB | Fréchet m |",
              "|---:|---:|---:|---:|---:|---:|---:|---:|"]
     rows = []
+    load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         for frames in args.frames:
             path = save_npz(long_demo(frames), Path(tmp) / f"long-{frames}.npz")
@@ -109,7 +110,9 @@ def main(argv=None) -> int:
     frames, r = rows[-1]
     verdict = (f"targets at {frames} frames: wall {r['seconds']:.1f} s (<= 120; CPU {r['cpu_s']:.1f} s), "
                f"peak {r['peak_mb']:.0f} MB (<= 1536), viewer {r['viewer_mb']:.1f} MB (<= 30)")
+    load = f"load average (1 min) {load_before:.1f} before, {os.getloadavg()[0]:.1f} after, on {os.cpu_count()} cores"
     print(verdict)
+    print(load)
     if not args.no_write:
         text = "\n".join([
             f"## Long recordings on {args.robot}", "", results_doc.stamp(),
@@ -117,7 +120,7 @@ def main(argv=None) -> int:
             f" (iterations: {args.iters or 'default, 100'}); the recording: test-split clips concatenated"
             " (two arms, two hands, 20 fps). Wall time depends on what else the machine runs; CPU time"
             " (user + system) is what one free core would take.",
-            f"- {verdict}", "", *table, ""])
+            f"- {verdict}", f"- {load}", "", *table, ""])
         print(f"wrote {results_doc.update_section(f'long:{args.robot}', text)}")
     return 0
 

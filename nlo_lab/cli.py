@@ -1,4 +1,4 @@
-"""The ``nlo-lab`` command (DESIGN.md, "Command line": a contract).
+"""The ``nlo-lab`` command (README.md, "Command line": a contract).
 
 One error path: every failure the command meets (input files, flags, output
 places, disk, permissions, memory) ends with exit status 2 and one line on stderr
@@ -85,7 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal), no warnings")
     p.add_argument("--save-pose", metavar="FILE", default=None,
                    help="video input: also keep MediaPipe Holistic's landmarks as this .pose file")
-    p.add_argument("--threads", type=_positive_int, default=None,
+    p.add_argument("--threads", type=_ranged_int(1, 256), default=None,
                    help="video input: cores for the pose estimation, at most (default: NLO_LAB_THREADS, else 1)")
 
     p = sub.add_parser("train", help="train the encoder and decoder of a robot on the synthetic corpus")

@@ -7,7 +7,14 @@ self-collision frames, joint-limit violations, the objective value and the wall
 time. ``--json`` prints the contract object as the last line of stdout::
 
     {"methods": {NAME: {"frechet_m": mean, "per_sequence": {seq: frechet},
-                        "collision_sequences": n, "limit_violations": n, "seconds": s}}}
+                        "collision_sequences": n, "limit_violations": n, "seconds": s,
+                        "velocity_violations": n, "max_joint_speed_ratio": r, "slowdown": x,
+                        "depth": "world"}}}
+
+The joint-speed keys (issue 14) take each method's output as it is, frames 1/fps apart
+(no method retimes here; ``nlo-lab retarget`` does): ``velocity_violations`` summed over
+the sequences, ``max_joint_speed_ratio`` and ``slowdown`` (what retiming would need) the
+largest over the sequences, ``depth`` the demonstrations' (``"world"`` for the corpus).
 
 Without ``--json`` a table like the paper's Table I (rows = sequences, columns =
 methods, ``*`` = the sequence has at least one self-collision frame).
@@ -30,7 +37,8 @@ import numpy as np
 
 from nlo_lab.baselines import LATENT_METHODS, METHODS, BaselineSettings, mean_objective, run_method
 from nlo_lab.errors import NloLabError, SettingsError
-from nlo_lab.metrics import limit_violations, self_collision_frames, tracking_errors
+from nlo_lab.metrics import limit_violations, max_joint_speed_ratio, self_collision_frames, tracking_errors, velocity_violations
+from nlo_lab.retime import retime_times
 
 __all__ = [
     "JSON_KEYS",
@@ -43,7 +51,10 @@ __all__ = [
     "main",
 ]
 
-JSON_KEYS = ("frechet_m", "per_sequence", "collision_sequences", "limit_violations", "seconds")
+JSON_KEYS = (
+    "frechet_m", "per_sequence", "collision_sequences", "limit_violations", "seconds",
+    "velocity_violations", "max_joint_speed_ratio", "slowdown", "depth",
+)
 COLLISION_MARK = "*"
 
 
@@ -59,6 +70,11 @@ class SequenceScore:
         objective: mean ``L(D, K(q))`` over frames (no latent term).
         seconds: the method's wall time [s].
         frames: T.
+        velocity_violations: (frame pair, joint) entries over the joint's velocity limit, the
+            frames played at the recording's rate (the methods do not retime).
+        max_joint_speed_ratio: largest joint speed over its limit, same time base.
+        slowdown: how much longer retiming (``nlo_lab.retime``) would make the motion.
+        depth: ``"world"`` or ``"image"`` (the demonstration's ``meta["depth"]``).
     """
 
     frechet_m: float
@@ -71,6 +87,10 @@ class SequenceScore:
     objective: float
     seconds: float
     frames: int
+    velocity_violations: int = 0
+    max_joint_speed_ratio: float = float("nan")
+    slowdown: float = float("nan")
+    depth: str = "world"
 
 
 @dataclass
@@ -181,6 +201,10 @@ def evaluate(
                 objective=mean_objective(robot, demo, r.angles),
                 seconds=r.seconds,
                 frames=len(demo),
+                velocity_violations=velocity_violations(robot, r.angles, fps=demo.fps),
+                max_joint_speed_ratio=max_joint_speed_ratio(robot, r.angles, fps=demo.fps),
+                slowdown=float(retime_times(r.angles, demo.fps, robot.velocity_limits.double().numpy())[-1] * demo.fps + 1) / len(demo),
+                depth=str(demo.meta.get("depth", "world")),
             )
             bar.update(1)
     bar.close()
@@ -211,6 +235,10 @@ def to_json(ev: Evaluation) -> dict:
                 "collision_sequences": ev.collision_sequences(m),
                 "limit_violations": int(ev.total(m, "limit_violations")),
                 "seconds": round(ev.total(m, "seconds"), 4),
+                "velocity_violations": int(ev.total(m, "velocity_violations")),
+                "max_joint_speed_ratio": _num(max(s.max_joint_speed_ratio for s in ev.scores[m].values())),
+                "slowdown": _num(max(s.slowdown for s in ev.scores[m].values())),
+                "depth": "/".join(sorted({s.depth for s in ev.scores[m].values()})),
             }
             for m in ev.methods
         }
@@ -240,6 +268,9 @@ def format_table(ev: Evaluation, *, markdown: bool = False) -> str:
         ["objective"] + [f"{ev.mean(m, 'objective'):.2f}" for m in methods],
         ["collision seq."] + [str(ev.collision_sequences(m)) for m in methods],
         ["limit viol."] + [str(int(ev.total(m, "limit_violations"))) for m in methods],
+        ["velocity viol."] + [str(int(ev.total(m, "velocity_violations"))) for m in methods],
+        ["max speed/limit"] + [f"{max(s.max_joint_speed_ratio for s in ev.scores[m].values()):.2f}" for m in methods],
+        ["max slowdown"] + [f"{max(s.slowdown for s in ev.scores[m].values()):.2f}" for m in methods],
         ["wall time [s]"] + [f"{ev.total(m, 'seconds'):.2f}" for m in methods],
     ]
     header = ["sequence"] + methods

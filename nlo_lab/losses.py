@@ -25,7 +25,16 @@ collision pairs as in the paper's equations (Sec. "Problem Statement"):
   continuous with its gradient, and always pushes the capsules apart.
 
 The latent regulariser ``||z||²/σ²`` (:func:`latent_loss`) is added where ``z``
-lives (optimisation, training). Masks: a masked target contributes exactly
+lives (optimisation, training).
+
+Temporal coherence (not in the paper, which has "no mechanism to ensure smoothness"):
+``smooth`` (:func:`smoothness_loss`) couples consecutive frames of a sequence,
+``sum_j ((q_t,j - q_t-1,j) fps / v_max,j)²``: each joint's speed in units of its
+published velocity limit, squared. It removes jitter and branch flips (a jump between
+two arm configurations costs the square of its speed), and it weighs a joint by how
+slow the robot is there, so the motion the robot cannot follow is what it trades
+against tracking. It is added by the optimisers, which see the whole sequence; it is
+not one of the per-frame :data:`TERMS`. Masks: a masked target contributes exactly
 nothing: its value is replaced by a finite placeholder *and* its term is
 selected away with ``torch.where``, so neither the loss nor its gradient ever
 sees NaN or depends on the masked value.
@@ -61,6 +70,9 @@ __all__ = [
     "finger_loss",
     "collision_loss",
     "latent_loss",
+    "smoothness_loss",
+    "smoothness_scale",
+    "step_cost",
     "robot_points",
 ]
 
@@ -70,6 +82,12 @@ TERMS = ("ee", "ori", "elbow", "finger", "collision")
 # 32: 2.0 vs 2.3 ms, 64: equal, 200: 7.7 vs 7.2 ms.
 FUSED_MAX_FRAMES = 64
 COLLISION_FORMS = ("hinge", "paper")
+# A joint faster than this [rad/s] is smoothed as if its limit were this: NAO's wrist
+# (24.6 rad/s) could otherwise jump 0.85 rad between two frames at little cost, though
+# a jump is jitter whatever the motor (measured: docs/RESULTS.md, "Robot-ready motion").
+SMOOTH_SPEED_CAP = math.pi
+SMOOTH_MAX_STEP = 0.35  # [rad] a joint step beyond this between two frames costs steeply ...
+SMOOTH_STEP_WIDTH = 0.02  # [rad] ... (one more width: one more unit, squared)
 
 
 # ---------------------------------------------------------------------- weights
@@ -84,6 +102,8 @@ class LossWeights:
         finger: finger base -> tip direction term.
         collision: self-collision term.
         latent: weight of ``||z||²`` (``1/σ²``, σ = 1 in the paper).
+        smooth: weight of the joint-speed term over consecutive frames
+            (:func:`smoothness_loss`; not in the paper; 0 = frames independent).
     """
 
     ee: float = 1000.0
@@ -92,6 +112,7 @@ class LossWeights:
     finger: float = 100.0
     collision: float = 1000.0
     latent: float = 1.0
+    smooth: float = 10.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -154,6 +175,7 @@ class Targets:
         fore_length: ``(T, 2)`` demonstrator's forearm length [m].
         node_features: ``(T, N_h, F)`` encoder input, or None.
         edge_features: ``(T, E_h, 3)`` encoder edge input, or None.
+        fps: frame rate of the sequence (the smoothness term's time step), or None.
     """
 
     shoulder: torch.Tensor
@@ -169,6 +191,7 @@ class Targets:
     fore_length: torch.Tensor
     node_features: Optional[torch.Tensor] = None
     edge_features: Optional[torch.Tensor] = None
+    fps: Optional[float] = None
 
     def __len__(self) -> int:
         return int(self.shoulder.shape[0])
@@ -178,7 +201,8 @@ class Targets:
         return self.shoulder.dtype
 
     def _map(self, fn) -> "Targets":
-        return Targets(**{f.name: None if getattr(self, f.name) is None else fn(f.name, getattr(self, f.name)) for f in fields(self)})
+        out = {f.name: None if getattr(self, f.name) is None else fn(f.name, getattr(self, f.name)) for f in fields(self) if f.name != "fps"}
+        return Targets(**out, fps=self.fps)
 
     def to(self, device=None, dtype=None) -> "Targets":
         """A copy on ``device``; ``dtype`` applies to the float tensors only."""
@@ -193,8 +217,11 @@ class Targets:
         """Concatenate along frames (encoder features kept only if all have them)."""
         if not items:
             raise DemonstrationError("no targets to concatenate")
-        out = {}
+        rates = {t.fps for t in items}
+        out = {"fps": rates.pop() if len(rates) == 1 else None}
         for f in fields(Targets):
+            if f.name == "fps":
+                continue
             values = [getattr(t, f.name) for t in items]
             out[f.name] = None if any(v is None for v in values) else torch.cat(values, dim=0)
         return Targets(**out)
@@ -240,6 +267,7 @@ def targets_from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.f
         fore_length=tensor(np.broadcast_to(lengths[:, 1], (T, 2))),
         node_features=node_x,
         edge_features=edge_x,
+        fps=float(demo.fps),
     )
 
 
@@ -444,6 +472,42 @@ def collision_loss(distances: torch.Tensor, margins: torch.Tensor, form: str = "
 def latent_loss(z: torch.Tensor, sigma: float = 1.0) -> torch.Tensor:
     """``||z||²/σ²`` per sample: ``z (B, ...)`` -> ``(B,)``."""
     return z.pow(2).flatten(1).sum(1) / (sigma * sigma)
+
+
+def smoothness_scale(velocity_limits: torch.Tensor) -> torch.Tensor:
+    """``(n,)`` the speed unit of each joint in :func:`smoothness_loss`: its velocity limit,
+    at most :data:`SMOOTH_SPEED_CAP` (unlimited joints count at the cap)."""
+    return velocity_limits.clamp(max=SMOOTH_SPEED_CAP)
+
+
+def smoothness_loss(q: torch.Tensor, fps: float, velocity_limits: torch.Tensor) -> torch.Tensor:
+    """Joint speed between consecutive frames in units of each joint's velocity limit, squared.
+
+    Args:
+        q: ``(T, n)`` joint angles of consecutive frames [rad].
+        fps: frame rate [1/s].
+        velocity_limits: ``(n,)`` [rad/s] (see :func:`smoothness_scale`).
+
+    Returns:
+        ``(T,)``: frame t holds ``sum_j ((q_t,j - q_t-1,j) fps / v_j)²``, frame 0 holds 0.
+    """
+    if q.shape[0] == 0:
+        return q.new_zeros(0)
+    return torch.cat([q.new_zeros(1), step_cost(q[1:] - q[:-1], fps, velocity_limits)])
+
+
+def step_cost(step: torch.Tensor, fps: float, velocity_limits: torch.Tensor) -> torch.Tensor:
+    """The smoothness cost of joint changes ``step (..., n)`` [rad] between two frames -> ``(...)``.
+
+    ``sum_j (step_j fps / s_j)²`` with ``s`` = :func:`smoothness_scale`, plus
+    ``sum_j ((|step_j| - MAX_STEP) / STEP_WIDTH)²`` over the joints that move more than
+    :data:`SMOOTH_MAX_STEP` in one frame: a fast joint (NAO's wrist, 24.6 rad/s) may follow
+    a fast human rotation within its speed limit, but not by jumping half a radian
+    between two samples (the robot's controller would see a step, not a motion).
+    """
+    speed = step * (fps / smoothness_scale(velocity_limits).to(step.dtype))
+    jump = (step.abs() - SMOOTH_MAX_STEP).clamp_min(0.0) / SMOOTH_STEP_WIDTH
+    return speed.pow(2).sum(-1) + jump.pow(2).sum(-1)
 
 
 # ---------------------------------------------------------------------- objective

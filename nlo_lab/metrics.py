@@ -10,6 +10,9 @@
 * :func:`tracking_errors`: wrist and elbow Fréchet distances after mapping the
   human into the robot's frame, plus velocity and acceleration errors.
 * :func:`self_collision_frames`, :func:`limit_violations`: feasibility counts.
+* :func:`velocity_violations`, :func:`max_joint_speed_ratio`, :func:`max_joint_step`:
+  joint speed against the robot's published velocity limits, on a trajectory's own
+  time base (a retimed trajectory's samples are not ``1/fps`` apart).
 """
 
 from __future__ import annotations
@@ -33,6 +36,10 @@ __all__ = [
     "tracking_errors",
     "self_collision_frames",
     "limit_violations",
+    "joint_speed_ratios",
+    "velocity_violations",
+    "max_joint_speed_ratio",
+    "max_joint_step",
 ]
 
 
@@ -314,3 +321,53 @@ def limit_violations(robot, angles: Any, tol: float = 1e-6) -> int:
     lower = np.asarray(robot.lower_limits.detach().cpu() if hasattr(robot.lower_limits, "detach") else robot.lower_limits, dtype=np.float64)
     upper = np.asarray(robot.upper_limits.detach().cpu() if hasattr(robot.upper_limits, "detach") else robot.upper_limits, dtype=np.float64)
     return int(((q < lower - tol) | (q > upper + tol)).sum())
+
+
+# ----------------------------------------------------------------- joint speed
+def _limits(robot) -> np.ndarray:
+    v = robot.velocity_limits
+    return np.asarray(v.detach().cpu() if hasattr(v, "detach") else v, dtype=np.float64)
+
+
+def _times(angles: np.ndarray, times: Any, fps: float | None) -> np.ndarray:
+    if times is None:
+        if fps is None or not fps > 0:
+            raise NloLabError("give the trajectory's times or its fps (> 0)")
+        return np.arange(angles.shape[0]) / float(fps)
+    t = np.asarray(times, dtype=np.float64)
+    if t.shape != (angles.shape[0],) or not np.isfinite(t).all() or (np.diff(t) <= 0).any():
+        raise NloLabError(f"times must be ({angles.shape[0]},) finite and strictly increasing")
+    return t
+
+
+def joint_speed_ratios(robot, angles: Any, times: Any = None, fps: float | None = None) -> np.ndarray:
+    """``(T-1, n)`` finite-difference joint speed over the robot's velocity limit.
+
+    Args:
+        robot: anything with ``n_joints`` and ``velocity_limits`` (n,) [rad/s] (inf = none).
+        angles: ``(T, n_joints)`` [rad].
+        times: ``(T,)`` sample times [s] (the trajectory file's own time base), or None
+            with ``fps`` for frames ``1/fps`` apart.
+    """
+    from nlo_lab.retime import speed_ratios
+
+    q = _angles(robot, angles)
+    return speed_ratios(q, _times(q, times, fps), _limits(robot))
+
+
+def velocity_violations(robot, angles: Any, times: Any = None, fps: float | None = None) -> int:
+    """Number of (frame pair, joint) entries faster than the joint's velocity limit
+    (finite differences on ``times``, or on frames ``1/fps`` apart)."""
+    return int((joint_speed_ratios(robot, angles, times, fps) > 1.0).sum())
+
+
+def max_joint_speed_ratio(robot, angles: Any, times: Any = None, fps: float | None = None) -> float:
+    """Largest joint speed over its limit (1 = at the limit; 0 for a single frame)."""
+    r = joint_speed_ratios(robot, angles, times, fps)
+    return float(r.max()) if r.size else 0.0
+
+
+def max_joint_step(angles: Any) -> float:
+    """Largest change of any joint between consecutive samples [rad] (0 for one frame)."""
+    q = np.asarray(angles, dtype=np.float64)
+    return float(np.abs(np.diff(q, axis=0)).max()) if len(q) > 1 else 0.0

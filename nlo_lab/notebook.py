@@ -2,8 +2,8 @@
 
 * :data:`TEST_MODE` / :func:`budget`: shorter loops under CI (``NLO_LAB_TEST_MODE=1``);
 * :func:`setup`: seeds and a one-line report of the mode and the viewer;
-* :func:`viewer`, :func:`show_robot`, :func:`show_view`: the live meshcat viewer
-  when one can be started and reached, else the static page inline;
+* :func:`show_robot`, :func:`show_view`, :func:`show_human`: a new 3-D scene each, a
+  widget running meshcat's viewer in the notebook (:class:`nlo_lab.viz.SceneWidget`);
 * :func:`joint_table`, :func:`plot_graph`, :func:`recording_path`: small things
   several notebooks need.
 """
@@ -27,12 +27,9 @@ __all__ = [
     "is_test_mode",
     "budget",
     "setup",
-    "viewer",
-    "close_viewer",
     "show_robot",
     "show_view",
     "show_human",
-    "view_html",
     "joint_table",
     "plot_graph",
     "RECORDINGS_DIR",
@@ -57,7 +54,7 @@ def budget(full, test):
 
 
 def setup(seed: int = 0, quiet: bool = False) -> None:
-    """Seed torch, numpy and random, use one torch thread; print the mode and the viewer used.
+    """Seed torch, numpy and random, use one torch thread; print the mode.
 
     Args:
         seed: the seed of every generator.
@@ -72,45 +69,16 @@ def setup(seed: int = 0, quiet: bool = False) -> None:
     torch.manual_seed(seed)
     torch.set_num_threads(default_threads())  # small problems: see nlo_lab.threads
     if not quiet:
-        from nlo_lab.viz import static_viewer_requested
-
-        view = "static (NLO_LAB_STATIC_VIEWER=1)" if static_viewer_requested() else "live if it can start, else static"
-        print(f"nlo_lab: test mode {'on' if is_test_mode() else 'off'}; 3-D viewer: {view}")
+        print(f"nlo_lab: test mode {'on' if is_test_mode() else 'off'}; 3-D views: meshcat widgets in the notebook")
 
 
-# ------------------------------------------------------------------ the viewer
-_VIEWER: dict[str, Any] = {"viewer": None, "tried": False}
+# ------------------------------------------------------------------ the 3-D views
+def _robot(robot):
+    if isinstance(robot, str):
+        from nlo_lab.robots import load_robot
 
-
-def viewer(start: bool = True):
-    """The notebook's one shared live :class:`nlo_lab.viz.Viewer`, or None.
-
-    The first call tries to start it (unless ``NLO_LAB_STATIC_VIEWER=1``); a
-    failed start is remembered, so later cells fall back to the static view at
-    once. The server listens on 127.0.0.1 and dies with the kernel.
-
-    Args:
-        start: try to start a server if none is running.
-    """
-    from nlo_lab.viz import live_viewer, static_viewer_requested
-
-    v = _VIEWER["viewer"]
-    if v is not None and v.alive:
-        return v
-    _VIEWER["viewer"] = None
-    if not start or static_viewer_requested() or _VIEWER["tried"]:
-        return None
-    _VIEWER["tried"] = True
-    _VIEWER["viewer"] = live_viewer()
-    return _VIEWER["viewer"]
-
-
-def close_viewer() -> None:
-    """Stop the shared live viewer (it also stops by itself when the kernel ends)."""
-    v = _VIEWER["viewer"]
-    if v is not None:
-        v.close()
-    _VIEWER.update(viewer=None, tried=False)
+        return load_robot(robot)
+    return robot
 
 
 def _angles(robot, q) -> np.ndarray:
@@ -124,76 +92,85 @@ def _angles(robot, q) -> np.ndarray:
         a = a[None]
     if a.ndim != 2 or a.shape[1] != robot.n_joints:
         raise NloLabError(f"angles for robot {robot.name!r} must be ({robot.n_joints},) or (T, {robot.n_joints}), got shape {a.shape}")
+    if not np.isfinite(a).all():
+        bad = np.argwhere(~np.isfinite(a))[0]
+        raise NloLabError(f"angles for robot {robot.name!r} are not finite (frame {bad[0]}, joint {robot.joint_names[bad[1]]!r})")
     return a
 
 
-def show_view(robot, angles=None, demo=None, *, layout: str = "side", height: int = 400, live: bool | None = None):
-    """An animated 3-D view of ``robot`` (and the human ``demo`` beside it) to display.
+def _failed(widget, exc: Exception):
+    """The view with the reason it cannot draw, instead of a silent blank canvas."""
+    widget.show_message(f"Cannot show this view: {exc}")
+    return widget
 
-    Uses the live viewer when one can be started and reached, else the static
-    self-contained page in an iframe (``srcdoc``): the cell's output works in
-    CI, on Binder and in an exported notebook.
+
+def show_view(robot, angles=None, demo=None, *, layout: str = "side", height: int = 400):
+    """An animated 3-D view of ``robot`` (and the human ``demo`` beside it) to display: a new scene.
+
+    The view is a widget (:class:`nlo_lab.viz.SceneWidget`, meshcat's viewer in the notebook
+    output) that talks to the kernel over the notebook's own connection: no server, no port.
+    The animation plays in the browser; the viewer's Open Controls panel pauses and scrubs it.
 
     Args:
-        robot: a loaded ``nlo_lab.robots.Robot``.
+        robot: a loaded ``nlo_lab.robots.Robot`` or its name.
         angles: ``(T, n)`` or ``(n,)`` joint angles [rad]; the robot's neutral pose if None.
         demo: optional ``Demonstration`` with the same number of frames.
         layout: ``"side"`` or ``"overlay"``.
         height: view height [px].
-        live: force (True) or forbid (False) the live viewer; None = automatic.
 
     Returns:
-        An ``IPython.display.HTML`` object.
+        A :class:`nlo_lab.viz.SceneWidget`. Bad input (an unknown robot, non-finite angles, frames
+        that do not match) gives the widget with the reason shown in it.
     """
-    from nlo_lab.viz import RetargetScene, iframe_html, static_html
+    from nlo_lab.viz import RetargetScene, SceneWidget
 
-    q = _angles(robot, angles)
-    v = viewer() if live is not False else None
-    if v is not None:
-        v.vis.delete()
-        scene = RetargetScene(v.vis, robot, q, demo=demo, layout=layout)
-        if len(scene) > 1:
-            scene.animate(play=True, repetitions=0)
-        return v.jupyter_cell(height=height)
-    if live:
-        raise NloLabError("no live viewer could be started (static view requested, or the server did not start)")
-    return iframe_html(static_html(robot, q, demo=demo, layout=layout), height=height)
-
-
-def show_robot(robot, q=None, *, height: int = 400, live: bool | None = None):
-    """One pose of ``robot`` (``(n,)`` [rad], neutral if None) to display; see :func:`show_view`."""
-    q = _angles(robot, q)
-    if q.shape[0] != 1:
-        raise NloLabError(f"show_robot shows one pose; got {q.shape[0]} frames (use show_view)")
-    return show_view(robot, q, height=height, live=live)
+    widget = SceneWidget(height=height)
+    try:
+        robot = _robot(robot)
+        q = _angles(robot, angles)
+        with widget.hold():
+            scene = RetargetScene(widget.vis, robot, q, demo=demo, layout=layout)
+            if len(scene) > 1:
+                scene.animate(play=True, repetitions=0)
+    except NloLabError as exc:
+        return _failed(widget, exc)
+    widget.scene = scene
+    return widget
 
 
-def show_human(demo, *, height: int = 400, live: bool | None = None):
-    """An animated 3-D view of a human ``Demonstration`` alone (skeleton and fingers); see :func:`show_view`."""
+def show_robot(robot, q=None, *, height: int = 400):
+    """One pose of ``robot`` (``(n,)`` [rad], neutral if None) as a new scene; see :func:`show_view`."""
+    from nlo_lab.viz import SceneWidget
+
+    try:
+        robot = _robot(robot)
+        q = _angles(robot, q)
+        if q.shape[0] != 1:
+            raise NloLabError(f"show_robot shows one pose; got {q.shape[0]} frames (use show_view)")
+    except NloLabError as exc:
+        return _failed(SceneWidget(height=height), exc)
+    return show_view(robot, q, height=height)
+
+
+def show_human(demo, *, height: int = 400):
+    """An animated 3-D view of a human ``Demonstration`` alone (skeleton and fingers) as a new scene; see :func:`show_view`."""
     from meshcat.animation import Animation
 
-    from nlo_lab.viz import HumanScene, frame_points, iframe_html, recording_visualizer, style_viewer
+    from nlo_lab.viz import HumanScene, SceneWidget, frame_points, style_viewer
 
-    v = viewer() if live is not False else None
-    if v is None and live:
-        raise NloLabError("no live viewer could be started (static view requested, or the server did not start)")
-    vis = v.vis if v is not None else recording_visualizer()
-    vis.delete()
-    scene = HumanScene(vis, demo).draw()
-    style_viewer(vis, camera=frame_points(scene.extent_points()))
-    if len(demo) > 1:
-        anim = Animation(default_framerate=float(demo.fps))
-        scene.add_to(anim)
-        vis.set_animation(anim, play=True, repetitions=0)
-    return v.jupyter_cell(height=height) if v is not None else iframe_html(vis.static_html(), height=height)
-
-
-def view_html(page: str, height: int = 400) -> str:
-    """The HTML of an iframe showing a static page inline (for an ``ipywidgets.HTML``)."""
-    return (
-        f'<iframe srcdoc="{html.escape(page, quote=True)}" '
-        f'style="width: 100%; height: {int(height)}px; border: none"></iframe>'
-    )
+    widget = SceneWidget(height=height)
+    try:
+        with widget.hold():
+            scene = HumanScene(widget.vis, demo).draw()
+            style_viewer(widget.vis, camera=frame_points(scene.extent_points()))
+            if len(demo) > 1:
+                anim = Animation(default_framerate=float(demo.fps))
+                scene.add_to(anim)
+                widget.vis.set_animation(anim, play=True, repetitions=0)
+    except NloLabError as exc:
+        return _failed(widget, exc)
+    widget.scene = scene
+    return widget
 
 
 # ------------------------------------------------------------------ small things

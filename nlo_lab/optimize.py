@@ -13,11 +13,28 @@ evaluations in a row without improving the best mean loss. The *best* latent is
 kept per frame (each frame keeps the ``z`` of its own lowest loss), so the
 result is never worse than the start for any frame.
 
+Temporal coherence. With ``weights.smooth > 0`` and a frame rate in the targets, the
+objective also holds :func:`nlo_lab.losses.smoothness_loss` over consecutive frames, so
+frames are no longer independent: the best point is then tracked for the whole sequence
+(the iteration with the lowest mean), not per frame, which could stitch together frames
+from different iterations. And the start is warm along the sequence
+(:func:`sequence_start`): each frame may start from its own encoder latent or from one of
+its ``settings.warm_window`` neighbours' on either side, the choice over the whole sequence
+minimising objective + smoothness by dynamic programming (Viterbi). The encoder maps
+every frame on its own and, where two arm configurations fit about equally, it can
+alternate between them from frame to frame; gradient steps do not cross from one to the
+other, the start does.
+
 Step size: Adam ``lr = 0.01`` on ``z``. Measured on 4 clips of the synthetic
 test split with a YuMi model (mean Fréchet, encoder alone 0.216 m): lr 0.003
 -> 0.179 m, 0.01 -> 0.172 m, 0.03 -> 0.172 m but the patience stop fires
 after a few steps on some clips (Adam's first steps overshoot), 0.1 -> 0.207 m
-(stops after 5 steps on most clips).
+(stops after 5 steps on most clips). With the smoothness term (issue 14) the default
+(``lr=None``) is 0.005 instead (:data:`SMOOTH_LR`): at 0.01 Adam's first steps, the same size for every latent coordinate,
+make neighbouring frames move apart, the coupled loss jumps (NAO, introduction_12: mean
+84 -> 267 after two steps) and the patience stop ends the run after 5 steps with the
+jumps still in; at 0.005 YuMi's mean Fréchet on the test split is 0.0568 m (0.0582 m
+before issue 14), and the loss descends from the first step.
 """
 
 from __future__ import annotations
@@ -31,7 +48,7 @@ from typing import Callable, Optional
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import COLLISION_FORMS, TERMS, LossWeights, Objective, Targets
+from nlo_lab.losses import COLLISION_FORMS, TERMS, LossWeights, Objective, Targets, smoothness_loss, step_cost
 
 __all__ = [
     "INITS",
@@ -39,12 +56,15 @@ __all__ = [
     "JointOptimizeSettings",
     "OptimizeResult",
     "initial_latent",
+    "sequence_start",
     "optimize_latent",
     "optimize_stream",
     "optimize_joints",
 ]
 
 INITS = ("encoder", "random", "train-stats", "zeros")
+PAPER_LR = 0.01  # Adam step on z, frames independent (module docstring, "Step size")
+SMOOTH_LR = 0.005  # the same with the smoothness term coupling the frames
 JOINT_INITS = ("neutral", "midpoint", "zeros")
 JOINT_LIMITS = ("clamp", "penalty")
 
@@ -75,9 +95,14 @@ class OptimizeSettings:
             training latents) or ``"zeros"``.
         iterations: maximum number of Adam steps (>= 0; 0 = the start point).
         patience: stop after this many evaluations without improvement.
-        lr: Adam step size on ``z``.
+        lr: Adam step size on ``z``; None: :data:`PAPER_LR` (0.01) when the frames are
+            independent, :data:`SMOOTH_LR` (0.005) with the smoothness term (module docstring).
         latent_sigma: σ of the random initialisation.
-        warm_start: in :func:`optimize_stream`, frame t starts from frame t-1's best z.
+        warm_start: in :func:`optimize_stream`, frame t starts from frame t-1's best z;
+            in :func:`optimize_latent` with smoothing on, the start latents are chosen
+            along the sequence (:func:`sequence_start`).
+        warm_window: how many neighbours on each side a frame may borrow its start
+            latent from in :func:`sequence_start` (0 = its own only).
         seed: seed of the random initialisations.
         collision_form: ``"hinge"`` or ``"paper"`` (see :func:`nlo_lab.losses.collision_loss`).
     """
@@ -85,9 +110,10 @@ class OptimizeSettings:
     init: str = "encoder"
     iterations: int = 100
     patience: int = 5
-    lr: float = 0.01
+    lr: float | None = None
     latent_sigma: float = 1.0
     warm_start: bool = True
+    warm_window: int = 2
     seed: int = 0
     collision_form: str = "hinge"
 
@@ -97,7 +123,9 @@ class OptimizeSettings:
         _check_int("iterations", self.iterations, 0)
         _check_int("patience", self.patience, 1)
         _check_int("seed", self.seed, 0)
-        object.__setattr__(self, "lr", _check_positive("lr", self.lr))
+        _check_int("warm_window", self.warm_window, 0)
+        if self.lr is not None:
+            object.__setattr__(self, "lr", _check_positive("lr", self.lr))
         object.__setattr__(self, "latent_sigma", _check_positive("latent_sigma", self.latent_sigma))
         if self.collision_form not in COLLISION_FORMS:
             raise SettingsError(f"unknown collision_form {self.collision_form!r}; expected one of {COLLISION_FORMS}")
@@ -217,6 +245,64 @@ def initial_latent(model, targets: Targets, settings: OptimizeSettings) -> torch
     return model.latent_mean.to(dtype) + model.latent_std.to(dtype) * noise  # "train-stats"
 
 
+def _smoothness(robot, targets: Targets, weights: LossWeights):
+    """``q (T, n) -> (T,)`` the weighted smoothness term, or None when it does not apply."""
+    if weights.smooth == 0 or targets.fps is None or len(targets) < 2:
+        return None
+    limits, fps, w = robot.velocity_limits, float(targets.fps), weights.smooth
+    return lambda q: w * smoothness_loss(q, fps, limits)
+
+
+@torch.no_grad()
+def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: LossWeights | None = None,
+                   window: int = 2, collision_form: str = "hinge") -> torch.Tensor:
+    """Warm start along the sequence: per frame, its own start latent or a neighbour's.
+
+    Frame t's candidates are ``z0[t - window .. t + window]``. Each candidate costs its
+    objective at frame t (plus the latent term); consecutive choices cost the
+    smoothness term between their decoded angles. The cheapest sequence of choices
+    is found exactly by dynamic programming (Viterbi), ``O(T (2 window + 1)²)``.
+
+    Returns:
+        ``(T, N_r, k)`` start latents (``z0`` itself when smoothing does not apply).
+    """
+    weights = weights or LossWeights()
+    smooth = _smoothness(robot, targets, weights)
+    T = len(targets)
+    if smooth is None or window == 0:
+        return z0
+    dtype = robot.lower_limits.dtype
+    targets = targets.to(dtype=dtype)
+    loss_fn = Objective(robot, targets, weights, collision_form)
+    K = 2 * window + 1
+    idx = (torch.arange(T)[:, None] + torch.arange(-window, window + 1)[None]).clamp(0, T - 1)  # (T, K)
+    unary, angles = [], []
+    with _frozen(model):
+        for k in range(K):
+            z = z0[idx[:, k]]
+            q = model.decode(z).to(dtype)
+            total, _ = loss_fn(q)
+            unary.append(total + weights.latent * z.pow(2).flatten(1).sum(1).to(dtype))
+            angles.append(q)
+    unary_np = torch.stack(unary, 1).double().numpy()  # (T, K)
+    Q = torch.stack(angles, 1).double()  # (T, K, n)
+    step = Q[1:, None] - Q[:-1, :, None]  # (T-1, K_prev, K_next, n)
+    pair = (weights.smooth * step_cost(step, float(targets.fps), robot.velocity_limits.double())).numpy()
+    cost, back = unary_np[0], []
+    for t in range(1, T):
+        total = cost[:, None] + pair[t - 1]  # (K_prev, K_next)
+        arg = total.argmin(0)
+        back.append(arg)
+        cost = total[arg, range(K)] + unary_np[t]
+    k = int(cost.argmin())
+    path = [k]
+    for arg in reversed(back):
+        k = int(arg[k])
+        path.append(k)
+    path.reverse()
+    return z0[idx[torch.arange(T), torch.tensor(path)]]
+
+
 def _select(better: torch.Tensor, new, old):
     """Per sample ``new`` where ``better (B,)`` else ``old``; tensors ``(B, ...)`` or dicts of them."""
     if isinstance(new, dict):
@@ -252,11 +338,13 @@ def _descend(
     patience: int,
     lr: float,
     callback,
+    per_sample: bool = True,
 ):
     """Adam on ``params`` (B, ...) with per-sample best tracking and patience.
 
     ``evaluate(x)`` returns ``loss (B,)``, ``q (B, n)`` and the terms (a ``(B, K)``
-    tensor or a dict of ``(B,)``), all tracked at each sample's best point.
+    tensor or a dict of ``(B,)``), all tracked at each sample's best point; with
+    ``per_sample=False`` (samples coupled by a sequence term) at the best mean instead.
     """
     x = params.detach().clone().requires_grad_(True)
     adam = _Adam(x, lr)
@@ -272,7 +360,7 @@ def _descend(
                 best_loss, best_x, best_q = loss.detach().clone(), x.detach().clone(), q.detach().clone()
                 best_terms = {k: v.detach().clone() for k, v in terms.items()} if isinstance(terms, dict) else terms.detach().clone()
             else:
-                better = loss < best_loss  # (B,)
+                better = loss < best_loss if per_sample else (loss.mean() < best_loss.mean()).expand(loss.shape)  # (B,)
                 best_loss, best_x, best_q, best_terms = (
                     _select(better, new, old) for new, old in ((loss, best_loss), (x, best_x), (q, best_q), (terms, best_terms))
                 )
@@ -329,16 +417,23 @@ def optimize_latent(
         raise SettingsError(f"z0 must be {(len(targets), *model.latent_shape)}, got {tuple(z0.shape)}")
 
     loss_fn = Objective(robot, targets, weights, settings.collision_form)
+    smooth = _smoothness(robot, targets, weights)
+    if smooth is not None and settings.warm_start:
+        z0 = sequence_start(model, robot, targets, z0, weights, settings.warm_window, settings.collision_form)
 
     def evaluate(z):
         q = model.decode(z).to(dtype)
         total, terms = loss_fn(q)
+        if smooth is not None:
+            total = total + smooth(q)
         # + weights.latent * latent_loss(z), in one op
         return torch.add(total, z.pow(2).flatten(1).sum(1).to(dtype), alpha=weights.latent), q, terms
 
     with _frozen(model):
+        lr = settings.lr if settings.lr is not None else (PAPER_LR if smooth is None else SMOOTH_LR)
         z, q, loss, terms, history, steps = _descend(
-            z0.to(_model_dtype(model)), evaluate, None, settings.iterations, settings.patience, settings.lr, callback
+            z0.to(_model_dtype(model)), evaluate, None, settings.iterations, settings.patience, lr, callback,
+            per_sample=smooth is None,
         )
     return OptimizeResult(q, z, history, dict(zip(TERMS, terms.unbind(1))), loss, steps, time.perf_counter() - start, init)
 
@@ -414,9 +509,12 @@ def optimize_joints(
         raise SettingsError(f"q0 must be {(T, lo.shape[0])}, got {tuple(q0.shape)}")
 
     loss_fn = Objective(robot, targets, weights, settings.collision_form)
+    smooth = _smoothness(robot, targets, weights)
 
     def evaluate(q):
         total, terms = loss_fn(q)
+        if smooth is not None:
+            total = total + smooth(q)
         if settings.limits == "penalty":
             violation = torch.relu(q - hi) + torch.relu(lo - q)
             total = total + settings.penalty * violation.pow(2).sum(-1)
@@ -427,7 +525,8 @@ def optimize_joints(
 
     project = clamp if settings.limits == "clamp" else None
     _, q, loss, terms, history, steps = _descend(
-        q0.to(dtype), evaluate, project, settings.iterations, settings.patience, settings.lr, callback
+        q0.to(dtype), evaluate, project, settings.iterations, settings.patience, settings.lr, callback,
+        per_sample=smooth is None,
     )
     terms = dict(zip(TERMS, terms.unbind(1)))
     return OptimizeResult(q, None, history, terms, loss, steps, time.perf_counter() - start, f"joints-{settings.init}")

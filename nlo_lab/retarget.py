@@ -2,7 +2,7 @@
 
 This is the glue the command line, the notebooks and ``make demo`` share:
 targets from the demonstration, latent optimisation with the shipped model,
-the trajectory, and the metric of DESIGN.md ("Metric").
+the trajectory, and the metric of ``nlo_lab.metrics`` (Fréchet distance of wrists and elbows).
 """
 
 from __future__ import annotations
@@ -19,8 +19,16 @@ import torch
 from nlo_lab.errors import SettingsError
 from nlo_lab.human import Demonstration
 from nlo_lab.losses import LossWeights, Targets, targets_from_demonstration
-from nlo_lab.metrics import limit_violations, self_collision_frames, tracking_errors
+from nlo_lab.metrics import (
+    limit_violations,
+    max_joint_speed_ratio,
+    max_joint_step,
+    self_collision_frames,
+    tracking_errors,
+    velocity_violations,
+)
 from nlo_lab.optimize import OptimizeResult, OptimizeSettings, initial_latent, optimize_latent
+from nlo_lab.retime import retime_times
 from nlo_lab.robots import Robot
 from nlo_lab.threads import single_thread
 from nlo_lab.train import load_pretrained
@@ -32,7 +40,10 @@ __all__ = ["CHUNK_FRAMES", "RetargetResult", "retarget", "summary"]
 # so chunks only bound memory: the autograd graph of one step holds about 0.3 MB per
 # frame, so 1000 frames take a few hundred MB however long the recording is
 # (benchmarks/long_recording.py). The one coupling is the patience stop, which looks
-# at the mean loss of the frames optimised together (here: of one chunk).
+# at the mean loss of the frames optimised together (here: of one chunk). With the
+# smoothness term (LossWeights.smooth) frames are coupled to their neighbours: the two
+# frames either side of a chunk boundary are not (retiming still keeps every joint
+# within its velocity limit there).
 CHUNK_FRAMES = 1000
 
 
@@ -62,6 +73,7 @@ def retarget(
     model=None,
     progress: bool = False,
     chunk_frames: int | None = CHUNK_FRAMES,
+    retime: bool = True,
 ) -> RetargetResult:
     """Retarget a whole demonstration to ``robot`` by neural latent optimisation.
 
@@ -75,6 +87,8 @@ def retarget(
             (the command line turns it on for a terminal: long clips take seconds).
         chunk_frames: optimise at most this many frames at once (bounded memory,
             see :data:`CHUNK_FRAMES`); None for the whole recording in one batch.
+        retime: slow the trajectory down where a joint would exceed its velocity limit
+            (:mod:`nlo_lab.retime`); the trajectory's ``time`` then says when each frame plays.
 
     Returns:
         A :class:`RetargetResult` with the trajectory and the quality figures.
@@ -102,7 +116,8 @@ def retarget(
     if not all(np.isfinite(result.history)) or not bool(torch.isfinite(result.loss).all()):
         raise SettingsError("the loss became NaN or infinite (are the loss weights absurdly large?)")
     angles = result.q.detach().cpu().numpy().astype(np.float64)
-    trajectory = RobotTrajectory(robot=robot.name, joint_names=list(robot.joint_names), angles=angles, fps=demo.fps)
+    times = retime_times(angles, demo.fps, robot.velocity_limits.double().numpy()) if retime else None
+    trajectory = RobotTrajectory(robot=robot.name, joint_names=list(robot.joint_names), angles=angles, fps=demo.fps, time=times)
     out = RetargetResult(trajectory=trajectory, optimization=result, seconds=seconds)
     out.summary = summary(demo, robot, out)
     return out
@@ -159,8 +174,17 @@ def _progress_bar(show: bool, total: int, desc: str):
 
 
 def summary(demo: Demonstration, robot: Robot, result: RetargetResult) -> dict[str, Any]:
-    """The command line's JSON object (DESIGN.md, "Command line")."""
-    angles = torch.tensor(np.array(result.trajectory.angles), dtype=robot.lower_limits.dtype)  # a writable copy
+    """The command line's JSON object (README.md, "Command line").
+
+    Joint speed keys: ``velocity_violations`` (frame pairs x joints over the velocity limit)
+    and ``max_joint_speed_ratio`` on the trajectory file's own time base;
+    ``recording_speed_ratio`` the same ratio had the frames played at the recording's
+    rate; ``slowdown`` the output's duration over the recording's (1 = not retimed);
+    ``max_joint_step_rad`` the largest change of a joint between consecutive frames;
+    ``depth``: ``"world"`` (measured 3-D) or ``"image"`` (reconstructed from an image-only recording).
+    """
+    traj = result.trajectory
+    angles = torch.tensor(np.array(traj.angles), dtype=robot.lower_limits.dtype)  # a writable copy
     errors = tracking_errors(demo, robot, angles)
     return {
         "robot": robot.name,
@@ -174,5 +198,11 @@ def summary(demo: Demonstration, robot: Robot, result: RetargetResult) -> dict[s
         "frechet_elbow_m": float(errors["frechet_elbow_m"]),
         "self_collision_frames": int(self_collision_frames(robot, angles)),
         "limit_violations": int(limit_violations(robot, angles)),
+        "velocity_violations": velocity_violations(robot, traj.angles, traj.times),
+        "max_joint_speed_ratio": round(max_joint_speed_ratio(robot, traj.angles, traj.times), 4),
+        "recording_speed_ratio": round(max_joint_speed_ratio(robot, traj.angles, fps=demo.fps), 4),
+        "slowdown": round(traj.duration / demo.duration, 4),
+        "max_joint_step_rad": round(max_joint_step(traj.angles), 4),
+        "depth": str(demo.meta.get("depth", "world")),
         "final_loss": float(result.optimization.history[-1]) if len(result.optimization.history) else None,
     }

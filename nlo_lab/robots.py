@@ -127,6 +127,9 @@ class RobotSpec:
         description: free text.
         neutral_pose: optional ``((joint, angle [rad]), ...)``: a collision-free
             rest pose (YuMi's all-zero pose crosses the forearms).
+        velocity_limits: optional ``((joint, max speed [rad/s]), ...)``, the published
+            joint velocity limits (spec ``"velocity_limits"``; source in ``"velocity_limits_source"``).
+        velocity_limits_source: where the velocity limits come from (free text).
     """
 
     name: str
@@ -140,6 +143,8 @@ class RobotSpec:
     pair_margins: tuple[float, ...]
     description: str = ""
     neutral_pose: tuple[tuple[str, float], ...] | None = None
+    velocity_limits: tuple[tuple[str, float], ...] | None = None
+    velocity_limits_source: str = ""
 
     def __post_init__(self) -> None:
         if set(self.arms) != set(SIDES):
@@ -294,6 +299,13 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         if unknown:
             raise RobotDescriptionError(f"{path}: neutral_pose names joints {unknown} that are not in actuated_joints")
         neutral = tuple((str(k), float(v)) for k, v in neutral.items())
+    velocity = data.get("velocity_limits")
+    if velocity is not None:
+        if not isinstance(velocity, dict) or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 and math.isfinite(v) for v in velocity.values()
+        ):
+            raise RobotDescriptionError(f"{path}: 'velocity_limits' must map joint names to speeds > 0 [rad/s]")
+        velocity = tuple((str(k), float(v)) for k, v in velocity.items())
     return RobotSpec(
         name=str(data.get("name", path.stem)),
         path=path,
@@ -306,6 +318,8 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         pair_margins=margins,
         description=str(data.get("description", "")),
         neutral_pose=neutral,
+        velocity_limits=velocity,
+        velocity_limits_source=str(data.get("velocity_limits_source", "")),
     )
 
 
@@ -332,6 +346,11 @@ class Robot:
         self._check_spec()
         self._lower = np.array([model.joint(n).lower for n in self.joint_names])
         self._upper = np.array([model.joint(n).upper for n in self.joint_names])
+        speeds = dict(spec.velocity_limits or ())
+        unknown = sorted(set(speeds) - set(self.joint_names))
+        if unknown:  # checked after _check_spec, whose message about a misnamed joint comes first
+            raise RobotDescriptionError(f"{spec.path}: velocity_limits names joints {unknown} that are not in actuated_joints")
+        self._velocity = np.array([speeds.get(n, np.inf) for n in self.joint_names])
         caps = spec.capsules
         cap_index = {c.name: i for i, c in enumerate(caps)}
         self._cap_link = [self.tree.link_index[c.link] for c in caps]
@@ -437,6 +456,7 @@ class Robot:
         f = lambda a: torch.as_tensor(a, dtype=dtype, device=device)  # noqa: E731
         self.lower_limits = f(self._lower)  # (n,) [rad]
         self.upper_limits = f(self._upper)  # (n,) [rad]
+        self.velocity_limits = f(self._velocity)  # (n,) [rad/s], inf where the spec gives none
         self.collision_margins = f(np.array(self.spec.pair_margins))  # (P,) [m]
         self.graph = self._graph64.to(device=device, dtype=dtype)
         self._cap_link_t = torch.as_tensor(self._cap_link, dtype=torch.long, device=device)

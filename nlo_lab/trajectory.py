@@ -24,7 +24,8 @@ from nlo_lab.errors import NloLabError
 
 __all__ = ["RobotTrajectory", "TrajectoryError", "FORMAT_VERSION"]
 
-FORMAT_VERSION = 1  # bump when the file layout changes
+FORMAT_VERSION = 2  # bump when the file layout changes (2: per-frame `time`)
+READ_VERSIONS = (1, 2)  # version 1 files have no `time`: frames are 1/fps apart
 
 
 class TrajectoryError(NloLabError, ValueError):
@@ -39,13 +40,18 @@ class RobotTrajectory:
         robot: the robot's name (``"yumi"``, ``"nao"``, ``"pepper"`` or a spec name).
         joint_names: the actuated joints, in the column order of ``angles`` (n,).
         angles: ``(T, n)`` float64 joint angles [rad] (read-only array).
-        fps: frames per second (> 0).
+        fps: frames per second of the recording (> 0).
+        time: ``(T,)`` per-frame times [s], starting at 0 and strictly increasing, or
+            None = frames ``1/fps`` apart. A retimed trajectory (``nlo_lab.retime``) is
+            slower than the recording where the robot could not follow: its frames are
+            further apart than ``1/fps`` there.
     """
 
     robot: str
     joint_names: tuple[str, ...]
     angles: np.ndarray = field(repr=False)
     fps: float
+    time: np.ndarray | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.robot, str) or not self.robot:
@@ -75,6 +81,19 @@ class RobotTrajectory:
         if not math.isfinite(fps) or fps <= 0:
             raise TrajectoryError(f"fps must be > 0, got {self.fps!r}")
         angles.setflags(write=False)
+        if self.time is not None:
+            try:
+                time = np.array(self.time, dtype=np.float64)
+            except (TypeError, ValueError) as exc:
+                raise TrajectoryError(f"time is not numeric: {exc}") from None
+            if time.shape != (angles.shape[0],):
+                raise TrajectoryError(f"time must be ({angles.shape[0]},) to match angles, got shape {time.shape}")
+            if not np.isfinite(time).all():
+                raise TrajectoryError(f"time holds NaN or inf at frame {int(np.argwhere(~np.isfinite(time))[0][0])}")
+            if time[0] != 0.0 or (np.diff(time) <= 0).any():
+                raise TrajectoryError("time must start at 0 and strictly increase")
+            time.setflags(write=False)
+            object.__setattr__(self, "time", time)
         object.__setattr__(self, "joint_names", names)
         object.__setattr__(self, "angles", angles)
         object.__setattr__(self, "fps", fps)
@@ -89,13 +108,17 @@ class RobotTrajectory:
 
     @property
     def times(self) -> np.ndarray:
-        """``(T,)`` frame times [s]."""
-        return np.arange(len(self)) / self.fps
+        """``(T,)`` frame times [s]: :attr:`time`, or frames ``1/fps`` apart."""
+        return np.arange(len(self)) / self.fps if self.time is None else self.time
 
     @property
     def duration(self) -> float:
-        """Length in seconds."""
-        return len(self) / self.fps
+        """Length in seconds: the last frame's time plus one frame period (``T / fps`` when not retimed)."""
+        return float(self.times[-1]) + 1.0 / self.fps
+
+    def at_frame_rate(self) -> "RobotTrajectory":
+        """The same samples ``1/fps`` apart, as recorded (a retimed trajectory without its retiming)."""
+        return RobotTrajectory(self.robot, self.joint_names, self.angles, self.fps)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, RobotTrajectory):
@@ -105,13 +128,14 @@ class RobotTrajectory:
             and self.joint_names == other.joint_names
             and self.fps == other.fps
             and np.array_equal(self.angles, other.angles)
+            and np.array_equal(self.times, other.times)
         )
 
     __hash__ = None  # type: ignore[assignment]  # holds an array
 
     # ---------------------------------------------------------------- writers
     def save_npz(self, path: str | os.PathLike) -> Path:
-        """Write ``robot``, ``joint_names``, ``angles``, ``fps`` and a format version to ``path`` (.npz)."""
+        """Write ``robot``, ``joint_names``, ``angles``, ``fps``, ``time`` and a format version to ``path`` (.npz)."""
         buf = io.BytesIO()
         np.savez(
             buf,
@@ -120,6 +144,7 @@ class RobotTrajectory:
             joint_names=np.array(self.joint_names, dtype=np.str_),
             angles=self.angles,
             fps=np.float64(self.fps),
+            time=np.asarray(self.times, dtype=np.float64),
         )
         return _atomic_write(path, buf.getvalue())
 
@@ -130,6 +155,7 @@ class RobotTrajectory:
             "robot": self.robot,
             "joint_names": list(self.joint_names),
             "fps": self.fps,
+            "time": self.times.tolist(),
             "angles": self.angles.tolist(),
         }
 
@@ -138,7 +164,7 @@ class RobotTrajectory:
         return _atomic_write(path, json.dumps(self.to_dict()).encode("utf-8"))
 
     def save_csv(self, path: str | os.PathLike) -> Path:
-        """Write one row per frame: ``time_s`` then one column per joint [rad] (header row first)."""
+        """Write one row per frame: ``time_s`` (:attr:`times`) then one column per joint [rad] (header row first)."""
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
         writer.writerow(["time_s", *self.joint_names])
@@ -156,10 +182,11 @@ class RobotTrajectory:
         if missing:
             raise TrajectoryError(f"{source}: missing field(s) {missing}")
         version = data.get("format_version", FORMAT_VERSION)
-        if version != FORMAT_VERSION:
-            raise TrajectoryError(f"{source}: format_version {version!r} is not supported (expected {FORMAT_VERSION})")
+        if version not in READ_VERSIONS:
+            raise TrajectoryError(f"{source}: format_version {version!r} is not supported (expected one of {READ_VERSIONS})")
         try:
-            return cls(robot=data["robot"], joint_names=tuple(data["joint_names"]), angles=data["angles"], fps=data["fps"])
+            return cls(robot=data["robot"], joint_names=tuple(data["joint_names"]), angles=data["angles"], fps=data["fps"],
+                       time=data.get("time"))
         except TrajectoryError as exc:
             raise TrajectoryError(f"{source}: {exc}") from None
 
@@ -194,6 +221,7 @@ class RobotTrajectory:
                 "joint_names": [str(n) for n in data["joint_names"]],
                 "angles": data["angles"],
                 "fps": float(data["fps"]),
+                "time": data.get("time"),  # absent in version 1 files
             }
         except KeyError as exc:
             raise TrajectoryError(f"{p}: missing field {exc.args[0]!r}") from None

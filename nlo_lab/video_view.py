@@ -8,7 +8,7 @@ slider (or setting ``view.frame``) works headless too, which is what the tests d
 
 The frames are encoded to JPEG once, when the view is built, so that playing only
 swaps bytes. The 3-D view is the panels' (:class:`nlo_lab.widgets.RetargetPanel`
-uses the same): the notebook's live viewer, or the static page where none can run.
+uses the same): a scene widget of its own, meshcat's viewer over the notebook's connection.
 """
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ class VideoView:
         angles: ``(T, n)`` the robot's joint angles [rad].
         demo: the ``Demonstration`` read from the video (``T`` frames), drawn beside the robot.
         fps: playing rate; the demonstration's by default.
-        view: ``"auto"`` (live viewer, else the static page), ``"static"``, or None (no 3-D view).
+        view: ``"auto"`` (a scene widget of its own), a meshcat ``Visualizer``, or None (no 3-D view).
         height: height of the image and the 3-D view [px].
 
     Attributes:
@@ -111,7 +111,10 @@ class VideoView:
         W.link((self.play, "value"), (self.slider, "value"))  # kernel-side link: works headless too
         self.time = W.HTML()
         self._view = _View(view, height)
-        self.scene = RetargetScene(self._view.vis, robot, q, demo=demo, fps=fps) if self._view.vis is not None else None
+        self.scene = None
+        if self._view.vis is not None:
+            with self._view.hold():
+                self.scene = RetargetScene(self._view.vis, robot, q, demo=demo, fps=fps)
         self.slider.observe(lambda change: self._show(change["new"]), names="value")
         self._show(0)
         parts = [self.image] + ([self._view.widget] if self._view.widget is not None else [])
@@ -136,8 +139,9 @@ class VideoView:
         self.image.value = self._jpegs[t]
         self.time.value = f"{t / self.fps:.2f} s"
         if self.scene is not None:
-            self.scene.set_frame(t)
-            self._view.refresh()
+            with self._view.hold():  # one message: the transforms that changed
+                self.scene.set_frame(t)
 
     def _repr_mimebundle_(self, **kwargs):
+        self._view.sync()
         return self.widget._repr_mimebundle_(**kwargs)

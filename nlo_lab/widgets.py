@@ -12,13 +12,19 @@ State for tests and notebooks: ``panel.q`` (current joint angles), ``panel.histo
 (the loss history shown), ``panel.weights``, ``panel.angles``; set a control with
 ``panel.controls[name].value = ...`` (observers fire as in the browser).
 
-The 3-D view is optional and injectable: ``view="auto"`` uses the notebook's
-live viewer (:func:`nlo_lab.notebook.viewer`) or the static page, ``"static"``
-only the static page, ``None`` none, or pass a meshcat ``Visualizer``.
+The 3-D view is optional and injectable: ``view="auto"`` gives the panel its own
+scene (:class:`nlo_lab.viz.SceneWidget`, meshcat's viewer over the notebook's
+connection; a move sends only the transforms that changed), ``None`` none, or
+pass a meshcat ``Visualizer``. An error in a control's callback is shown in the
+panel (``panel.error``, the status line, the view) and raised.
+
+Both panels lay out as a wrapping row: the controls keep their width and the view
+goes below them when the notebook is too narrow for both side by side.
 """
 
 from __future__ import annotations
 
+import contextlib
 import html
 import time
 from typing import Any, Callable
@@ -88,41 +94,60 @@ def svg_convergence(curves, width: int = 480, height: int = 220, log: bool = Tru
 
 
 class _View:
-    """A 3-D view for a panel: a meshcat ``Visualizer`` plus, when shown in the notebook, an HTML widget."""
+    """A panel's 3-D view: its own scene widget (``"auto"``), an injected meshcat ``Visualizer``, or none."""
 
     def __init__(self, view: Any, height: int):
-        import ipywidgets as W
-
-        self.height = height
-        self.static = False
         self.widget = None
         self.vis = None
         if view is None or view is False:
             return
-        if view in ("auto", "static"):
-            from nlo_lab.notebook import viewer
+        if isinstance(view, str):
+            if view != "auto":
+                raise SettingsError(f"view must be 'auto', None or a meshcat Visualizer, got {view!r}")
+            from nlo_lab.viz import SceneWidget
 
-            live = viewer() if view == "auto" else None
-            if live is not None:
-                self.vis = live.vis
-                self.widget = W.HTML(live.jupyter_cell(height=height).data)
-            else:
-                from nlo_lab.viz import recording_visualizer
-
-                self.vis = recording_visualizer()
-                self.static = True
-                self.widget = W.HTML()
+            self.widget = SceneWidget(height=height)
+            self.vis = self.widget.vis
         elif hasattr(view, "__getitem__") and hasattr(view, "delete"):
-            self.vis = view  # an injected meshcat Visualizer (live or recording)
+            self.vis = view  # an injected meshcat Visualizer (e.g. nlo_lab.viz.recording_visualizer())
         else:
-            raise SettingsError(f"view must be 'auto', 'static', None or a meshcat Visualizer, got {view!r}")
+            raise SettingsError(f"view must be 'auto', None or a meshcat Visualizer, got {view!r}")
 
-    def refresh(self) -> None:
-        """Re-render the static page (the live viewer updates by itself)."""
-        if self.static and self.widget is not None:
-            from nlo_lab.notebook import view_html
+    def hold(self):
+        """Send the commands of one update as one message."""
+        return self.widget.hold() if self.widget is not None else contextlib.nullcontext()
 
-            self.widget.value = view_html(self.vis.static_html(), self.height)
+    def sync(self) -> None:
+        if self.widget is not None:
+            self.widget.sync()
+
+    def show_message(self, text: str) -> None:
+        if self.widget is not None:
+            self.widget.show_message(text)
+
+
+def _guarded(panel, action: Callable[..., Any]) -> Callable[..., Any]:
+    """``action`` for an observer: an error is shown in the panel (status line and view), then raised.
+
+    A widget callback's exception never reaches the cell's output, so without this the learner
+    would see nothing at all.
+    """
+
+    def run(*args, **kwargs):
+        try:
+            result = action(*args, **kwargs)
+        except Exception as exc:
+            text = f"{type(exc).__name__}: {exc}"
+            panel.error = text
+            panel.status.value = f'<span class="nlo-lab-panel-error" style="color: #b00020"><b>error</b>: {html.escape(text)}</span>'
+            panel._view.show_message(f"Not updated: {text}")
+            raise
+        if panel.error:
+            panel.error = ""
+            panel._view.show_message("")
+        return result
+
+    return run
 
 
 class JointPanel:
@@ -132,7 +157,7 @@ class JointPanel:
         robot: a loaded ``nlo_lab.robots.Robot``.
         q: start angles ``(n,)`` [rad]; the neutral pose if None.
         link: the link whose pose is printed (default: the left wrist).
-        view: ``"auto"``, ``"static"``, None or a meshcat ``Visualizer`` (see the module doc).
+        view: ``"auto"``, None or a meshcat ``Visualizer`` (see the module doc).
         height: 3-D view height [px].
 
     Attributes:
@@ -140,6 +165,7 @@ class JointPanel:
         link: Dropdown of links.
         q: current angles ``(n,)`` [rad].
         position: the chosen link's position ``(3,)`` [m] in the robot frame.
+        error: the last callback error shown in the panel ("" when the last update worked).
     """
 
     def __init__(self, robot, q=None, link: str | None = None, view: Any = "auto", height: int = 360):
@@ -162,23 +188,29 @@ class JointPanel:
             raise SettingsError(f"robot {robot.name!r} has no link {default!r}")
         self.link = W.Dropdown(options=links, value=default, description="link")
         self.readout = W.HTML()
+        self.status = W.HTML()
+        self.error = ""
         self._view = _View(view, height)
         self.scene = None
         if self._view.vis is not None:
             from nlo_lab.viz import RobotScene, frame_points, style_viewer
 
-            self._view.vis.delete()
-            self.scene = RobotScene(self._view.vis, robot).draw()
-            # Frame on the rest pose and both limit extremes, so slider moves mostly stay in view.
-            poses = torch.stack([robot.neutral_q, robot.lower_limits, robot.upper_limits])
-            style_viewer(self._view.vis, camera=frame_points(self.scene.extent_points(poses.numpy())))
+            with self._view.hold():
+                self._view.vis.delete()
+                self.scene = RobotScene(self._view.vis, robot).draw()
+                # Frame on the rest pose and both limit extremes, so slider moves mostly stay in view.
+                poses = torch.stack([robot.neutral_q, robot.lower_limits, robot.upper_limits])
+                style_viewer(self._view.vis, camera=frame_points(self.scene.extent_points(poses.numpy())))
+        update = _guarded(self, self._update)
         for s in self.sliders.values():
-            s.observe(self._update, names="value")
-        self.link.observe(self._update, names="value")
+            s.observe(update, names="value")
+        self.link.observe(update, names="value")
         self._update()
-        sliders = W.VBox(list(self.sliders.values()), layout=W.Layout(max_height=f"{height}px", overflow="auto"))
-        right = [self._view.widget] if self._view.widget is not None else []
-        self.widget = W.VBox([W.HBox([sliders, W.VBox(right, layout=W.Layout(width="100%"))]), W.HBox([self.link, self.readout])])
+        sliders = W.VBox(list(self.sliders.values()), layout=W.Layout(max_height=f"{height}px", overflow="auto", flex="0 0 440px"))
+        parts = [sliders]
+        if self._view.widget is not None:
+            parts.append(W.Box([self._view.widget], layout=W.Layout(flex="1 1 360px", min_width="320px")))
+        self.widget = W.VBox([W.HBox(parts, layout=W.Layout(flex_flow="row wrap", width="100%")), W.HBox([self.link, self.readout]), self.status])
 
     @property
     def q(self) -> np.ndarray:
@@ -194,10 +226,11 @@ class JointPanel:
         x, y, z = self.position
         self.readout.value = f"<code>{self.link.value}</code>: position [m] x={x:+.3f} y={y:+.3f} z={z:+.3f}"
         if self.scene is not None:
-            self.scene.set_pose(self.q)
-            self._view.refresh()
+            with self._view.hold():
+                self.scene.set_pose(self.q)
 
     def _repr_mimebundle_(self, **kwargs):
+        self._view.sync()
         return self.widget._repr_mimebundle_(**kwargs)
 
 
@@ -215,13 +248,16 @@ class RetargetPanel:
         iterations: iteration budget of a cold start (the init/budget controls) and of the sequence button.
         frame_iterations: at most this many steps when a control re-optimises the current frame warm-started.
         frame: the start frame.
-        view: ``"auto"``, ``"static"``, None or a meshcat ``Visualizer``.
+        view: ``"auto"``, None or a meshcat ``Visualizer``.
         height: 3-D view height [px].
         max_curves: earlier convergence curves kept (faded) in the plot for comparison.
 
     Attributes:
         controls: ``{"ee", "ori", "elbow", "finger", "collision", "init", "iterations", "robot", "frame"}`` widgets.
-        play: the ``Play`` widget linked to the frame slider.
+        play: the ``Play`` widget linked to the frame slider. With a view, playing runs in the browser:
+            the clip as optimised so far becomes a meshcat animation at the clip's rate (no kernel round
+            trip per frame); stopping shows the slider's frame again. Without one, frames are shown as
+            optimised (no re-optimisation) at ``1000 / play.interval`` frames/s.
         button: re-optimises the whole sequence.
         plot: ``HTML`` widget with the convergence plot (SVG; ``plot_data`` holds its curves).
         angles: ``(T, n)`` current joint angles of every frame [rad].
@@ -230,6 +266,7 @@ class RetargetPanel:
         curves: ``[(label, history)]`` shown in the plot (the last one is ``history``).
         last: the last :class:`OptimizeResult`.
         last_seconds: wall time of the last optimisation [s].
+        error: the last callback error shown in the panel ("" when the last update worked).
     """
 
     def __init__(
@@ -275,18 +312,22 @@ class RetargetPanel:
             for name in TERMS
         }
         self._latent_weight = weights.latent
+        # smoothness over consecutive frames: acts in "re-optimise the whole sequence" (one frame has no neighbours)
+        self.controls["smooth"] = W.FloatSlider(value=weights.smooth, min=0.0, max=100.0, step=1.0, description="smooth", style=style, continuous_update=False)
         names = list(ROBOTS) + ([robot_obj.name] if robot_obj.name not in ROBOTS else [])
         self.controls["init"] = W.Dropdown(options=list(INITS), value=init, description="init", style=style)
         self.controls["iterations"] = W.IntSlider(value=iterations, min=0, max=300, step=5, description="iterations", style=style, continuous_update=False)
         self.controls["robot"] = W.Dropdown(options=names, value=robot_obj.name, description="robot", style=style)
         self.controls["frame"] = W.IntSlider(value=frame, min=0, max=len(demo) - 1, description="frame", style=style)
-        self.play = W.Play(value=frame, min=0, max=len(demo) - 1, interval=150, description="play")
+        self.play = W.Play(value=frame, min=0, max=len(demo) - 1, interval=50, description="play")
         W.link((self.play, "value"), (self.controls["frame"], "value"))  # kernel-side link: works headless too
         self.button = W.Button(description="re-optimise the whole sequence", layout=W.Layout(width="260px"))
         self.plot = W.HTML()
         self.status = W.HTML()
+        self.error = ""
         self._view = _View(view, height)
         self.scene = None
+        self._shown_frame = -1
         self.curves: list[tuple[str, list[float]]] = []
         self.history: list[float] = []
         self.last: OptimizeResult | None = None
@@ -294,20 +335,25 @@ class RetargetPanel:
         self._busy = False
         self._set_robot(robot_obj.name)
 
+        warm = _guarded(self, lambda ch: self.reoptimise_frame(warm=True))
+        cold = _guarded(self, lambda ch: self.reoptimise_frame(warm=False))
         for name in TERMS:
-            self.controls[name].observe(lambda ch: self.reoptimise_frame(warm=True), names="value")
-        self.controls["init"].observe(lambda ch: self.reoptimise_frame(warm=False), names="value")
-        self.controls["iterations"].observe(lambda ch: self.reoptimise_frame(warm=False), names="value")
-        self.controls["frame"].observe(lambda ch: self.reoptimise_frame(warm=True), names="value")
-        self.controls["robot"].observe(lambda ch: self._set_robot(ch["new"]), names="value")
-        self.button.on_click(lambda b: self.optimise_sequence())
+            self.controls[name].observe(warm, names="value")
+        self.controls["init"].observe(cold, names="value")
+        self.controls["iterations"].observe(cold, names="value")
+        self.controls["frame"].observe(_guarded(self, self._frame_changed), names="value")
+        self.play.observe(_guarded(self, self._playing_changed), names="playing")
+        self.controls["robot"].observe(_guarded(self, lambda ch: self._set_robot(ch["new"])), names="value")
+        self.button.on_click(_guarded(self, lambda b: self.optimise_sequence()))
 
-        weights_box = W.VBox([self.controls[n] for n in TERMS])
-        setup_box = W.VBox([self.controls[n] for n in ("robot", "init", "iterations")] + [self.button])
+        weights_box = W.VBox([self.controls[n] for n in (*TERMS, "smooth")], layout=W.Layout(flex="0 0 auto"))
+        setup_box = W.VBox([self.controls[n] for n in ("robot", "init", "iterations")] + [self.button], layout=W.Layout(flex="0 0 auto"))
         frames = W.HBox([self.play, self.controls["frame"]])
-        left = W.VBox([W.HBox([weights_box, setup_box]), frames, self.status, self.plot])
-        right = [self._view.widget] if self._view.widget is not None else []
-        self.widget = W.HBox([left, W.VBox(right, layout=W.Layout(width="45%"))] if right else [left])
+        left = W.VBox([W.HBox([weights_box, setup_box], layout=W.Layout(flex_flow="row wrap")), frames, self.status, self.plot], layout=W.Layout(flex="0 1 auto"))
+        parts = [left]
+        if self._view.widget is not None:
+            parts.append(W.Box([self._view.widget], layout=W.Layout(flex="1 1 420px", min_width="320px")))
+        self.widget = W.HBox(parts, layout=W.Layout(flex_flow="row wrap", width="100%"))
 
     # ----------------------------------------------------------- state
     @property
@@ -325,7 +371,8 @@ class RetargetPanel:
     @property
     def weights(self) -> LossWeights:
         """The weights the sliders show (``latent`` as given at construction)."""
-        return LossWeights(**{n: float(self.controls[n].value) for n in TERMS}, latent=self._latent_weight)
+        return LossWeights(**{n: float(self.controls[n].value) for n in TERMS}, latent=self._latent_weight,
+                           smooth=float(self.controls["smooth"].value))
 
     def settings(self, iterations: int | None = None) -> OptimizeSettings:
         """Optimisation settings from the controls."""
@@ -362,9 +409,33 @@ class RetargetPanel:
         if self._view.vis is not None:
             from nlo_lab.viz import RetargetScene
 
-            self._view.vis.delete()
-            self.scene = RetargetScene(self._view.vis, robot, self.angles, demo=self.demo)
+            with self._view.hold():
+                self._view.vis.delete()
+                self.scene = RetargetScene(self._view.vis, robot, self.angles, demo=self.demo)
+                self._shown_frame = 0
         self.reoptimise_frame(warm=True)
+
+    def _frame_changed(self, change=None) -> None:
+        """A new frame: re-optimise it; while Play plays, the page animates (or, without a widget view, show the frame)."""
+        if not self.play.playing:
+            self.reoptimise_frame(warm=True)
+        elif self._view.widget is None:
+            self._show_frame(self.frame)
+
+    def _playing_changed(self, change) -> None:
+        """Play starts: the clip plays as a meshcat animation in the page. Play stops: back to the slider's frame."""
+        if self.scene is None or self._view.widget is None:
+            return
+        from meshcat.animation import Animation
+
+        with self._view.hold():
+            if change["new"]:
+                self.scene.animate(play=True, repetitions=0)
+            else:
+                self._view.vis.set_animation(Animation(), play=False)  # stops the page's animation
+                with self._view.widget.resend():
+                    self.scene.set_frame(self.frame)
+                self._shown_frame = self.frame
 
     def reoptimise_frame(self, warm: bool = True) -> OptimizeResult:
         """Re-optimise the current frame and update the plot and the view.
@@ -425,14 +496,24 @@ class RetargetPanel:
             f"{self.last_seconds * 1000:.0f} ms<br><small>terms: {terms}</small>"
         )
         self._draw(self.curves)
-        if self.scene is not None:
+        self._show_frame(t)
+
+    def _show_frame(self, t: int) -> None:
+        """Frame ``t`` in the view: the robot's new pose, and the human only when the frame changed."""
+        if self.scene is None:
+            return
+        with self._view.hold():
             self.scene.angles[t] = self.angles[t]
-            self.scene.set_frame(t)
-            self._view.refresh()
+            if t == self._shown_frame:
+                self.scene.set_angles(self.angles[t])
+            else:
+                self.scene.set_frame(t)
+                self._shown_frame = t
 
     def _draw(self, curves) -> None:
         self.plot_data = [(label, list(h)) for label, h in curves]
         self.plot.value = svg_convergence(self.plot_data)
 
     def _repr_mimebundle_(self, **kwargs):
+        self._view.sync()
         return self.widget._repr_mimebundle_(**kwargs)

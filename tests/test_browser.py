@@ -1,13 +1,18 @@
-"""A real browser draws the exported viewer: headless Chromium screenshots of export_html pages.
+"""A real browser: the notebooks' live 3-D views in JupyterLab, and the exported viewer page.
 
-Needs Debian's ``chromium`` (``apt-get install -y chromium``); skipped with that
-reason when it is not installed. ``--enable-unsafe-swiftshader`` gives WebGL in
-software; ``--use-gl=swiftshader`` would give a blank page.
+Needs Debian's ``chromium`` (``apt-get install -y chromium``; ``make test`` installs it where it
+can) and Playwright's Python package, which drives that browser (``executable_path``: Playwright
+cannot download its own browsers here). Skipped, with that reason, only where chromium is not
+installed. ``--enable-unsafe-swiftshader`` gives WebGL in software.
 
-Slow-ish (~15 s): four screenshots at ~2 s each of software WebGL, which two cores
-cannot overlap. Each one earns its place: YuMi alone (all group colours, framing),
-NAO beside its human (the smallest robot, framing), and two negative controls (no
-robot: the colour checks fail; a far camera: the framing check fails).
+* JupyterLab on a free port of 127.0.0.1 runs notebooks 01 and 05 (Run All, test mode), then
+  moves a slider of each panel: no error output anywhere (widget callbacks included: their
+  tracebacks reach the server log, the panels show them), the 3-D canvases show the robots
+  (colour checks), a move changes the picture, the page talks to the Jupyter server's origin
+  only, and the bytes received per move stay under the bound. About a minute and a half on two cores.
+* The exported viewer page (``export_html``): four screenshots, YuMi alone (all group colours,
+  framing), NAO beside its human, and two negative controls (no robot: the colour checks fail;
+  a far camera: the framing check fails).
 """
 
 from __future__ import annotations
@@ -23,6 +28,8 @@ from nlo_lab.human import Demonstration
 from nlo_lab.robots import load_robot
 from nlo_lab.viz import GROUP_COLOURS, RetargetScene, export_html, recording_visualizer, style_viewer
 from nlo_lab.viz.export import scene_html
+
+from lab_browser import CHROMIUM_ARGS, Lab, LabPage, hue_mask
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium is not installed (apt-get install -y chromium)")
@@ -143,3 +150,119 @@ def test_chromium_draws_the_exported_robot_and_frames_it(tmp_path):
     for stem in ("robot", "nao"):
         assert _robot_span(shots[stem]) > 0.3, f"{stem}: the robot spans only {_robot_span(shots[stem]):.0%} of the picture"
     assert _robot_span(shots["far"]) < 0.3, f"the far camera's robot spans {_robot_span(shots['far']):.0%}: the framing check cannot fail"
+
+
+# ------------------------------------------------------------------ the notebooks in JupyterLab
+ROOT = Path(__file__).resolve().parents[1]
+MOVE_BYTES = 50_000  # the issue's bound for one RetargetPanel move on YuMi with hands [bytes]
+
+
+@pytest.fixture(scope="module")
+def lab_page(tmp_path_factory):
+    from playwright.sync_api import sync_playwright
+
+    tmp = tmp_path_factory.mktemp("lab")
+    (tmp / "notebooks").mkdir()
+    for name in ("01_robots_and_kinematics.ipynb", "05_neural_initialisation.ipynb"):
+        shutil.copy(ROOT / "notebooks" / name, tmp / "notebooks" / name)  # the lab writes to its copies only
+    with Lab(tmp / "notebooks", tmp / "state", env={"NLO_LAB_TEST_MODE": "1"}) as lab, sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        try:
+            yield LabPage(browser, lab, width=1280, height=900), tmp
+        finally:
+            browser.close()
+        log = lab.log()
+    assert "Traceback" not in log, f"the kernel or the server logged an error:\n{log[-4000:]}"
+
+
+def _robot_colours(img: np.ndarray) -> dict[str, float]:
+    return {key: float(hue_mask(img, colour).mean()) for key, colour in GROUP_COLOURS.items()}
+
+
+def _check_clean(page: LabPage) -> None:
+    assert page.error_outputs() == [], "error output in the notebook"
+    assert page.view_messages() == [], "a 3-D view shows a message"
+    assert page.console_errors == [], "errors in the browser console"
+    assert page.foreign_addresses() == [], "the page talked to another origin"
+    server_log = page.lab.log()
+    assert "Traceback" not in server_log, f"an error in the kernel (a widget callback?):\n{server_log[-4000:]}"
+
+
+def _changed(a: np.ndarray, b: np.ndarray) -> float:
+    """Fraction of pixels that differ visibly between two pictures of the same size."""
+    return float((np.abs(a - b).max(axis=-1) > 0.1).mean())
+
+
+def _readouts_visible(page: LabPage, cell: int) -> list[str]:
+    """Slider readouts of a cell's output that something else covers (scrolled into view first)."""
+    return page.page.evaluate(
+        """(cell) => {
+            const out = document.querySelectorAll('.jp-NotebookPanel:not(.lm-mod-hidden) .jp-CodeCell')[cell];
+            const hidden = [];
+            for (const el of out.querySelectorAll('.widget-readout, .widget-label, .noUi-handle, select, button')) {
+                el.scrollIntoView({block: 'center'});
+                const r = el.getBoundingClientRect();
+                if (r.width === 0 || r.height === 0) continue;
+                const top = document.elementFromPoint(r.left + r.width / 2, r.top + r.height / 2);
+                if (!(top && (top === el || el.contains(top) || top.contains(el)))) hidden.push(el.textContent || el.className);
+            }
+            return hidden;
+        }""",
+        cell,
+    )
+
+
+def test_notebook_01_views_and_sliders_in_jupyterlab(lab_page):
+    page, tmp = lab_page
+    page.open_notebook("01_robots_and_kinematics.ipynb")
+    page.run_all()
+    page.wait_views(2)
+    _check_clean(page)
+    yumi = page.canvas_image(0, tmp / "01-yumi.png")
+    colours = _robot_colours(yumi)
+    assert colours["arm"] > 0.01 and colours["hand"] > 0.002 and colours["torso"] > 0.005, colours  # YuMi, hands and all
+    cells = page.cells()
+    panel_cell = page.cell_with("JointPanel(")
+    assert _readouts_visible(page, panel_cell) == [], "controls covered at 1280 px"
+    before = page.canvas_image(1, tmp / "01-nao-before.png")
+    assert _robot_colours(before)["arm"] > 0.002, "NAO is not drawn"
+    move = page.move_slider(page.slider_handles(panel_cell).first, key="End")
+    after = page.canvas_image(1, tmp / "01-nao-after.png")
+    assert move["messages"] == 1, move
+    assert move["bytes"] < MOVE_BYTES, move
+    assert _changed(before, after) > 0.002, "the joint slider did not change the picture"
+    # YuMi's own view still shows YuMi (its hands are green; NAO has none)
+    assert _robot_colours(page.canvas_image(0, tmp / "01-yumi-again.png"))["hand"] > 0.002
+    # the interact slider (reads only its own arguments now)
+    interact_cell = page.cell_with("@interact")
+    text = cells.nth(interact_cell).locator(".jp-Cell-outputArea").text_content()
+    handle = page.slider_handles(interact_cell).first
+    handle.scroll_into_view_if_needed()
+    handle.focus()
+    handle.press("End")
+    page.wait_kernel_idle()
+    page.page.wait_for_timeout(500)
+    assert cells.nth(interact_cell).locator(".jp-Cell-outputArea").text_content() != text
+    _check_clean(page)
+
+
+def test_notebook_05_panel_in_jupyterlab(lab_page):
+    page, tmp = lab_page
+    page.open_notebook("05_neural_initialisation.ipynb")
+    page.run_all()
+    page.wait_views(1)
+    _check_clean(page)
+    panel_cell = page.cell_with("RetargetPanel(")
+    assert _readouts_visible(page, panel_cell) == [], "controls covered at 1280 px"
+    before = page.canvas_image(0, tmp / "05-before.png")
+    colours = _robot_colours(before)
+    assert colours["arm"] > 0.005 and colours["hand"] > 0.001, colours
+    handles = page.slider_handles(panel_cell)
+    weight = page.move_slider(handles.first, key="ArrowRight")  # the ee weight: re-optimise this frame
+    frame = page.move_slider(handles.nth(6), key="End")  # the frame slider: the last frame
+    after = page.canvas_image(0, tmp / "05-after.png")
+    for move in (weight, frame):
+        assert move["messages"] == 1, move
+        assert move["bytes"] < MOVE_BYTES, move
+    assert _changed(before, after) > 0.002, "the frame slider did not change the picture"
+    _check_clean(page)

@@ -1,13 +1,8 @@
-"""The notebooks follow notebooks/README.md, and a notebook run under nbval leaves no viewer server behind."""
+"""The notebooks follow notebooks/README.md."""
 
 from __future__ import annotations
 
 import importlib.util
-import json
-import os
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import nbformat
@@ -69,48 +64,3 @@ def test_build_reads_the_percent_format_with_jupytext():
     assert "jupytext" not in nb.metadata and all(not c.metadata for c in nb.cells)
     assert tool.dumps(tool.from_source(source)) == tool.dumps(nb)
 
-
-def _servers_of(pid: int) -> list[str]:
-    """Command lines of viewer servers owned by ``pid`` (other test runs may own their own)."""
-    found = []
-    for proc in Path("/proc").iterdir():
-        if not proc.name.isdigit():
-            continue
-        try:
-            cmd = (proc / "cmdline").read_bytes().split(b"\0")
-        except OSError:
-            continue
-        text = [c.decode(errors="replace") for c in cmd if c]
-        if any("nlo_lab.viz._meshcat_server" in c for c in text) and str(pid) in text:
-            found.append(" ".join(text))
-    return found
-
-
-@pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc to list processes")
-def test_nbval_run_leaves_no_viewer_server(tmp_path):
-    """A notebook that starts the live viewer, run under nbval (kernel stopped by nbval): the server must be gone."""
-    record = tmp_path / "viewer.json"
-    cells = [
-        ("code", "import json, os\nfrom nlo_lab.notebook import show_robot, viewer\nfrom nlo_lab.robots import load_robot"),
-        ("code", f"v = viewer()\njson.dump({{'kernel': os.getpid(), 'server': v.pid if v else None}}, open({str(record)!r}, 'w'))\nshow_robot(load_robot('nao'))"),
-    ]
-    nb = _tool().make_notebook(cells)
-    path = tmp_path / "live.ipynb"
-    nbformat.write(nb, path)
-    env = {k: v for k, v in os.environ.items() if k not in ("NLO_LAB_STATIC_VIEWER", "BINDER_SERVICE_HOST", "BINDER_REQUEST")}
-    env["NLO_LAB_TEST_MODE"] = "1"
-    run = subprocess.run(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--nbval-lax", str(path)],
-        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=180,
-    )
-    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
-    info = json.loads(record.read_text())
-    if info["server"] is None:
-        pytest.skip("no live viewer server could be started here; nothing to leave behind")
-    deadline = time.monotonic() + 5.0  # the server polls its owner every 0.5 s
-    while time.monotonic() < deadline and (Path(f"/proc/{info['server']}").exists() or _servers_of(info["kernel"])):
-        time.sleep(0.1)
-    status = Path(f"/proc/{info['server']}/status")
-    alive = status.exists() and "zombie" not in status.read_text()
-    assert not alive, f"viewer server {info['server']} still running after nbval"
-    assert _servers_of(info["kernel"]) == []

@@ -62,7 +62,7 @@ def test_gradients_reach_z_through_the_frozen_decoder(nao, setup):
 @pytest.mark.parametrize("init", ["encoder", "zeros", "random", "train-stats"])
 def test_latent_optimisation_lowers_the_objective(nao, setup, init):
     model, targets = setup
-    weights = LossWeights()
+    weights = LossWeights(smooth=0.0)  # the paper's objective: frames independent (smoothing: test_smoothness.py)
     z0 = initial_latent(model, targets, OptimizeSettings(init=init))
     with torch.no_grad():
         start, _ = objective(nao, model.decode(z0), targets, weights)

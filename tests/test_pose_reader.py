@@ -14,7 +14,7 @@ from pose_format.pose_header import PoseHeader, PoseHeaderComponent, PoseHeaderD
 
 from nlo_lab.errors import DemonstrationError  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
-from nlo_lab.human.io_pose import MAX_GAP_SECONDS  # noqa: E402
+from nlo_lab.human.io_pose import MAX_GAP_SECONDS, load_pose  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "pose"
 BODY8 = ["LEFT_SHOULDER", "RIGHT_SHOULDER", "LEFT_ELBOW", "RIGHT_ELBOW", "LEFT_WRIST", "RIGHT_WRIST", "LEFT_HIP", "RIGHT_HIP"]
@@ -101,7 +101,7 @@ def write_pose(path, T=40, world=True, hand_missing=(), left_hand=True, conf_ove
 def test_world_file_reads_back_the_truth(tmp_path):
     path = tmp_path / "w.pose"
     body, hands = write_pose(path)
-    d = load_demonstration(path)
+    d = load_pose(path, condition=False)  # the raw geometry; conditioning: test_world_file_conditioned_stays_close
     assert len(d) == 40 and d.fps == FPS and d.meta["arm_source"] == "POSE_WORLD_LANDMARKS"
     for side in ("left", "right"):
         for joint in ("shoulder", "elbow", "wrist"):
@@ -119,17 +119,35 @@ def test_world_file_reads_back_the_truth(tmp_path):
     assert np.all(d.wrist_rotation("right")[:, 2, 2] > 0.99) and np.all(d.wrist_rotation("left")[:, 2, 2] < -0.99)
 
 
+def test_world_file_conditioned_stays_close(tmp_path):
+    """Smoothing a clean, smooth motion changes it by less than 0.2 mm (the window's polynomial fit)."""
+    path = tmp_path / "w.pose"
+    body, _ = write_pose(path)
+    d = load_demonstration(path)
+    assert d.meta["depth"] == "world" and d.meta["conditioning"]["spike_frames"] == 0
+    for side in ("left", "right"):
+        for joint in ("shoulder", "elbow", "wrist"):
+            np.testing.assert_allclose(d.position(side, joint), body[f"{side.upper()}_{joint.upper()}"], atol=2e-4)
+
+
 def test_image_only_file_scales_by_the_nominal_shoulder_width(tmp_path):
     path = tmp_path / "i.pose"
     body, _ = write_pose(path, world=False)
-    d = load_demonstration(path)
-    assert d.meta["arm_source"] == "POSE_LANDMARKS"
-    # image plane only: X (depth) is dropped, Y and Z are exact because the true shoulder width is 0.36 m
+    with pytest.warns(UserWarning, match="no world landmarks"):
+        d = load_pose(path, condition=False)
+    assert d.meta["arm_source"] == "POSE_LANDMARKS" and d.meta["depth"] == "image"
+    # image plane: Y and Z are exact because the true shoulder width is 0.36 m; X (depth) is reconstructed
+    # from the segment lengths: each segment has its reconstructed length, and points forward
+    lengths = d.meta["segment_lengths_m"]
     for side in ("left", "right"):
         for joint in ("shoulder", "elbow", "wrist"):
             truth = body[f"{side.upper()}_{joint.upper()}"]
             np.testing.assert_allclose(d.position(side, joint)[:, 1:], truth[:, 1:], atol=1e-4)
-            np.testing.assert_allclose(d.position(side, joint)[:, 0], 0.0, atol=1e-4)
+        np.testing.assert_allclose(d.position(side, "shoulder")[:, 0], 0.0, atol=1e-4)
+        for a, b, seg in (("shoulder", "elbow", "upper"), ("elbow", "wrist", "fore")):
+            length = np.linalg.norm(d.position(side, b) - d.position(side, a), axis=-1)
+            np.testing.assert_allclose(length, lengths[f"{side}_{seg}"], atol=1e-6)
+            assert np.all(d.position(side, b)[:, 0] > d.position(side, a)[:, 0])
 
 
 def test_short_hand_gaps_interpolated_long_gaps_masked(tmp_path):
@@ -151,7 +169,7 @@ def test_short_hand_gaps_interpolated_long_gaps_masked(tmp_path):
 def test_second_person_is_ignored(tmp_path):
     path = tmp_path / "p.pose"
     body, _ = write_pose(path, people=2)
-    np.testing.assert_allclose(load_demonstration(path).position("left", "wrist"), body["LEFT_WRIST"], atol=2e-5)
+    np.testing.assert_allclose(load_pose(path, condition=False).position("left", "wrist"), body["LEFT_WRIST"], atol=2e-5)
 
 
 # ---------------------------------------------------------------- bad input
@@ -181,8 +199,12 @@ def test_zero_length_arm(tmp_path):
     shoulder_world = to_camera(body["RIGHT_SHOULDER"][6] - hip_c[6]) * np.array([W, H, 1.0])
     write_pose(path, T=T, data_overrides={(6, 8 + 42 + BODY8.index("RIGHT_ELBOW")): shoulder_world})
     with pytest.raises(DemonstrationError, match="zero length") as err:
-        load_demonstration(path)
+        load_pose(path, condition=False)
     assert err.value.frame == 6 and err.value.field == "right/upper_arm"
+    # conditioned (the default), the collapsed upper arm is a segment-length jump: repaired by interpolation
+    d = load_demonstration(path)
+    assert d.meta["conditioning"]["segment_jump_frames"] + d.meta["conditioning"]["spike_frames"] >= 1
+    np.testing.assert_allclose(d.position("right", "elbow")[6], body["RIGHT_ELBOW"][6], atol=0.01)
 
 
 def test_bad_fps_no_frames_truncated_garbage(tmp_path):
@@ -252,8 +274,7 @@ def test_real_wrist_rotations_are_rotations(real):
 
 
 def test_real_world_files_have_the_hands_in_front(real):
-    if real.meta["arm_source"] != "POSE_WORLD_LANDMARKS":
-        pytest.skip("image-only recording: no depth, X is 0")
+    # image-only recordings too: their depth is reconstructed from the limb lengths, forward unless MediaPipe says away
     # signing happens in front of the body: X (forward) of both wrists is positive on average
     for side in ("left", "right"):
         assert np.nanmean(real.position(side, "wrist")[:, 0]) > 0.1

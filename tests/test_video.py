@@ -117,7 +117,7 @@ def test_saved_pose_reads_back_to_the_same_demonstration(sample):
 
 
 def test_sample_retargets_feasibly(sample):
-    from nlo_lab.metrics import limit_violations, self_collision_frames
+    from nlo_lab.metrics import limit_violations, max_joint_step, self_collision_frames, velocity_violations
     from nlo_lab.optimize import OptimizeSettings
     from nlo_lab.retarget import retarget
     from nlo_lab.robots import load_robot
@@ -129,6 +129,12 @@ def test_sample_retargets_feasibly(sample):
     assert angles.shape == (SAMPLE_FRAMES, robot.n_joints) and np.isfinite(angles).all()
     assert limit_violations(robot, angles) == 0
     assert self_collision_frames(robot, angles) == 0
+    # playable: every joint within its velocity limit on the file's own time base
+    times = result.trajectory.time
+    assert times is not None and times.shape == (SAMPLE_FRAMES,)
+    assert velocity_violations(robot, angles, times) == 0
+    assert result.summary["velocity_violations"] == 0
+    assert max_joint_step(angles) <= 0.5
     assert result.summary["frames"] == SAMPLE_FRAMES
     assert result.summary["frechet_m"] < 0.15  # it follows the arms (0.06 m measured with 100 iterations)
 
@@ -227,7 +233,9 @@ def test_cli_video_json_save_pose_and_warning(no_hands, tmp_path, capsys):
     assert code == 0, err
     summary = json.loads(out)
     assert summary["frames"] == NO_HANDS_FRAMES and summary["pose_seconds"] > 0
-    assert err.strip() == f"nlo-lab: warning: {no_hands.name}: neither hand is seen in any frame; the fingers and wrist orientations are masked"
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("nlo-lab: warning: "), err
+    assert f"{no_hands.name}: neither hand is seen in any frame; the fingers and wrist orientations are masked" in lines[0]
     assert sorted(p.name for p in out_dir.iterdir()) == ["trajectory.csv", "trajectory.npz", "viewer.html"]
     with pytest.warns(VideoWarning):
         from_video = load_demonstration(no_hands)
@@ -263,11 +271,12 @@ def test_cli_no_person_exit_2_nothing_written(nobody, tmp_path, capsys):
     (["demo:introduction_06", "--save-pose", "x.pose"], "needs a video"),
     ([str(SAMPLE), "--save-pose", "x.json"], "must end in .pose"),
     ([str(SAMPLE), "--save-pose", "no/such/folder/x.pose"], "does not exist"),
+    ([str(SAMPLE), "--threads", "0"], "must be in [1, 256]"),
 ])
-def test_cli_save_pose_checked_before_the_work(argv, needle, capsys):
+def test_cli_video_flags_checked_before_the_work(argv, needle, capsys):
     code = main(["retarget", *argv, "--robot", "nao"])
     _, err = capsys.readouterr()
-    assert_one_line_error(code, err, "--save-pose", needle)
+    assert_one_line_error(code, err, argv[1], needle)
 
 
 def test_progress_bar_counts_the_frames(tmp_path, capsys):

@@ -25,7 +25,7 @@ def parts():
 
 def test_one_slider_drives_video_and_scene(parts):
     demo, robot, angles, frames = parts
-    view = VideoView(frames, robot, angles, demo, view="static", fps=10)
+    view = VideoView(frames, robot, angles, demo, view="auto", fps=10)
     shown = []
     set_frame = view.scene.set_frame
     view.scene.set_frame = lambda t: (shown.append(t), set_frame(t))

@@ -1,4 +1,4 @@
-"""Tests of nlo_lab.viz: scenes, static export, the loopback live server and its lifetime, plots."""
+"""Tests of nlo_lab.viz: scenes, static export, the notebook widget (no server, no port), plots."""
 
 from __future__ import annotations
 
@@ -26,16 +26,13 @@ from nlo_lab.robots import load_robot
 from nlo_lab.viz import (
     GROUP_COLOURS,
     RetargetScene,
-    Viewer,
     export_html,
     link_groups,
-    live_viewer,
     plot_convergence,
     plot_joint_trajectories,
     plot_loss_terms,
     recording_visualizer,
     robot_visuals,
-    show,
     static_html,
 )
 from nlo_lab.viz.scene import matrix_to_quaternion
@@ -350,116 +347,134 @@ def test_bad_scene_input():
         static_html(robot, sweep(robot, 4), demo=synthetic_demo(T=4), layout="overlay", human_scale="human")
 
 
-# ------------------------------------------------------------------ live server
-def _listening(port: int) -> set[str]:
-    """Local addresses with a LISTEN socket on ``port`` (from /proc/net/tcp and tcp6)."""
+# ------------------------------------------------------------------ the widget
+def _unpack(data: bytes) -> list[dict]:
+    """Framed commands (uint32 LE length + msgpack) back to dicts."""
+    out, at = [], 0
+    while at < len(data):
+        n = int.from_bytes(data[at:at + 4], "little")
+        out.append(umsgpack.unpackb(data[at + 4:at + 4 + n]))
+        at += 4 + n
+    return out
+
+
+class _Sent:
+    """Records what a SceneWidget sends to the page."""
+
+    def __init__(self, widget):
+        self.messages = []
+        widget.send = lambda content, buffers=None: self.messages.append((content, [bytes(b) for b in (buffers or [])]))
+
+
+def test_scene_widget_sends_meshcat_commands_and_only_what_changed():
+    from nlo_lab.viz import RobotScene, SceneWidget
+
+    robot = load_robot("nao")
+    widget = SceneWidget(height=300)
+    sent = _Sent(widget)
+    with widget.hold():
+        scene = RobotScene(widget.vis, robot).draw()
+        scene.set_pose(robot.neutral_q.numpy())
+    assert len(sent.messages) == 1, "one update, one message"
+    content, (data,) = sent.messages[0]
+    cmds = _unpack(data)
+    assert content == {"type": "commands", "version": widget._version, "count": len(cmds)}
+    assert {c["type"] for c in cmds} == {"set_object", "set_transform"}
+    # the same pose again sends nothing; one joint sends only the links below it
+    with widget.hold():
+        scene.set_pose(robot.neutral_q.numpy())
+    assert len(sent.messages) == 1
+    q = robot.neutral_q.numpy().copy()
+    j = robot.joint_names.index("LElbowRoll")
+    q[j] = robot.lower_limits[j].item()
+    with widget.hold():
+        scene.set_pose(q)
+    moved = _unpack(sent.messages[-1][1][0])
+    assert moved and {c["type"] for c in moved} == {"set_transform"}
+    assert all("/robot/l_" in c["path"] or "/robot/L" in c["path"] for c in moved), [c["path"] for c in moved]
+    assert len(moved) < len(scene.links) / 2
+    # without hold(), every command is a message of its own
+    widget.vis["extra"].set_transform(np.eye(4))
+    assert len(sent.messages) == 3
+
+
+def test_scene_widget_gives_a_new_view_the_whole_scene():
+    from nlo_lab.viz import SceneWidget
+
+    robot = load_robot("nao")
+    widget = SceneWidget()
+    sent = _Sent(widget)
+    RetargetScene(widget.vis, robot, sweep(robot, 3))
+    snapshot = _unpack(widget.snapshot())
+    assert snapshot[0] == {"type": "delete", "path": "/meshcat"}  # a view that already drew something starts over
+    assert {"set_object", "set_transform", "set_property"} <= {c["type"] for c in snapshot}
+    assert snapshot[1:] == commands_of(widget.vis.static_html())  # the same scene as the static page
+    # display stores the scene in the widget's state (what a saved notebook shows without a kernel)
+    assert widget._scene == b""
+    widget._repr_mimebundle_()
+    assert widget._scene == widget.snapshot() and widget._scene_version == widget._version
+    # a view that is up to date gets "current"; one that is behind gets the scene
+    widget._on_page_message(widget, {"type": "ready", "view": "a", "version": widget._version}, [])
+    assert sent.messages[-1] == ({"type": "current", "view": "a", "version": widget._version}, [])
+    widget._on_page_message(widget, {"type": "ready", "view": "b", "version": -1}, [])
+    content, (data,) = sent.messages[-1]
+    assert content["type"] == "scene" and content["view"] == "b" and data == widget.snapshot()
+
+
+def test_the_bundle_travels_once_per_kernel():
+    from meshcat.servers.zmqserver import VIEWER_ROOT
+
+    from nlo_lab.viz import SceneWidget
+
+    a, b = SceneWidget(), SceneWidget()
+    assert a._bundle is b._bundle
+    assert a._bundle.code == (Path(VIEWER_ROOT) / "main.min.js").read_text(encoding="utf-8")
+    state = a.get_state()
+    assert state["_bundle"] == f"IPY_MODEL_{a._bundle.model_id}"  # a reference, not the 0.85 MB bundle
+    assert len(str({k: v for k, v in state.items() if k != "_esm"})) < 10_000
+    js = Path(__file__).resolve().parents[1] / "nlo_lab" / "viz" / "scene_widget.js"
+    assert a._esm == js.read_text(encoding="utf-8")
+    a._bundle.close()
+    assert SceneWidget()._bundle is not a._bundle  # a closed bundle (kernel restart of the widgets) is made anew
+
+
+def _listening_inodes() -> set[str]:
     found = set()
-    for name, width in (("tcp", 8), ("tcp6", 32)):
+    for name in ("tcp", "tcp6"):
         table = Path("/proc/net") / name
-        if not table.exists():
-            continue
-        for line in table.read_text().splitlines()[1:]:
-            local, state = line.split()[1], line.split()[3]
-            addr_hex, port_hex = local.split(":")
-            if state != "0A" or int(port_hex, 16) != port:  # 0A = LISTEN
-                continue
-            if width == 8:
-                found.add(".".join(str(b) for b in reversed(bytes.fromhex(addr_hex))))
-            else:
-                found.add("ipv6:" + addr_hex)
+        if table.exists():
+            for line in table.read_text().splitlines()[1:]:
+                fields = line.split()
+                if fields[3] == "0A":  # LISTEN
+                    found.add(fields[9])
     return found
 
 
-def _running(pid: int) -> bool:
-    """True while ``pid`` exists and is not a zombie."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except (FileNotFoundError, ProcessLookupError):
-        return False
-    return stat.rsplit(")", 1)[1].split()[0] != "Z"
-
-
-def _wait_gone(pid: int, seconds: float = 5.0) -> bool:
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        if not _running(pid):
-            return True
-        time.sleep(0.1)
-    return False
-
-
-needs_proc = pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="needs Linux /proc to inspect sockets and processes")
-
-
-@needs_proc
-def test_live_server_binds_loopback_only_and_stops_on_close():
-    with Viewer() as viewer:
-        web_port = int(re.search(r":(\d+)/", viewer.url).group(1))
-        zmq_port = int(viewer.zmq_url.rsplit(":", 1)[1])
-        assert viewer.url.startswith("http://127.0.0.1:")
-        assert _listening(web_port) == {"127.0.0.1"}
-        assert _listening(zmq_port) == {"127.0.0.1"}
+def _own_sockets() -> set[str]:
+    out = set()
+    for fd in Path("/proc/self/fd").iterdir():
         try:
-            import psutil
-        except ImportError:
-            psutil = None
-        if psutil is not None:
-            listen = [c.laddr for c in psutil.Process(viewer.pid).net_connections(kind="inet") if c.status == psutil.CONN_LISTEN]
-            assert {a.port for a in listen} == {web_port, zmq_port}
-            assert {a.ip for a in listen} == {"127.0.0.1"}
-        assert viewer.reachable()
-        # the scene round trip through the live server
-        robot = load_robot("nao")
-        scene = RetargetScene(viewer.vis, robot, sweep(robot, 3))
-        cmds = commands_of(viewer.static_html())
-        assert "/meshcat/robot/" in "".join(c["path"] for c in cmds)
-        # the framing reaches the live viewer too: the camera offset and the content shift
-        look = np.subtract(scene.camera.position, scene.camera.target)
-        cam = [c["value"] for c in cmds if c["type"] == "set_property" and c["path"] == "/Cameras/default/rotated/<object>" and c["property"] == "position"]
-        np.testing.assert_allclose(cam[-1], [look[0], look[2], -look[1]], atol=1e-9)
-        root = [c for c in cmds if c["type"] == "set_transform" and c["path"] == "/meshcat"]
-        np.testing.assert_allclose(np.array(root[-1]["matrix"]).reshape(4, 4).T[:3, 3], -np.array(scene.camera.target), atol=1e-6)
-        pid = viewer.pid
-    assert _wait_gone(pid), "server still running after close()"
-    viewer.close()  # idempotent
+            target = os.readlink(fd)
+        except OSError:
+            continue
+        if target.startswith("socket:["):
+            out.add(target[8:-1])
+    return out
 
 
-OWNER = textwrap.dedent("""\
-    import sys, time
-    from nlo_lab.viz import Viewer
-    v = Viewer()
-    print(v.pid, flush=True)
-    if sys.argv[1] == "sleep":
-        time.sleep(120)
-    """)
+@pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="needs Linux /proc to inspect sockets")
+def test_views_listen_on_no_port_and_start_no_process():
+    from nlo_lab.notebook import show_view
+    from nlo_lab.widgets import JointPanel
 
-
-@needs_proc
-@pytest.mark.parametrize("how", ["sigkill", "exit"])
-def test_server_dies_with_its_owner(how):
-    owner = subprocess.Popen([sys.executable, "-c", OWNER, "sleep" if how == "sigkill" else "exit"], stdout=subprocess.PIPE, text=True)
-    try:
-        server_pid = int(owner.stdout.readline())
-        if how == "sigkill":
-            assert _running(server_pid)
-            os.kill(owner.pid, signal.SIGKILL)  # like nbval stopping a kernel: no atexit
-        owner.wait(timeout=20)
-        assert _wait_gone(server_pid, 5.0), f"viewer server {server_pid} outlived its owner ({how})"
-    finally:
-        if owner.poll() is None:
-            owner.kill()
-            owner.wait()
-
-
-def test_static_fallback(monkeypatch):
-    monkeypatch.setenv("NLO_LAB_STATIC_VIEWER", "1")
-    assert live_viewer() is None
+    children = Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children")
+    before = children.read_text() if children.exists() else ""
     robot = load_robot("nao")
-    page = static_html(robot, sweep(robot, 2))
-    shown = show(None, page, height=300)
-    assert "srcdoc=" in shown.data and "MeshCat.Viewer" in shown.data and "300px" in shown.data
-    with pytest.raises(NloLabError):
-        show(None, None)
+    views = [show_view(robot, sweep(robot, 4)), JointPanel(robot)]
+    assert not (_own_sockets() & _listening_inodes()), "a view opened a listening socket"
+    if children.exists():
+        assert children.read_text() == before, "a view started a process"
+    assert views
 
 
 # ------------------------------------------------------------------ plots

@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
+import umsgpack
 
 from nlo_lab.errors import NloLabError, SettingsError
 from nlo_lab.human import load_demonstration
 from nlo_lab.notebook import budget, recording_path, show_robot, show_view, is_test_mode
 from nlo_lab.robots import load_robot
 from nlo_lab.train import new_model
-from nlo_lab.viz import recording_visualizer
+from nlo_lab.viz import SceneWidget, recording_visualizer
 from nlo_lab.widgets import JointPanel, RetargetPanel, svg_convergence
 
 
@@ -85,13 +86,85 @@ def test_view_is_updated_when_injected(demo):
     assert vis.static_html() != page  # the robot moved in the scene
 
 
-def test_static_view_widget(demo, monkeypatch):
-    monkeypatch.setenv("NLO_LAB_STATIC_VIEWER", "1")
-    p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2, view="static")
-    first = p._view.widget.value
-    assert first.startswith("<iframe srcdoc=")
-    p.controls["frame"].value = 2
-    assert p._view.widget.value != first
+def test_widget_view_sends_only_transforms_per_move(demo):
+    p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2)
+    widget = p._view.widget
+    sent = []
+    widget.send = lambda content, buffers=None: sent.append((content, [bytes(b) for b in (buffers or [])]))
+    p.controls["collision"].value = 3.0  # same frame: the robot moves, the human does not
+    p.controls["frame"].value = 2  # a new frame: robot and human move
+    assert len(sent) == 2, "one message per move"
+    for content, (data,) in sent:
+        cmds, at = [], 0
+        while at < len(data):
+            n = int.from_bytes(data[at:at + 4], "little")
+            cmds.append(umsgpack.unpackb(data[at + 4:at + 4 + n]))
+            at += 4 + n
+        assert {c["type"] for c in cmds} == {"set_transform"}, "a move re-sends no geometry"
+        assert len(data) < 20_000
+    paths = [[c for c in _paths(data)] for _, (data,) in sent]
+    assert not any("/human/" in x for x in paths[0]) and any("/human/" in x for x in paths[1])
+
+
+def _paths(data: bytes) -> list[str]:
+    out, at = [], 0
+    while at < len(data):
+        n = int.from_bytes(data[at:at + 4], "little")
+        out.append(umsgpack.unpackb(data[at + 4:at + 4 + n])["path"])
+        at += 4 + n
+    return out
+
+
+def test_play_shows_frames_without_reoptimising(demo):
+    p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2, view=None)
+    assert p.play.interval <= 66, "Play must ask for at least 15 frames/s"
+    before, last = p.angles.copy(), p.last
+    p.play.playing = True
+    p.play.value = 3
+    assert p.frame == 3 and p.last is last and np.array_equal(p.angles, before)
+    p.play.playing = False
+    p.controls["frame"].value = 4
+    assert p.last is not last  # scrubbing by hand re-optimises
+
+
+def test_play_runs_in_the_page_as_an_animation(demo):
+    p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2)
+    widget = p._view.widget
+    sent = []
+    widget.send = lambda content, buffers=None: sent.append([c["type"] for c in _unpack_all(buffers[0])])
+    p.play.playing = True
+    assert sent == [["set_animation"]], "Play starts: the whole clip goes to the page once"
+    for t in range(1, 4):
+        p.play.value = t  # the Play widget ticks: the page animates, the kernel sends nothing
+    assert len(sent) == 1 and p.frame == 3
+    p.play.playing = False
+    assert sent[-1][0] == "set_animation" and sent[-1].count("set_transform") >= len(p.scene.robot_scene.links)
+    assert p.play.interval <= 66
+
+
+def _unpack_all(data) -> list[dict]:
+    data, out, at = bytes(data), [], 0
+    while at < len(data):
+        n = int.from_bytes(data[at:at + 4], "little")
+        out.append(umsgpack.unpackb(data[at + 4:at + 4 + n]))
+        at += 4 + n
+    return out
+
+
+def test_callback_errors_are_shown_in_the_panel(demo, monkeypatch):
+    p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2)
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("the optimiser broke")
+
+    monkeypatch.setattr("nlo_lab.widgets.optimize_latent", broken)
+    with pytest.raises(RuntimeError, match="broke"):
+        p.controls["ee"].value = 10.0
+    assert "the optimiser broke" in p.error and "nlo-lab-panel-error" in p.status.value
+    assert "the optimiser broke" in p._view.widget.message
+    monkeypatch.undo()
+    p.controls["ee"].value = 20.0
+    assert p.error == "" and p._view.widget.message == "" and "error" not in p.status.value
 
 
 def test_bad_arguments(demo):
@@ -101,6 +174,8 @@ def test_bad_arguments(demo):
         RetargetPanel(demo, "nao", model_loader=_loader, frame=99, view=None)
     with pytest.raises(SettingsError, match="view"):
         RetargetPanel(demo, "nao", model_loader=_loader, view="3d")
+    with pytest.raises(SettingsError, match="view"):
+        RetargetPanel(demo, "nao", model_loader=_loader, view="static")  # the per-update static page is gone
 
 
 def test_joint_panel_moves_the_link():
@@ -131,11 +206,32 @@ def test_notebook_helpers(monkeypatch):
     assert is_test_mode() and budget(100, 3) == 3
     monkeypatch.setenv("NLO_LAB_TEST_MODE", "0")
     assert budget(100, 3) == 100
-    monkeypatch.setenv("NLO_LAB_STATIC_VIEWER", "1")
     robot = load_robot("nao")
-    out = show_robot(robot)
-    assert "<iframe srcdoc=" in out.data and "MeshCat" in out.data
-    with pytest.raises(NloLabError, match="one pose"):
-        show_robot(robot, np.zeros((2, robot.n_joints)))
-    with pytest.raises(NloLabError, match="no live viewer"):
-        show_view(robot, live=True)
+    a, b = show_robot(robot), show_robot(load_robot("yumi"))
+    assert isinstance(a, SceneWidget) and a.message == "" and a.vis.window.tree is not b.vis.window.tree
+    paths_a, paths_b = ({c["path"] for c in _commands(w)} for w in (a, b))
+    assert "/meshcat/robot/Head" in paths_a and not any("yumi_" in x for x in paths_a)  # NAO stays NAO ...
+    assert "/meshcat/robot/yumi_link_7_l" in paths_b and "/meshcat/robot/Head" not in paths_b  # ... YuMi's scene is its own
+    assert show_view(robot, np.zeros((5, robot.n_joints))).scene is not None
+
+
+def _commands(widget) -> list[dict]:
+    data, out, at = widget.snapshot(), [], 0
+    while at < len(data):
+        n = int.from_bytes(data[at:at + 4], "little")
+        out.append(umsgpack.unpackb(data[at + 4:at + 4 + n]))
+        at += 4 + n
+    return out
+
+
+def test_views_show_bad_input_in_the_widget():
+    robot = load_robot("nao")
+    cases = {
+        "unknown robot 'nao2'": show_robot("nao2"),
+        "not finite": show_robot(robot, np.full(robot.n_joints, np.nan)),
+        "one pose": show_robot(robot, np.zeros((2, robot.n_joints))),
+        "must be": show_view(robot, np.zeros((3, 4))),
+    }
+    for expected, widget in cases.items():
+        assert isinstance(widget, SceneWidget) and expected in widget.message, widget.message
+        assert widget.message.startswith("Cannot show this view")

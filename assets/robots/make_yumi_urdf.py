@@ -428,6 +428,30 @@ def collision_pairs() -> list[list[str]]:
 NEUTRAL_DEG = {1: -100.0, 2: -120.0, 7: 40.0, 3: 50.0, 4: 10.0, 5: -35.0, 6: -120.0}
 
 
+# Joint velocity limits [rad/s]. Arms: the `velocity` of each joint's <limit> in yumi_description
+# (Örebro University, BSD-2): axes 1, 2, 7, 3 at 180 deg/s, axes 4-6 at 400 deg/s.
+# Hands: we found no published joint-speed figure for the Inspire RH56 (the vendor page only says
+# "moderate speed"); ASSUMED 2.0 rad/s for every actuated hand joint (a full 1.47 rad finger stroke
+# in about 0.75 s).
+ARM_VELOCITY = {"1": 3.1416, "2": 3.1416, "7": 3.1416, "3": 3.1416, "4": 6.9813, "5": 6.9813, "6": 6.9813}
+HAND_VELOCITY_ASSUMED = 2.0
+VELOCITY_SOURCE = (
+    "arms: yumi_description (Orebro University, BSD-2) joint <limit velocity>; "
+    "Inspire RH56 hand joints: no published figure found, 2.0 rad/s assumed"
+)
+
+
+def velocity_limits() -> dict[str, float]:
+    """Published arm joint speeds, the assumed hand joint speed (see ARM_VELOCITY)."""
+    out = {}
+    for name in actuated_joints():
+        if name.startswith("yumi_joint_"):
+            out[name] = ARM_VELOCITY[name.split("_")[2]]
+        else:
+            out[name] = HAND_VELOCITY_ASSUMED
+    return out
+
+
 def neutral_pose() -> dict[str, float]:
     flip = {1, 7, 4, 6}
     q = {}
@@ -492,6 +516,8 @@ def build() -> tuple[str, dict]:
         "collision_pairs": collision_pairs(),
         "collision_margin": {"default": 0.01, "l_hand/r_hand": 0.06},
         "neutral_pose": neutral_pose(),
+        "velocity_limits": velocity_limits(),
+        "velocity_limits_source": VELOCITY_SOURCE,
     }
     header = (
         "<!-- ABB YuMi (IRB 14000) with two Inspire RH56 hands, primitive geometry only.\n"

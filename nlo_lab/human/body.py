@@ -24,7 +24,7 @@ Joint ranges are the usual clinical ranges of motion (AAOS / Norkin & White); se
 ``ARM_RANGES`` and ``FINGER_RANGES``. Body-size ranges of the synthetic signers are in
 ``BODY_RANGES``: adult values (upper arm shoulder->elbow joint 0.27-0.32 m, forearm
 0.23-0.28 m, hand 0.17-0.20 m); note the paper's demonstrator measured with OptiTrack
-markers has a shorter upper arm (about 0.20 m) and a 0.24 m forearm (ROBOT_FACTS).
+markers has a shorter upper arm (about 0.20 m) and a 0.24 m forearm (the paper's data set).
 """
 
 from __future__ import annotations

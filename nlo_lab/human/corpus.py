@@ -1,6 +1,6 @@
 """The embedded synthetic sign-language corpus: five scenarios of signed sentences.
 
-Organised like the paper's data (ROBOT_FACTS, "Human demonstrations"): three training
+Organised like the paper's data (the paper's data set): three training
 scenarios and two test scenarios with the paper's sequence counts. Each scenario has its own
 lexicon of glosses; a sequence is a sentence of 2-6 signs by one of ``N_SIGNERS`` synthetic
 signers (:func:`nlo_lab.human.body.random_body`; one in four is left-handed), starting and

@@ -1,4 +1,4 @@
-"""Reader of the HDF5 layout of the paper's authors (ROBOT_FACTS.md, "Human demonstrations").
+"""Reader of the HDF5 layout of the paper's authors (the paper's data set).
 
 One group per sequence (word or sentence); per side ``s`` in ``l``/``r``:
 

@@ -13,24 +13,51 @@ nothing in the landmarks can tell).
 
 Conversion (documented choices):
 
-- Arms from ``POSE_WORLD_LANDMARKS`` when present, unscaled to metres
-  (x / width, y / height, z as stored). Otherwise from the image landmarks in the
-  image plane only, scaled so that the median shoulder distance is
-  :data:`NOMINAL_SHOULDER_WIDTH` [m]. The image z of body landmarks is dropped
-  (:data:`IMAGE_POSE_DEPTH_SCALE` = 0): on the shared recordings, adding it at
-  MediaPipe's nominal scale (z * width) raises the coefficient of variation of the
-  upper-arm length from 0.10 to 0.28-0.32.
+- Arms from ``POSE_WORLD_LANDMARKS`` when present (``meta["depth"] = "world"``),
+  unscaled to metres (x / width, y / height, z as stored). Otherwise from the image
+  landmarks (``meta["depth"] = "image"``, with a warning), scaled so that the median
+  shoulder distance is :data:`NOMINAL_SHOULDER_WIDTH` [m]. MediaPipe's image z of body
+  landmarks is too noisy to use as depth (at its nominal scale, z * width, it raises the
+  coefficient of variation of the upper-arm length from 0.10 to 0.28-0.32 on the shared
+  recordings): the depth of elbow and wrist is instead reconstructed from the segment
+  lengths (:func:`nlo_lab.human.conditioning.depth_from_lengths`): a segment whose
+  image is shorter than the segment points out of the image plane. Each segment's length
+  is the larger of its 90th-percentile image length and the body model's proportion of
+  the shoulder width (upper arm 0.30 / 0.36, forearm 0.26 / 0.36, ``BodyParams``); the
+  sign (towards or away from the camera) follows MediaPipe's z where it says clearly
+  away (by more than :data:`DEPTH_SIGN_MARGIN`), else towards the camera (signing space
+  is in front of the body).
+- Conditioning (:mod:`nlo_lab.human.conditioning`), in the camera-aligned metric frame:
+  outlier frames of each arm point (Hampel filter, and segment-length jumps of upper
+  arm and forearm) are removed and, with the other gaps, interpolated; then every
+  point is smoothed (Savitzky-Golay). ``meta["conditioning"]`` counts what was repaired.
 - Body frame per frame: origin at the shoulder midpoint, Y from the right to the
   left shoulder, Z = the clip's "up" made orthogonal to Y, X = Y x Z (forward,
-  towards the camera for a person facing it). "Up" is the confidence-weighted mean
-  direction hip centre -> shoulder centre over the clip when the hips are present
-  (per-frame hips would make the frame jitter: in signing videos they are often
-  outside the image, with low confidence), else the image's up (-y).
+  towards the camera for a person facing it). "Up" never comes from the image axes
+  blindly, so any camera roll (a sideways phone) gives the same demonstration. It is
+  the confidence-weighted mean direction over the clip (per-frame directions would
+  make the frame jitter) of, in order of preference (``meta["up_from"]``):
+  ``"hips"``: hip centre -> shoulder centre, when the hips' median confidence is at
+  least :data:`HIP_MIN_CONFIDENCE` (in signing videos they are often outside the
+  image: MediaPipe then guesses them, with confidence 0.01-0.2);
+  ``"face"``: shoulder centre -> ears' midpoint (the ears sit above the shoulders in an
+  upright posture; else eyes, else nose, else the centre of the face mesh), in the
+  image plane (a camera roll turns the image plane in itself; MediaPipe's depth of the
+  face is unreliable: its world landmarks put the ears 50 degrees in front of the
+  shoulders in one shared recording);
+  ``"image"``: the image's up (-y), only when neither hips nor face are seen, with a
+  warning: then the result is wrong for a rolled camera.
 - Hands: the 21 hand landmarks relative to the hand's own wrist landmark, in pixels
   (z * width when z is on MediaPipe's normalised scale), scaled to metres with the
   same metres-per-pixel as the body (world: the ratio of the world to the image
   shoulder distance), rotated into the body frame and placed so that the hand's
-  wrist coincides with the arm's wrist. Finger base = MCP (thumb: THUMB_MCP, point 2),
+  wrist coincides with the arm's wrist. Frames whose palm (wrist -> middle MCP) jumps
+  in length are repaired like the arm's; the points are smoothed; the hand is then
+  scaled about the wrist so that its median length (wrist -> middle fingertip along
+  the finger) is :data:`HAND_PER_FOREARM` times the arm's median forearm (MediaPipe's
+  hand scale is unrelated to the body's: hands measured 0.16-0.33 m). Wrist rotations
+  that turn by more than :data:`ROTATION_JUMP` [rad] away from both neighbours are
+  repaired, the others smoothed entry-wise and projected back onto rotations. Finger base = MCP (thumb: THUMB_MCP, point 2),
   tip = points 4, 8, 12, 16, 20. Wrist orientation from WRIST (0), INDEX_FINGER_MCP (5),
   MIDDLE_FINGER_MCP (9), PINKY_MCP (17) with :func:`wrist_frame_from_hand`.
 - Missing data: a point is observed when its confidence is > :data:`MIN_CONFIDENCE`
@@ -46,7 +73,11 @@ from pathlib import Path
 
 import numpy as np
 
+import warnings
+
 from nlo_lab.errors import DemonstrationError
+from nlo_lab.human import conditioning as cond
+from nlo_lab.human.body import BodyParams
 from nlo_lab.human.demonstration import ARM_JOINTS, SIDES, Demonstration
 from nlo_lab.human.transforms import body_frame_from_shoulders, check_arm_lengths, fill_gaps, wrist_frame_from_hand
 
@@ -56,6 +87,10 @@ __all__ = [
     "MIN_CONFIDENCE",
     "IMAGE_POSE_DEPTH_SCALE",
     "HAND_FINGER_POINTS",
+    "HIP_MIN_CONFIDENCE",
+    "HAND_PER_FOREARM",
+    "ROTATION_JUMP",
+    "DEPTH_SIGN_MARGIN",
     "load_pose",
 ]
 
@@ -70,6 +105,13 @@ _POSE = "POSE_LANDMARKS"
 _WORLD = "POSE_WORLD_LANDMARKS"
 _HANDS = {"left": "LEFT_HAND_LANDMARKS", "right": "RIGHT_HAND_LANDMARKS"}
 _IMAGE_UP = np.array([0.0, -1.0, 0.0])  # image y points down
+HIP_MIN_CONFIDENCE = 0.5  # hips below this median confidence are MediaPipe's guess: up comes from the face
+_BODY = BodyParams()  # the synthetic corpus' default adult (nlo_lab.human.body)
+HAND_PER_FOREARM = _BODY.hand_length / _BODY.forearm  # 0.19 / 0.26
+_SEGMENT_PER_SHOULDER = {"upper": _BODY.upper_arm / _BODY.shoulder_width, "fore": _BODY.forearm / _BODY.shoulder_width}
+ROTATION_JUMP = cond.ROTATION_JUMP  # [rad] a wrist rotation this far from both neighbours is an outlier frame
+DEPTH_SIGN_MARGIN = 0.05  # [m] MediaPipe's z must put a point this much further away to count as "away"
+_FACE_POINTS = (("LEFT_EAR", "RIGHT_EAR"), ("LEFT_EYE", "RIGHT_EYE"), ("NOSE",))
 
 
 def _read(path: Path):
@@ -142,11 +184,126 @@ def _median_shoulder_distance(ls: np.ndarray, rs: np.ndarray, ok: np.ndarray, di
     return float(np.median(d)) if d.size else float("nan")
 
 
-def load_pose(path) -> Demonstration:
+def _condition_arms(pts: dict, fps: float, max_gap: int, condition: bool = True) -> tuple[dict, dict]:
+    """Outlier frames of every arm point removed, gaps interpolated, points smoothed.
+
+    Returns the conditioned ``{(side, joint): (values (T, 3), valid (T,))}`` and counts of
+    repaired frames per kind (``meta["conditioning"]``).
+    """
+    if not condition:
+        return {k: fill_gaps(v, ok, max_gap) for k, (v, ok) in pts.items()}, {}
+    bad = {k: cond.spike_frames(v, ok) for k, (v, ok) in pts.items()}
+    counts = {"spike_frames": int(sum(b.sum() for b in bad.values())), "segment_jump_frames": 0}
+    for side in SIDES:
+        for parent, child in (("shoulder", "elbow"), ("elbow", "wrist")):
+            (pv, pok), (cv, cok) = pts[side, parent], pts[side, child]
+            jump = cond.segment_jump_frames(pv, cv, pok & cok & ~bad[side, parent]) & ~bad[side, child]
+            counts["segment_jump_frames"] += int(jump.sum())
+            bad[side, child] = bad[side, child] | jump
+    window = cond.window_frames(fps)
+    out = {}
+    for k, (v, ok) in pts.items():
+        values, valid = fill_gaps(v, ok & ~bad[k], max_gap)
+        out[k] = cond.savgol(values, valid, window), valid
+    counts["smoothing_window_frames"] = window
+    return out, counts
+
+
+def _reconstruct_depth(filled: dict, image: dict, z_to_m: float) -> tuple[dict, dict]:
+    """Image-only arms: depth of elbows and wrists from the segment lengths (module docstring).
+
+    ``filled`` holds image-plane points in metres with z = 0; ``image`` the raw landmarks,
+    whose z (times ``z_to_m``) only chooses the sign.
+    """
+    out = dict(filled)
+    lengths = {}
+    (ls, lok), (rs, rok) = filled["left", "shoulder"], filled["right", "shoulder"]
+    width = np.linalg.norm((ls - rs)[lok & rok], axis=-1)
+    width = float(np.median(width)) if width.size else NOMINAL_SHOULDER_WIDTH
+    for side in SIDES:
+        z_parent = np.zeros(len(ls))
+        for parent, child, seg in (("shoulder", "elbow", "upper"), ("elbow", "wrist", "fore")):
+            (pv, pok), (cv, cok) = out[side, parent], filled[side, child]
+            both = pok & cok
+            planar = np.linalg.norm((cv - pv)[:, :2], axis=-1)[both]
+            L = max(float(np.percentile(planar, 90)) if planar.size else 0.0, _SEGMENT_PER_SHOULDER[seg] * width)
+            lengths[f"{side}_{seg}"] = round(L, 4)
+            dz_img = (image[side, child][0][:, 2] - image[side, parent][0][:, 2]) * z_to_m
+            toward = np.where(np.nan_to_num(dz_img) > DEPTH_SIGN_MARGIN, 1.0, -1.0)
+            z = z_parent + cond.depth_from_lengths(pv, cv, L, toward)
+            values = cv.copy()
+            values[:, 2] = z
+            out[side, child] = (np.where(cok[:, None], values, np.nan), cok)
+            z_parent = z
+    return out, lengths
+
+
+def _face_centre(comps: "_Components", source: str, use_world: bool, unscale: np.ndarray, extra: float,
+                 m_per_px: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The face's reference point ``(T, 3)`` in the arms' frame and its weight ``(T,)``, or None.
+
+    Ears' midpoint, else eyes', else the nose (from the arms' component); else the mean
+    of the face mesh (image landmarks, direction only: the world and image axes agree).
+    """
+    names = comps.names.get(source, [])
+    for group in _FACE_POINTS:
+        if all(n in names for n in group):
+            got = [comps.point(source, n) for n in group]
+            seen = np.logical_and.reduce([ok for _, ok, _ in got])
+            if seen.sum() >= 1:
+                weight = np.minimum.reduce([c for _, _, c in got]) * seen
+                centre = np.mean([v for v, _, _ in got], axis=0)
+                scale = unscale * extra if use_world else unscale
+                return centre * scale, weight
+    for comp in ("FACE_LANDMARKS", "FACE"):
+        if comp in comps.names:
+            v, seen = comps.values[comp], comps.observed[comp]
+            frames = seen.mean(axis=1) > 0.5
+            if frames.any():
+                centre = np.where(seen[..., None], v, 0.0).sum(1) / np.maximum(seen.sum(1), 1)[:, None]
+                centre = centre * np.array([m_per_px, m_per_px, 0.0])  # in the image plane only
+                return centre, frames.astype(float)
+    return None
+
+
+def _mean_direction(vec: np.ndarray, weight: np.ndarray) -> np.ndarray | None:
+    n = np.linalg.norm(vec, axis=-1)
+    w = np.where(np.isfinite(n) & (n > 1e-9), np.nan_to_num(weight), 0.0)
+    if w.sum() <= 0:
+        return None
+    mean = (np.nan_to_num(vec) / np.where(w > 0, n, 1.0)[:, None] * w[:, None]).sum(0)
+    norm = np.linalg.norm(mean)
+    return mean / norm if norm > 1e-9 else None
+
+
+def _up_direction(ls, rs, shoulders_ok, hips, face) -> tuple[np.ndarray, str]:
+    """The clip's up direction in the arms' frame and where it came from (module docstring)."""
+    centre = (ls + rs) / 2
+    if len(hips) == 2:
+        (lh, lw), (rh, rw) = hips
+        w = np.minimum(lw, rw) * shoulders_ok
+        if np.median(np.minimum(lw, rw)) >= HIP_MIN_CONFIDENCE:
+            up = _mean_direction(centre - (lh + rh) / 2, w)
+            if up is not None:
+                return up, "hips"
+    if face is not None:
+        point, w = face
+        vec = point - centre
+        vec[:, 2] = 0.0  # in the image plane: invariant to camera roll, and MediaPipe's depth of the face is noisy
+        up = _mean_direction(vec, w * shoulders_ok)
+        if up is not None:
+            return up, "face"
+    return _IMAGE_UP, "image"
+
+
+def load_pose(path, condition: bool = True) -> Demonstration:
     """Read a MediaPipe Holistic ``.pose`` recording into a :class:`Demonstration` (see the module docstring).
 
     Args:
         path: the ``.pose`` file.
+        condition: repair, smooth and scale as the module docstring says (default); False
+            reads the landmarks as they are (gaps still interpolated, depth still
+            reconstructed for image-only files): the raw geometry, for tests and comparison.
 
     Returns:
         The demonstration; ``meta`` records the source file name, the arm source
@@ -225,22 +382,24 @@ def load_pose(path) -> Demonstration:
         hip_names = [n for n in ("LEFT_HIP", "RIGHT_HIP") if n in comps.names[_POSE]]
         hips = [(comps.point(_POSE, n)[0] * flat, comps.point(_POSE, n)[2] * comps.point(_POSE, n)[1]) for n in hip_names]
 
-    # short gaps of each arm point are interpolated, long ones stay masked
-    filled = {k: fill_gaps(v, ok, max_gap) for k, (v, ok) in pts.items()}
+    # outliers removed, gaps interpolated (long ones stay masked), then smoothed
+    filled, repaired = _condition_arms(pts, fps, max_gap, condition)
+    depth = "world" if use_world else "image"
+    if not use_world:
+        zs = np.concatenate([v[ok][:, 2] for v, ok in image.values()])
+        z_normalised = zs.size == 0 or np.abs(zs).max() <= 10.0  # MediaPipe's scale (like x / width), else pixels
+        filled, lengths = _reconstruct_depth(filled, image, (W if z_normalised and W > 0 else 1.0) * m_per_px)
+        meta_scale["segment_lengths_m"] = lengths
+        warnings.warn(f"{path.name}: no world landmarks: depth reconstructed from the image and the limb lengths "
+                      "(less reliable than a recording with world landmarks)", UserWarning, stacklevel=2)
 
     # ---------------------------------------------------------------- body frame
     (ls, ls_ok), (rs, rs_ok) = filled["left", "shoulder"], filled["right", "shoulder"]
-    up, up_from = _IMAGE_UP, "image"
-    if len(hips) == 2:
-        (lh, lw), (rh, rw) = hips
-        vec = (ls + rs) / 2 - (lh + rh) / 2
-        n = np.linalg.norm(vec, axis=-1, keepdims=True)
-        w = np.minimum(lw, rw) * (ls_ok & rs_ok) * (n[:, 0] > 1e-9)
-        if w.sum() > 0:
-            mean = np.nansum(np.where(w[:, None] > 0, vec / np.where(n > 1e-9, n, 1.0), 0.0) * w[:, None], axis=0)
-            mean /= np.linalg.norm(mean)
-            if mean @ _IMAGE_UP > 0.5:  # within 60 degrees of the image's up: trust the hips
-                up, up_from = mean, "hips"
+    face = _face_centre(comps, source, use_world, unscale if use_world else flat, extra if use_world else 1.0, m_per_px)
+    up, up_from = _up_direction(ls, rs, ls_ok & rs_ok, hips, face)
+    if up_from == "image":
+        warnings.warn(f"{path.name}: neither the face nor the hips are seen: the body's up is taken from the image's "
+                      "up; if the camera was rolled (a sideways phone), the demonstration is wrong", UserWarning, stacklevel=2)
     origin, R_src_body = body_frame_from_shoulders(ls, rs, up)  # (T, 3), (T, 3, 3)
     frame_ok = ls_ok & rs_ok & np.isfinite(R_src_body).all(axis=(1, 2))
     R_body_src = np.swapaxes(R_src_body, 1, 2)
@@ -276,18 +435,38 @@ def load_pose(path) -> Demonstration:
         z_normalised = not seen.any() or np.abs(v[seen][..., 2]).max() <= 10.0
         rel_m = rel * np.array([m_per_px, m_per_px, m_per_px * (W if z_normalised and W > 0 else 1.0)])
         rel_body = np.einsum("tij,tpj->tpi", R_body_src, np.where(seen[:, None, None], rel_m, 0.0))
-        rel_body, ok = fill_gaps(rel_body, seen & frame_ok, max_gap)
+        seen = seen & frame_ok
+        palm_jump = cond.segment_jump_frames(rel_body[:, _HAND_WRIST], rel_body[:, _HAND_MIDDLE], seen) & condition
+        rel_body, ok = fill_gaps(rel_body, seen & ~palm_jump, max_gap)
+        if condition:
+            rel_body = cond.savgol(rel_body, ok, cond.window_frames(fps))
+        hand_len = np.linalg.norm(np.diff(rel_body[:, [0, 9, 10, 11, 12]], axis=1), axis=-1).sum(-1)  # (T,) along the middle finger
+        scale = 1.0
+        if condition and ok.any() and np.median(hand_len[ok]) > 0:
+            try:
+                fore = float(np.median(np.linalg.norm(arms[:, s, 2] - arms[:, s, 1], axis=-1)[arm_mask[:, s, 1] & arm_mask[:, s, 2]]))
+            except ValueError:
+                fore = float("nan")
+            if np.isfinite(fore) and fore > 0:
+                scale = HAND_PER_FOREARM * fore / float(np.median(hand_len[ok]))
+        rel_body = rel_body * scale
         ok &= arm_mask[:, s, 2]
         hand = arms[:, s, 2][:, None] + rel_body  # (T, 21, 3) body frame, wrist pinned on the arm's wrist
         R = wrist_frame_from_hand(hand[:, _HAND_WRIST], hand[:, _HAND_INDEX], hand[:, _HAND_PINKY], hand[:, _HAND_MIDDLE])
-        r_ok = ok & np.isfinite(R).all(axis=(1, 2))
+        if condition:
+            R, r_ok, rot_repaired = cond.continuous_rotations(R, ok, max_gap, fps)
+            r_ok &= ok
+        else:
+            r_ok, rot_repaired = ok & np.isfinite(R).all(axis=(1, 2)), 0
         rots[:, s] = np.where(r_ok[:, None, None], R, np.nan)
         wrist_mask[:, s] = r_ok
         for f, (b, t) in enumerate(HAND_FINGER_POINTS):
             fingers[:, s, f, 0] = np.where(ok[:, None], hand[:, b], np.nan)
             fingers[:, s, f, 1] = np.where(ok[:, None], hand[:, t], np.nan)
             finger_mask[:, s, f] = ok
-        hand_meta[side] = {"observed_frames": int(seen.sum()), "valid_frames": int(ok.sum())}
+        hand_meta[side] = {"observed_frames": int(comps.observed[comp].all(axis=1).sum()), "valid_frames": int(ok.sum()),
+                           "scale": round(float(scale), 4), "palm_jump_frames": int(palm_jump.sum()),
+                           "rotation_repaired_frames": int(rot_repaired)}
 
     meta = {
         "source": path.name,
@@ -295,6 +474,9 @@ def load_pose(path) -> Demonstration:
         "arm_source": source,
         "metres_per_pixel": float(m_per_px),
         "up_from": up_from,
+        "up_direction": [round(float(x), 4) for x in up],
+        "depth": depth,
+        "conditioning": repaired,
         "max_gap_frames": max_gap,
         "hands": hand_meta,
         **meta_scale,

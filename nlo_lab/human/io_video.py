@@ -340,9 +340,10 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
             if progress:
                 from tqdm.auto import tqdm
 
+                # mininterval=0: every frame is shown (a frame takes far longer than drawing the bar),
+                # so the last count appears before the bar closes, however fast the frames come
                 source = tqdm(frames, total=info.frames or None, desc=f"pose estimation {path.name}", unit="frame",
-                              file=bar_stream or sys.stderr, leave=False, dynamic_ncols=True,
-                              mininterval=0)  # draw every frame (a few per second): the last count always shows
+                              file=bar_stream or sys.stderr, leave=False, dynamic_ncols=True, mininterval=0)
             try:
                 pose = load_holistic(source, fps=info.fps, width=info.width, height=info.height, progress=False,
                                      additional_holistic_config={"model_complexity": MODEL_COMPLEXITY},

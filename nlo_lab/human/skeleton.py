@@ -65,8 +65,8 @@ def _edges() -> tuple[tuple[str, str], ...]:
 EDGES: tuple[tuple[str, str], ...] = _edges()
 
 # Nominal adult at rest (arms hanging, palms facing the thighs), body frame [m].
-# Shoulder half-width 0.18, upper arm 0.20, forearm 0.24 (ROBOT_FACTS "typical
-# demonstrator"); hand: metacarpals ~0.09 (thumb 0.05), fingers 0.05-0.09.
+# Shoulder half-width 0.18, upper arm 0.20, forearm 0.24 (the paper's
+# demonstrator, in its data set); hand: metacarpals ~0.09 (thumb 0.05), fingers 0.05-0.09.
 NOMINAL_ARM_LENGTH = 0.44  # [m] upper arm + forearm
 _REST_FINGERS = {  # finger -> (base offset from the wrist, tip offset from the base) for the left hand
     "thumb": ((0.03, 0.0, -0.04), (0.04, 0.0, -0.03)),

@@ -28,11 +28,11 @@ __all__ = [
     "VIEWER_MAX_FRAMES",
     "RecordingWindow",
     "recording_visualizer",
+    "scene_commands",
     "scene_html",
     "decimate",
     "export_html",
     "static_html",
-    "iframe_html",
 ]
 
 # Most animation frames a page stores (YuMi and a human: about 10 kB each in single
@@ -42,23 +42,23 @@ VIEWER_MAX_FRAMES = 2000
 
 
 @lru_cache(maxsize=1)
-def _viewer_js() -> str:
+def viewer_js() -> str:
+    """meshcat's three.js viewer bundle (``viewer/dist/main.min.js`` of the meshcat package)."""
     return (Path(VIEWER_ROOT) / "main.min.js").read_text(encoding="utf-8")
+
+
+def scene_commands(tree) -> list[bytes]:
+    """Every command of ``tree`` (msgpack bytes, as meshcat's server relays them), parents before children."""
+    out = []
+    for node in walk(tree):
+        out.extend(payload for payload in (node.object, *node.properties, node.transform, node.animation) if payload is not None)
+    return out
 
 
 def scene_html(tree, title: str = "nlo_lab viewer") -> str:
     """One HTML page holding meshcat's viewer script and every command of ``tree``."""
-    commands = []
-    for node in walk(tree):
-        if node.object is not None:
-            commands.append(create_command(node.object))
-        for prop in node.properties:
-            commands.append(create_command(prop))
-        if node.transform is not None:
-            commands.append(create_command(node.transform))
-        if node.animation is not None:
-            commands.append(create_command(node.animation))
-    js = _viewer_js().replace("</script", "<\\/script")  # keep the inline script closed only where we close it
+    commands = [create_command(payload) for payload in scene_commands(tree)]
+    js = viewer_js().replace("</script", "<\\/script")  # keep the inline script closed only where we close it
     return (
         "<!DOCTYPE html>\n<html>\n<head><meta charset=\"utf-8\"><title>" + html.escape(title) + "</title>\n"
         "<style>body { margin: 0; } #meshcat-pane { width: 100vw; height: 100vh; overflow: hidden; }</style>\n"
@@ -78,12 +78,14 @@ class RecordingWindow:
     def __init__(self, single_precision: bool = False) -> None:
         self.tree = SceneTree()
         self.single_precision = single_precision  # animation keys as float32 (half the bytes; three.js computes in float32)
+        self.last_payload = b""  # the bytes of the last command (what a live view is sent)
 
     def send(self, command) -> None:
         data = command.lower()
         cmd = data["type"]
         path = [p for p in data["path"].split("/") if p]
         payload = packb_single(data) if cmd == "set_animation" and self.single_precision else umsgpack.packb(data)
+        self.last_payload = payload
         if cmd == "set_object":
             node = find_node(self.tree, path)
             node.object, node.properties = payload, []
@@ -213,13 +215,3 @@ def export_html(
     with atomic_path(target) as tmp:
         tmp.write_text(page, encoding="utf-8")
     return target
-
-
-def iframe_html(page: str, height: int = 400):
-    """An ``IPython.display.HTML`` iframe showing ``page`` inline (``srcdoc``): no server needed."""
-    from IPython.display import HTML
-
-    return HTML(
-        f'<div style="height: {int(height)}px; width: 100%; overflow: hidden; resize: both">'
-        f'<iframe srcdoc="{html.escape(page, quote=True)}" style="width: 100%; height: 100%; border: none"></iframe></div>'
-    )

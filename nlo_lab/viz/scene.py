@@ -3,7 +3,7 @@
 A scene draws its geometry once (``draw``), then moves it: one frame at a time
 (``set_frame``) or as a meshcat animation with one key per frame (``add_to``)
 that the viewer plays and scrubs. Scenes write to any meshcat ``Visualizer``:
-the live one of :mod:`nlo_lab.viz.server` or the in-process recorder of
+the notebook widget's (:mod:`nlo_lab.viz.widget`) or the in-process recorder of
 :mod:`nlo_lab.viz.export`. The human is drawn by :mod:`nlo_lab.viz.human_scene`
 and the camera framed by :mod:`nlo_lab.viz.camera`.
 

@@ -33,7 +33,7 @@ joint_table(robots["nao"])
 # %%
 from nlo_lab.notebook import show_robot
 yumi = robots["yumi"]
-show_robot(yumi)  # the neutral pose; live meshcat viewer if one can start, else a static view
+show_robot(yumi)  # the neutral pose, in a 3-D view of its own: drag to turn, scroll to zoom
 
 # %% [markdown]
 # ## Joint sliders
@@ -47,19 +47,20 @@ JointPanel(robots["nao"])
 
 # %% [markdown]
 # The same with `ipywidgets.interact`, for one joint: the height of NAO's left wrist as its first joint moves.
+# `fixed(...)` hands the robot, the joint and the link to the function as arguments: a slider moved later
+# still uses these, whatever later cells assign to global names such as `wrist`.
 
 # %%
-from ipywidgets import interact
+from ipywidgets import fixed, interact
 nao = robots["nao"]
-j, wrist = 0, nao.arm("left").wrist
-lo, hi = float(nao.lower_limits[j]), float(nao.upper_limits[j])
+lo, hi = float(nao.lower_limits[0]), float(nao.upper_limits[0])
 
-@interact(angle=(lo, hi, 0.01))
-def wrist_height(angle=0.0):
-    q = nao.neutral_q.clone()
+@interact(angle=(lo, hi, 0.01), robot=fixed(nao), j=fixed(0), link=fixed(nao.arm("left").wrist))
+def wrist_height(angle=0.0, robot=None, j=0, link=""):
+    q = robot.neutral_q.clone()
     q[j] = angle
-    z = float(nao.forward_kinematics(q[None])[wrist][0, 2, 3])
-    print(f"{nao.joint_names[j]} = {angle:+.2f} rad -> left wrist height {z:+.3f} m")
+    z = float(robot.forward_kinematics(q[None])[link][0, 2, 3])
+    print(f"{robot.joint_names[j]} = {angle:+.2f} rad -> {link} height {z:+.3f} m")
 
 # %% [markdown]
 # ## Forward kinematics

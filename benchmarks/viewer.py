@@ -1,0 +1,141 @@
+"""The live 3-D view in a real browser: bytes per slider move, Play's frame rate, re-optimisation time.
+
+JupyterLab on a free port of 127.0.0.1, Debian's chromium driven by Playwright (software WebGL),
+one notebook made here: a ``RetargetPanel`` on YuMi with both hands over a 100-frame clip of
+the embedded corpus (full budgets, not test mode) and a ``JointPanel`` on YuMi. Then:
+
+* RetargetPanel, a weight slider (ee) moved five steps (PageUp/PageDown) ``--moves`` times: WebSocket bytes the page
+  received per move (everything: the scene's transforms, the plot, the status, the kernel's
+  own status messages), the time until the view applied the update, and the kernel's
+  re-optimisation time of the frame (the panel's status line, ``last_seconds``);
+* RetargetPanel, the frame slider moved one step: bytes per move;
+* JointPanel, a joint slider moved one step: bytes per move;
+* Play on the 100-frame clip: it plays as a meshcat animation in the page (keys at the clip's
+  rate); frames the view drew per second, over 4 s, and the updates the kernel sent meanwhile.
+
+Targets (issue 13): <= 50 kB per RetargetPanel move, >= 15 frames/s, <= 50 ms median re-optimisation.
+Before (the static page re-sent per update): 0.96 MB per JointPanel move, 1.17 MB per RetargetPanel
+move, about 2 frames/s.
+
+Run: ``.venv/bin/python benchmarks/viewer.py [--moves 15] [--clip NAME]`` (about 2 minutes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+from lab_browser import CHROMIUM, CHROMIUM_ARGS, Lab, LabPage, browser_missing  # noqa: E402
+
+
+def notebook(clip: str, frames: int) -> dict:
+    import nbformat
+
+    cells = [
+        "from nlo_lab.notebook import setup\nsetup()",
+        f"from nlo_lab.human import corpus_clip\ndemo = corpus_clip({clip!r}).slice(0, {frames})\nprint(len(demo), 'frames')",
+        "from nlo_lab.widgets import RetargetPanel\npanel = RetargetPanel(demo, 'yumi')\npanel",
+        "from nlo_lab.robots import load_robot\nfrom nlo_lab.widgets import JointPanel\njoints = JointPanel(load_robot('yumi'))\njoints",
+    ]
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
+    return nb
+
+
+def status_ms(page: LabPage, cell: int) -> float | None:
+    text = page.cells().nth(cell).text_content()
+    found = re.findall(r"in (\d+) ms", text)
+    return float(found[-1]) if found else None
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--moves", type=int, default=15, help="slider moves per measurement")
+    parser.add_argument("--clip", default="hospital_02", help="corpus clip (its first --frames frames)")
+    parser.add_argument("--frames", type=int, default=100)
+    args = parser.parse_args(argv)
+    missing = browser_missing()
+    if missing:
+        print(f"cannot run: {missing}", file=sys.stderr)
+        return 2
+    import nbformat
+    from playwright.sync_api import sync_playwright
+
+    with tempfile.TemporaryDirectory(prefix="nlo-lab-viewer-bench-") as tmp:
+        tmp = Path(tmp)
+        (tmp / "nb").mkdir()
+        nbformat.write(notebook(args.clip, args.frames), tmp / "nb" / "bench.ipynb")
+        with Lab(tmp / "nb", tmp / "state") as lab, sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+            page = LabPage(browser, lab, width=1280, height=900)
+            page.open_notebook("bench.ipynb")
+            page.run_all()
+            page.wait_views(2)
+            print("notebook ran; moving sliders", file=sys.stderr, flush=True)
+            panel_cell, joint_cell = 2, 3
+            handles = page.slider_handles(panel_cell)
+            weight, frame_slider = handles.nth(0), handles.nth(6)
+            results: dict[str, list[float]] = {k: [] for k in ("weight_bytes", "weight_seconds", "reopt_ms", "frame_bytes", "joint_bytes")}
+            for i in range(args.moves):
+                # PageUp/PageDown: five steps of the log slider (one step often leaves the optimum where it was: nothing to send)
+                m = page.move_slider(weight, key="PageUp" if i % 2 == 0 else "PageDown", settle=0.3)
+                results["weight_bytes"].append(m["bytes"])
+                if m["seconds"] is not None:
+                    results["weight_seconds"].append(m["seconds"])
+                ms = status_ms(page, panel_cell)
+                if ms is not None:
+                    results["reopt_ms"].append(ms)
+            for i in range(args.moves):
+                results["frame_bytes"].append(page.move_slider(frame_slider, key="ArrowRight", settle=0.3)["bytes"])
+            joint = page.slider_handles(joint_cell).nth(1)
+            for i in range(args.moves):
+                results["joint_bytes"].append(page.move_slider(joint, key="ArrowRight" if i % 2 == 0 else "ArrowLeft", settle=0.3)["bytes"])
+            print("playing", file=sys.stderr, flush=True)
+            # Play from frame 0: count the frames the view drew after an update.
+            frame_slider.focus()
+            frame_slider.press("Home")
+            page.wait_kernel_idle(settle=0.5)
+            play = page.cells().nth(panel_cell).locator(".widget-play button").first
+            play.scroll_into_view_if_needed()
+            play.click()
+            page.page.wait_for_timeout(1000)
+            t0 = page.page.evaluate("() => performance.now()")
+            page.page.wait_for_timeout(4000)
+            t1 = page.page.evaluate("() => performance.now()")
+            stats = page.view_stats()
+            frames = [t for t in stats["draws"] if t0 <= t <= t1]  # the animation redraws every frame it advances
+            arrivals = [t for t in stats["arrivals"] if t0 <= t <= t1]
+            fps = len(frames) / ((t1 - t0) / 1000)
+            updates_per_s = len(arrivals) / ((t1 - t0) / 1000)
+            render_ms = statistics.median(stats["renderMs"][-200:])
+            browser.close()
+
+    med = statistics.median
+    print(f"live 3-D view in JupyterLab + chromium (software WebGL), YuMi with hands, {args.frames}-frame clip {args.clip!r}, {args.moves} moves each")
+    print(f"{'measure':52s} {'median':>10s} {'max':>10s}  target")
+    rows = [
+        ("RetargetPanel weight move, bytes received [kB]", [b / 1000 for b in results["weight_bytes"]], "<= 50"),
+        ("RetargetPanel frame move, bytes received [kB]", [b / 1000 for b in results["frame_bytes"]], "<= 50"),
+        ("JointPanel joint move, bytes received [kB]", [b / 1000 for b in results["joint_bytes"]], ""),
+        ("RetargetPanel weight move, until the view updated [ms]", [s * 1000 for s in results["weight_seconds"]], ""),
+        ("re-optimisation of the frame in the kernel [ms]", results["reopt_ms"], "<= 50"),
+    ]
+    for name, values, target in rows:
+        if values:
+            print(f"{name:52s} {med(values):10.1f} {max(values):10.1f}  {target}")
+    print(f"{'Play on the clip, frames drawn per second':52s} {fps:10.1f} {'':>10s}  >= 15")
+    print(f"{'Play on the clip, kernel updates received per second':52s} {updates_per_s:10.1f}")
+    print(f"{'one draw of the view in the browser [ms]':52s} {render_ms:10.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,168 @@
+// nlo_lab's 3-D view: meshcat's own three.js viewer inside a Jupyter widget (anywidget).
+// The kernel sends meshcat's command messages (msgpack bytes, framed as uint32 length + bytes)
+// over the widget's comm; viewer.handle_command_bytearray runs each, as meshcat's own page does.
+
+const PREFIX = "IPY_MODEL_";
+// What a test or a benchmark reads from the page: views, commands applied, frames drawn after an update.
+const STATS = (globalThis.__nloLabView ??= { views: 0, messages: 0, commands: 0, bytes: 0, frames: [], arrivals: [], renderMs: [], draws: [] });
+const keep = (list, value) => { list.push(value); if (list.length > 2000) list.splice(0, 1000); };
+
+// meshcat's bundle is a UMD script that sets self.MeshCat. Evaluate it once per page, as a module
+// (what anywidget itself does with a widget's code); `define` is hidden from it so that a
+// require.js page (classic Notebook) does not capture it as an anonymous AMD module.
+function loadMeshCat(code) {
+  if (!globalThis.__nloLabMeshCat) {
+    const source = "const define = undefined;\n" + code;
+    const url = URL.createObjectURL(new Blob([source], { type: "text/javascript" }));
+    globalThis.__nloLabMeshCat = import(url).then(() => {
+      URL.revokeObjectURL(url);
+      if (!globalThis.MeshCat) throw new Error("meshcat's bundle did not define MeshCat");
+      return globalThis.MeshCat;
+    });
+  }
+  return globalThis.__nloLabMeshCat;
+}
+
+function asBytes(buffer) {
+  if (buffer instanceof Uint8Array) return buffer;
+  if (ArrayBuffer.isView(buffer)) return new Uint8Array(buffer.buffer, buffer.byteOffset, buffer.byteLength);
+  return new Uint8Array(buffer);
+}
+
+// Run every framed command of one buffer; returns how many ran.
+function applyCommands(viewer, buffer) {
+  const bytes = asBytes(buffer);
+  const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
+  let at = 0, count = 0;
+  while (at + 4 <= bytes.length) {
+    const n = view.getUint32(at, true);
+    viewer.handle_command_bytearray(bytes.subarray(at + 4, at + 4 + n));
+    at += 4 + n;
+    count += 1;
+  }
+  return count;
+}
+
+async function render({ model, el }) {
+  const id = `${Date.now().toString(36)}-${Math.random().toString(36).slice(2)}`;
+  el.classList.add("nlo-lab-view");
+  const box = document.createElement("div");
+  box.style.cssText = "position: relative; width: 100%; overflow: hidden";
+  const pane = document.createElement("div");
+  pane.style.cssText = `width: 100%; height: ${model.get("height")}px`;
+  const note = document.createElement("div");
+  note.className = "nlo-lab-view-message";
+  note.style.cssText = "position: absolute; left: 0; top: 0; right: 0; padding: 6px 10px; font: 13px sans-serif;" +
+    "background: #fff3cd; color: #5c4400; border-bottom: 1px solid #e0c36a; display: none; z-index: 2";
+  box.append(pane, note);
+  el.append(box);
+  let status = "loading the 3-D viewer ...";
+  const show = () => {
+    const text = model.get("message") || status;
+    note.textContent = text;
+    note.style.display = text ? "block" : "none";
+  };
+  const setStatus = (text) => { status = text; show(); };
+  model.on("change:message", show);
+  show();
+
+  let viewer;
+  try {
+    const ref = model.get("_bundle");
+    const bundle = await model.widget_manager.get_model(String(ref).slice(PREFIX.length));
+    const MeshCat = await loadMeshCat(bundle.get("code"));
+    viewer = new MeshCat.Viewer(pane, false);  // false: we run the drawing loop (and stop it)
+  } catch (err) {
+    setStatus(`The 3-D view could not start: ${err && err.message ? err.message : err}`);
+    return;
+  }
+  // meshcat sizes its canvas to the window's height on window resizes: size it to the pane instead.
+  const setSize = viewer.set_3d_pane_size.bind(viewer);
+  viewer.set_3d_pane_size = (w, h) => setSize(w ?? pane.clientWidth, h ?? pane.clientHeight);
+  STATS.views += 1;
+
+  let version = -1, updated = false, alive = true;
+  const run = (buffer) => {
+    const n = applyCommands(viewer, buffer);
+    STATS.commands += n;
+    STATS.bytes += asBytes(buffer).byteLength;
+    updated = true;
+    return n;
+  };
+  try {
+    const scene = model.get("_scene");
+    if (scene && scene.byteLength) {
+      run(scene);
+      version = model.get("_scene_version");
+    }
+  } catch (err) {
+    setStatus(`The saved scene could not be drawn: ${err.message || err}`);
+  }
+
+  const onMessage = (msg, buffers) => {
+    if (!msg || !alive) return;
+    try {
+      if (msg.type === "commands" && msg.version > version) {
+        STATS.messages += 1;
+        keep(STATS.arrivals, performance.now());
+        run(buffers[0]);
+        version = msg.version;
+      } else if ((msg.type === "scene" || msg.type === "current") && msg.view === id) {
+        if (msg.type === "scene") run(buffers[0]);
+        version = Math.max(version, msg.version);
+        clearTimeout(waiting);
+        setStatus("");
+      }
+    } catch (err) {
+      setStatus(`A scene update failed: ${err.message || err}`);
+    }
+  };
+  model.on("msg:custom", onMessage);
+  // Ask the kernel for whatever changed since the saved scene. No answer: no kernel behind this page.
+  const waiting = setTimeout(() => setStatus(
+    version >= 0 ? "No kernel answers: this is the scene as it was saved. Run the cell to make it live again."
+                 : "No kernel answers and no saved scene: run the cell to draw it."), 8000);
+  try {
+    model.send({ type: "ready", view: id, version });
+  } catch (err) {
+    clearTimeout(waiting);
+    setStatus(`The kernel is not connected (${err.message || err}): run the cell again.`);
+  }
+
+  const loop = () => {
+    if (!alive) return;
+    requestAnimationFrame(loop);
+    viewer.animator.update();
+    if (viewer.needs_render) {
+      const t0 = performance.now();
+      viewer.render();
+      viewer.needs_render = false;
+      const t1 = performance.now();
+      keep(STATS.renderMs, t1 - t0);
+      keep(STATS.draws, t1);
+      if (updated) {
+        keep(STATS.frames, t1);
+        updated = false;
+      }
+    }
+  };
+  const resize = new ResizeObserver(() => viewer.set_3d_pane_size());
+  resize.observe(pane);
+  viewer.set_3d_pane_size();
+  loop();
+
+  return () => {
+    alive = false;
+    clearTimeout(waiting);
+    resize.disconnect();
+    model.off("msg:custom", onMessage);
+    model.off("change:message", show);
+    STATS.views -= 1;
+    try {
+      viewer.renderer.dispose();
+      viewer.renderer.forceContextLoss();  // browsers allow only a few live WebGL contexts per page
+    } catch (err) { /* already gone */ }
+  };
+}
+
+export default { render };
