@@ -14,7 +14,7 @@ import html
 import os
 import random
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 

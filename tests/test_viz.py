@@ -5,11 +5,7 @@ from __future__ import annotations
 import base64
 import os
 import re
-import signal
-import subprocess
-import sys
 import textwrap
-import time
 from pathlib import Path
 
 import matplotlib

@@ -7,7 +7,7 @@ import pytest
 import torch
 import umsgpack
 
-from nlo_lab.errors import NloLabError, SettingsError
+from nlo_lab.errors import SettingsError
 from nlo_lab.human import load_demonstration
 from nlo_lab.notebook import budget, recording_path, show_robot, show_view, is_test_mode
 from nlo_lab.robots import load_robot
