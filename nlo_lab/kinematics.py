@@ -590,6 +590,18 @@ class KinematicTree:
         return c
 
 
+
+def left_matmul(A: torch.Tensor, X: torch.Tensor) -> torch.Tensor:
+    """``A (m, k) @ X (B, k, c) -> (B, m, c)`` as one 2-d matmul.
+
+    ``A @ X`` broadcasts ``A`` and runs B small matmuls (bmm); folding the batch
+    into the columns is one ``(m, k) @ (k, B c)`` product, and so is its backward.
+    Measured at B = 170 on YuMi's objective rows (20 x 58, 1 thread): 464 us -> 68 us.
+    """
+    B, k, c = X.shape
+    return (A @ X.transpose(0, 1).reshape(k, B * c)).view(A.shape[0], B, c).transpose(0, 1)
+
+
 class _MapPoints(torch.autograd.Function):
     """:meth:`KinematicTree.map_points` with the gradient written out.
 
@@ -623,8 +635,8 @@ class _MapPoints(torch.autograd.Function):
         if axis is None:
             axis = c["axis"] = torch.as_tensor(tree._np["axis"], dtype=g.dtype, device=g.device)  # (M, 3)
         R, o = poses[:, 1:, :3, :3], poses[:, 1:, :3, 3]  # (B, M, 3, 3), (B, M, 3)
-        a = (R @ axis[:, :, None]).squeeze(-1)  # (B, M, 3) world axes
-        s1 = D @ torch.linalg.cross(pts, g)  # (B, M, 3)
-        s0 = D @ (g * vectors[:, 3:])  # points only
+        a = (R * axis[:, None, :]).sum(-1)  # (B, M, 3) world axes R a
+        s1 = left_matmul(D, torch.linalg.cross(pts, g))  # (B, M, 3)
+        s0 = left_matmul(D, g * vectors[:, 3:])  # points only
         dtheta = (a * (s1 - torch.linalg.cross(o, s0))).sum(-1)  # (B, M)
         return dtheta @ c["theta_map2"][:, :M].T, None, None, None

@@ -55,6 +55,7 @@ from nlo_lab.errors import DemonstrationError, SettingsError
 from nlo_lab.fused_objective import _UNIT_EPS, PointTerms, point_terms
 from nlo_lab.human.demonstration import FINGERS, SIDES, Demonstration
 from nlo_lab.human.skeleton import edge_features, node_features
+from nlo_lab.kinematics import left_matmul
 
 __all__ = [
     "LossWeights",
@@ -581,7 +582,7 @@ class Objective:
         if self._plan is not None:
             terms = point_terms(pts, self._plan)  # (B, 5)
             return terms @ self.weights, terms
-        v = c.rows @ pts  # (B, V, 3) residual rows before the goal
+        v = left_matmul(c.rows, pts)  # (B, V, 3) residual rows before the goal
         # finger rows become unit directions (as _unit), the others stay
         v = v * torch.where(c.finger_row, (v.pow(2).sum(-1, keepdim=True) + _UNIT_EPS).rsqrt(), 1.0)
         sq = torch.where(self.mask, (v - self.goal).pow(2).sum(-1), 0.0)  # (B, V)
