@@ -359,11 +359,14 @@ def _descend(
             if best_loss is None:
                 best_loss, best_x, best_q = loss.detach().clone(), x.detach().clone(), q.detach().clone()
                 best_terms = {k: v.detach().clone() for k, v in terms.items()} if isinstance(terms, dict) else terms.detach().clone()
-            else:
-                better = loss < best_loss if per_sample else (loss.mean() < best_loss.mean()).expand(loss.shape)  # (B,)
+            elif per_sample:
+                better = loss < best_loss  # (B,)
                 best_loss, best_x, best_q, best_terms = (
                     _select(better, new, old) for new, old in ((loss, best_loss), (x, best_x), (q, best_q), (terms, best_terms))
                 )
+            elif mean < best_mean:  # coupled samples: the whole point at the best mean (no per-sample select)
+                best_loss, best_x, best_q = loss.detach(), x.detach().clone(), q.detach().clone()  # q may be x
+                best_terms = {k: v.detach() for k, v in terms.items()} if isinstance(terms, dict) else terms.detach()
             if mean < best_mean:
                 best_mean, stale = mean, 0
             else:
