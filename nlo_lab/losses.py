@@ -75,6 +75,7 @@ __all__ = [
     "smoothness_scale",
     "step_cost",
     "robot_points",
+    "near_pair_distances",
 ]
 
 TERMS = ("ee", "ori", "elbow", "finger", "collision")
@@ -89,6 +90,7 @@ COLLISION_FORMS = ("hinge", "paper")
 SMOOTH_SPEED_CAP = math.pi
 SMOOTH_MAX_STEP = 0.35  # [rad] a joint step beyond this between two frames costs steeply ...
 SMOOTH_STEP_WIDTH = 0.02  # [rad] ... (one more width: one more unit, squared)
+CULL_SLACK = 1e-4  # [m] a capsule pair is skipped only when its lower bound clears the margin by this much
 
 
 # ---------------------------------------------------------------------- weights
@@ -511,6 +513,32 @@ def step_cost(step: torch.Tensor, fps: float, velocity_limits: torch.Tensor) -> 
     return speed.pow(2).sum(-1) + jump.pow(2).sum(-1)
 
 
+def near_pair_distances(ends: torch.Tensor, radii: torch.Tensor, margins: torch.Tensor) -> torch.Tensor:
+    """Capsule surface distances ``(B, P)``, exact where a pair may be closer than its margin.
+
+    A cheap lower bound first: no point of a segment is farther from its midpoint than
+    half its length, so ``dist >= |m_a - m_b| - h_a - h_b``. Where that bound minus the
+    radii is at least the margin (plus :data:`CULL_SLACK` for rounding), the pair is
+    certainly clear: it gets the bound itself, without gradient, which every
+    :func:`collision_loss` form maps to exactly 0 loss and 0 gradient. Only the other
+    pairs go through :func:`nlo_lab.collision.segment_distance_ends` (on the test split
+    with YuMi about one pair in seven at batch 170).
+
+    Args:
+        ends: ``(B, P, 4, 3)`` end points a0, a1, b0, b1 [m].
+        radii: ``(P,)`` summed radii; margins: ``(P,)`` d_min [m].
+    """
+    with torch.no_grad():
+        a0, a1, b0, b1 = ends.unbind(-2)
+        half = (a1 - a0).norm(dim=-1) + (b1 - b0).norm(dim=-1)  # (B, P): twice h_a + h_b
+        bound = ((a0 + a1 - b0 - b1).norm(dim=-1) - half) / 2 - radii  # (B, P) <= surface distance
+        near = (bound < margins + CULL_SLACK).nonzero(as_tuple=True)
+    if near[0].numel() == 0:
+        return bound
+    exact = segment_distance_ends(ends[near]) - radii.expand_as(bound)[near]
+    return bound.index_put(near, exact)  # differentiable in the exact values only
+
+
 # ---------------------------------------------------------------------- objective
 class Objective:
     """The objective of :func:`objective` for one robot, one set of targets and weights.
@@ -533,6 +561,9 @@ class Objective:
         fused: compute the terms from the FK points in numpy with a hand-written
             backward (:mod:`nlo_lab.fused_objective`); ``None`` = on the CPU for
             at most :data:`FUSED_MAX_FRAMES` frames; ``False`` = torch ops (the reference).
+        cull: with torch ops, measure exactly only the capsule pairs that may be
+            closer than their margin (:func:`near_pair_distances`); the others add
+            exactly 0 to the loss and its gradient either way. False = every pair.
     """
 
     def __init__(
@@ -542,11 +573,12 @@ class Objective:
         weights: LossWeights | None = None,
         collision_form: str = "hinge",
         fused: bool | None = None,
+        cull: bool = True,
     ):
         if collision_form not in COLLISION_FORMS:
             raise SettingsError(f"unknown collision form {collision_form!r}; expected one of {COLLISION_FORMS}")
         weights = weights or LossWeights()
-        self.robot, self.n_frames, self.collision_form = robot, len(targets), collision_form
+        self.robot, self.n_frames, self.collision_form, self.cull = robot, len(targets), collision_form, cull
         t = targets
         c = self._c = _constants(robot, t.dtype, t.shoulder.device)
         with torch.no_grad():
@@ -587,7 +619,10 @@ class Objective:
         v = v * torch.where(c.finger_row, (v.pow(2).sum(-1, keepdim=True) + _UNIT_EPS).rsqrt(), 1.0)
         sq = torch.where(self.mask, (v - self.goal).pow(2).sum(-1), 0.0)  # (B, V)
         ends = pts.index_select(1, c.pair_points).view(q.shape[0], -1, 4, 3)  # (B, P, 4, 3)
-        d = segment_distance_ends(ends) - c.pair_radii  # (B, P) capsule surface distances [m]
+        if self.cull:
+            d = near_pair_distances(ends, c.pair_radii, c.margins)
+        else:
+            d = segment_distance_ends(ends) - c.pair_radii  # (B, P) capsule surface distances [m]
         terms = torch.cat([sq @ c.row_term, collision_loss(d, c.margins, self.collision_form)[:, None]], 1)  # (B, 5)
         return terms @ self.weights, terms
 

@@ -233,3 +233,36 @@ def test_fused_objective_passes_gradcheck():
     start = (q + 0.3).clamp(robot.lower_limits, robot.upper_limits).requires_grad_(True)
     obj = Objective(robot, t, fused=True)
     torch.autograd.gradcheck(lambda x: obj(x)[0], (start,), eps=1e-6, atol=1e-4)
+
+
+@pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
+def test_culling_far_capsule_pairs_changes_nothing(robot, dtype):
+    """Objective(cull=True) (exact distances only where a pair may be within its margin)
+    = every pair measured, values and gradients; and the bound it uses for the other
+    pairs never exceeds the true surface distance."""
+    from nlo_lab.collision import segment_distance_ends
+    from nlo_lab.human.corpus import sign_corpus
+    from nlo_lab.losses import Objective, near_pair_distances
+
+    r = robot.to(dtype=dtype)
+    t = targets_from_demonstration(sign_corpus("test")[1], dtype=dtype)
+    g = torch.Generator().manual_seed(5)
+    q = (r.lower_limits + torch.rand(len(t), r.n_joints, generator=g, dtype=dtype) * (r.upper_limits - r.lower_limits)).requires_grad_(True)
+    for form in ("hinge", "paper"):
+        out = {}
+        for cull in (True, False):
+            total, terms = Objective(r, t, collision_form=form, fused=False, cull=cull)(q)
+            (grad,) = torch.autograd.grad(total.sum(), q)
+            out[cull] = (terms.detach(), grad)
+        torch.testing.assert_close(out[True][0], out[False][0], atol=1e-12, rtol=1e-12 if dtype == torch.float64 else 1e-6)  # summation order only
+        torch.testing.assert_close(out[True][1], out[False][1], atol=1e-12 if dtype == torch.float64 else 1e-5, rtol=1e-6)
+    c = _constants(r, dtype, q.device)
+    pts = r.tree.map_points(q.detach(), c.point_body, c.point_vectors)
+    ends = pts.index_select(1, c.pair_points).view(len(t), -1, 4, 3)
+    exact = segment_distance_ends(ends) - c.pair_radii
+    culled = near_pair_distances(ends, c.pair_radii, c.margins)
+    far = (culled - exact).abs() > 1e-9  # measured pairs agree up to rounding (numpy vs torch path)
+    assert 0 < int(far.sum()) < far.numel(), "the case should hold both culled and measured pairs"
+    assert bool((culled[far] <= exact[far] + 1e-6).all()), "the bound must not exceed the distance"
+    assert bool((culled[far] >= c.margins.expand_as(culled)[far]).all()), "a culled pair must clear its margin"
+    assert float(out[False][0][:, 4].max()) > 0, "random poses should include a close capsule pair"
