@@ -245,29 +245,37 @@ def initial_latent(model, targets: Targets, settings: OptimizeSettings) -> torch
     return model.latent_mean.to(dtype) + model.latent_std.to(dtype) * noise  # "train-stats"
 
 
-def _smoothness(robot, targets: Targets, weights: LossWeights):
-    """``q (T, n) -> (T,)`` the weighted smoothness term, or None when it does not apply."""
-    if weights.smooth == 0 or targets.fps is None or len(targets) < 2:
+def _smoothness(robot, targets: Targets, weights: LossWeights, anchor: torch.Tensor | None = None):
+    """``q (T, n) -> (T,)`` the weighted smoothness term, or None when it does not apply.
+
+    ``anchor (n,)``: fixed angles of the frame just before ``targets`` (the previous
+    chunk's last frame); frame 0 then pays its step from there.
+    """
+    if weights.smooth == 0 or targets.fps is None or len(targets) + (anchor is not None) < 2:
         return None
     limits, fps, w = robot.velocity_limits, float(targets.fps), weights.smooth
-    return lambda q: w * smoothness_loss(q, fps, limits)
+    if anchor is None:
+        return lambda q: w * smoothness_loss(q, fps, limits)
+    anchor = anchor.detach().to(robot.lower_limits.dtype).reshape(1, -1)
+    return lambda q: w * smoothness_loss(torch.cat([anchor, q]), fps, limits)[1:]
 
 
 @torch.no_grad()
 def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: LossWeights | None = None,
-                   window: int = 2, collision_form: str = "hinge") -> torch.Tensor:
+                   window: int = 2, collision_form: str = "hinge", anchor: torch.Tensor | None = None) -> torch.Tensor:
     """Warm start along the sequence: per frame, its own start latent or a neighbour's.
 
     Frame t's candidates are ``z0[t - window .. t + window]``. Each candidate costs its
     objective at frame t (plus the latent term); consecutive choices cost the
-    smoothness term between their decoded angles. The cheapest sequence of choices
+    smoothness term between their decoded angles (frame 0 also its step from the fixed
+    ``anchor (n,)`` when given). The cheapest sequence of choices
     is found exactly by dynamic programming (Viterbi), ``O(T (2 window + 1)²)``.
 
     Returns:
         ``(T, N_r, k)`` start latents (``z0`` itself when smoothing does not apply).
     """
     weights = weights or LossWeights()
-    smooth = _smoothness(robot, targets, weights)
+    smooth = _smoothness(robot, targets, weights, anchor)
     T = len(targets)
     if smooth is None or window == 0:
         return z0
@@ -288,6 +296,9 @@ def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: Lo
     Q = torch.stack(angles, 1).double()  # (T, K, n)
     step = Q[1:, None] - Q[:-1, :, None]  # (T-1, K_prev, K_next, n)
     pair = (weights.smooth * step_cost(step, float(targets.fps), robot.velocity_limits.double())).numpy()
+    if anchor is not None:  # frame 0's step from the fixed frame before it
+        first = step_cost(Q[0] - anchor.detach().double().reshape(1, -1), float(targets.fps), robot.velocity_limits.double())
+        unary_np[0] += weights.smooth * first.numpy()
     cost, back = unary_np[0], []
     for t in range(1, T):
         total = cost[:, None] + pair[t - 1]  # (K_prev, K_next)
@@ -393,6 +404,7 @@ def optimize_latent(
     weights: LossWeights | None = None,
     z0: torch.Tensor | None = None,
     callback: Callable[[int, float], None] | None = None,
+    anchor: torch.Tensor | None = None,
 ) -> OptimizeResult:
     """Optimise the latent of every frame of ``targets`` at once, decoder frozen.
 
@@ -404,6 +416,10 @@ def optimize_latent(
         weights: :class:`LossWeights`; ``weights.latent`` scales ``||z||²``.
         z0: ``(T, N_r, k)`` start latents; overrides ``settings.init`` (warm start).
         callback: called as ``callback(iteration, mean_loss)`` after every evaluation.
+        anchor: ``(n,)`` fixed joint angles of the frame just before ``targets`` (the
+            previous chunk's last frame, :func:`nlo_lab.retarget.retarget`): with the
+            smoothness term on, frame 0's step from it is part of the objective and of
+            the warm start, so a sequence optimised in chunks has no seam.
 
     Returns:
         :class:`OptimizeResult` with ``q (T, n)`` in the robot's dtype.
@@ -420,9 +436,11 @@ def optimize_latent(
         raise SettingsError(f"z0 must be {(len(targets), *model.latent_shape)}, got {tuple(z0.shape)}")
 
     loss_fn = Objective(robot, targets, weights, settings.collision_form)
-    smooth = _smoothness(robot, targets, weights)
+    if anchor is not None and anchor.shape != robot.lower_limits.shape:
+        raise SettingsError(f"anchor must be {tuple(robot.lower_limits.shape)}, got {tuple(anchor.shape)}")
+    smooth = _smoothness(robot, targets, weights, anchor)
     if smooth is not None and settings.warm_start:
-        z0 = sequence_start(model, robot, targets, z0, weights, settings.warm_window, settings.collision_form)
+        z0 = sequence_start(model, robot, targets, z0, weights, settings.warm_window, settings.collision_form, anchor)
 
     def evaluate(z):
         q = model.decode(z).to(dtype)

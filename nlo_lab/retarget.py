@@ -41,9 +41,9 @@ __all__ = ["CHUNK_FRAMES", "RetargetResult", "retarget", "summary"]
 # frame, so 1000 frames take a few hundred MB however long the recording is
 # (benchmarks/long_recording.py). The one coupling is the patience stop, which looks
 # at the mean loss of the frames optimised together (here: of one chunk). With the
-# smoothness term (LossWeights.smooth) frames are coupled to their neighbours: the two
-# frames either side of a chunk boundary are not (retiming still keeps every joint
-# within its velocity limit there).
+# smoothness term (LossWeights.smooth) frames are coupled to their neighbours; across a
+# chunk boundary the previous chunk's last frame is a fixed anchor of the next chunk's
+# first step (optimize_latent(anchor=...)), in its objective and its warm start.
 CHUNK_FRAMES = 1000
 
 
@@ -127,7 +127,9 @@ def _optimize_chunks(model, robot, targets: Targets, settings, weights, bounds, 
     """:func:`optimize_latent` over frame ranges ``bounds``, joined into one result.
 
     ``history`` is the frame-weighted mean over chunks (a chunk that stopped early
-    contributes its last value), ``iterations`` the most steps any chunk took.
+    contributes its last value), ``iterations`` the most steps any chunk took. Each
+    chunk after the first is anchored at the previous chunk's last angles (smoothness
+    across the boundary).
     """
     if len(bounds) == 1:
         return optimize_latent(model, robot, targets, settings, weights=weights, callback=callback)
@@ -137,7 +139,8 @@ def _optimize_chunks(model, robot, targets: Targets, settings, weights, bounds, 
     for a, b in bounds:
         part = targets.index(slice(a, b))
         z0 = initial_latent(model, part, settings) if z_all is None else z_all[a:b]
-        parts.append(optimize_latent(model, robot, part, settings, weights=weights, z0=z0, callback=callback))
+        anchor = parts[-1].q[-1] if parts else None
+        parts.append(optimize_latent(model, robot, part, settings, weights=weights, z0=z0, callback=callback, anchor=anchor))
     n = max(len(r.history) for r in parts)
     T = len(targets)
     history = [sum(r.history[min(i, len(r.history) - 1)] * len(r.q) for r in parts) / T for i in range(n)]

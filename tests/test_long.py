@@ -89,3 +89,45 @@ def test_single_precision_packing_equals_umsgpack(monkeypatch):
     keys = {"keys": [{"time": t, "value": [t * 0.5, -1.0, 3e-7]} for t in (*range(0, 300), 65535, 65536, 70000)]}
     monkeypatch.setattr(_packing, "FAST", True)
     assert _packing.packb_single(keys) == umsgpack.packb(keys, force_float_precision="single")
+
+
+def _steps(angles: np.ndarray, robot) -> np.ndarray:
+    """``(T-1,)`` the largest joint step between consecutive frames, in units of its velocity limit."""
+    return (np.abs(np.diff(angles, axis=0)) / robot.velocity_limits.double().numpy()).max(1)
+
+
+def test_chunk_edges_are_as_smooth_as_the_inside():
+    """With the smoothness term, a chunk starts anchored at the previous chunk's last frame:
+    no step across a chunk edge is larger than the largest step inside the chunks."""
+    from nlo_lab.human.corpus import sign_corpus
+
+    robot = load_robot("yumi")
+    demo = sign_corpus("test")[0]
+    size = 12
+    settings = OptimizeSettings(iterations=30)
+    chunked = retarget(demo, robot, settings=settings, chunk_frames=size, retime=False)
+    steps = _steps(chunked.trajectory.angles, robot)
+    edge = np.zeros(len(steps), dtype=bool)
+    edge[size - 1 :: size] = True  # step from frame k*size - 1 to k*size
+    assert edge.sum() >= 3
+    assert steps[edge].max() <= steps[~edge].max(), (steps[edge], steps[~edge].max())
+
+
+def test_anchor_enters_the_smoothness_term():
+    """optimize_latent(anchor=q) charges frame 0 its step from q: far from the anchor costs more."""
+    import torch
+
+    from nlo_lab.losses import smoothness_loss, targets_from_demonstration
+    from nlo_lab.optimize import _smoothness
+
+    robot = load_robot("nao")
+    t = targets_from_demonstration(make_demo(T=4), dtype=robot.lower_limits.dtype)
+    weights = LossWeights()
+    q = robot.neutral_q.expand(4, -1).clone()
+    anchor = q[0] + 0.1
+    smooth = _smoothness(robot, t, weights, anchor)
+    expected = weights.smooth * smoothness_loss(torch.cat([anchor[None], q]), t.fps, robot.velocity_limits)[1:]
+    torch.testing.assert_close(smooth(q), expected)
+    assert float(smooth(q)[0]) > 0 and float(_smoothness(robot, t, weights)(q)[0]) == 0
+    assert _smoothness(robot, t.index(slice(0, 1)), weights) is None
+    assert _smoothness(robot, t.index(slice(0, 1)), weights, anchor) is not None
