@@ -1,6 +1,6 @@
 """Headroom benchmark: how far below the encoder can optimisation take the Fréchet distance?
 
-DESIGN asks latent optimisation to end at least 10 % below the encoder's own
+docs/DESIGN.md ("Targets") asks latent optimisation to end at least 10 % below the encoder's own
 output in mean Fréchet distance. Whether that is possible depends on the robot:
 the objective (the paper's five terms) is not the metric (wrist and elbow
 *positions*), and a good encoder may already sit near the objective's optimum.

@@ -1,6 +1,6 @@
 """How live the notebook panel feels: time to re-optimise the current frame after a slider move.
 
-DESIGN target: one frame re-optimised after a slider move (<= 30 iterations) in
+Target (docs/DESIGN.md, "Targets"): one frame re-optimised after a slider move (<= 30 iterations) in
 <= 50 ms median. The panel warm-starts from the frame's previous latent and
 stops after 5 iterations without improvement, as a learner would use it.
 

@@ -240,7 +240,7 @@ def report(robot, args, notes, ev, t1_png, abl, t3) -> str:
         gain = 1 - ev.mean(m) / ev.mean("encoder_only") if "encoder_only" in ev.methods else float("nan")
         coll_frames = int(ev.total(m, "collision_frames"))
         out += [
-            "#### DESIGN targets against the measurement",
+            "#### Targets (docs/DESIGN.md) against the measurement",
             "",
             "| target | measured | met |",
             "|---|---|---|",

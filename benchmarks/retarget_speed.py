@@ -7,7 +7,7 @@
    at batch 170 and 1 split into decoder / FK (with the objective's points) /
    capsules / remaining loss terms / backward / Adam step.
 2. Re-optimise one frame with 30 iterations, warm-started (target <= 50 ms median).
-3. Mean Fréchet distance (wrist + elbow, DESIGN "Metric") on the test split:
+3. Mean Fréchet distance (wrist + elbow, docs/DESIGN.md, "Metric") on the test split:
    encoder output alone vs encoder-initialised latent optimisation (target >= 10 %
    lower), plus zeros/random initialisation and the joint-space baseline.
 """

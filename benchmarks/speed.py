@@ -199,7 +199,7 @@ def main(argv=None) -> int:
     t170 = next((full for n, full, _, _ in rows if n == 170), None)
     out += [
         "",
-        "### DESIGN targets against the measurement",
+        "### Targets (docs/DESIGN.md) against the measurement",
         "",
         "| target | measured | met |",
         "|---|---|---|",

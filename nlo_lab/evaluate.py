@@ -1,7 +1,7 @@
 """Evaluation of the method against the baselines on a corpus split (``nlo-lab evaluate``).
 
 For every sequence and every method of :mod:`nlo_lab.baselines`: the tracking
-error of DESIGN "Metric" (mean of wrist and elbow discrete Fréchet distances
+error of docs/DESIGN.md, "Metric" (mean of wrist and elbow discrete Fréchet distances
 after mapping the human into the robot frame), velocity and acceleration errors,
 self-collision frames, joint-limit violations, the objective value and the wall
 time. ``--json`` prints the contract object as the last line of stdout::

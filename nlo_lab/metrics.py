@@ -1,4 +1,4 @@
-"""Tracking and feasibility metrics (DESIGN "Metric").
+"""Tracking and feasibility metrics (docs/DESIGN.md, "Metric").
 
 * :func:`frechet_distance`: exact discrete Fréchet distance, computed along
   anti-diagonals of the coupling table with numpy (every cell of an

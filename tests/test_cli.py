@@ -1,4 +1,4 @@
-"""The command line contract (DESIGN.md, "Command line"): JSON keys, exit codes, files."""
+"""The command line contract (docs/DESIGN.md, "Command line"): JSON keys, exit codes, files."""
 
 from __future__ import annotations
 

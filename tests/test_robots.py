@@ -23,7 +23,7 @@ def robot64(name: str) -> Robot:
     return load_robot(name).to(dtype=torch.float64)
 
 
-# --------------------------------------------------------------- joint tables (ROBOT_FACTS.md)
+# --------------------------------------------------------------- joint tables (docs/ROBOT_FACTS.md)
 YUMI_ARM = {  # joint: (lower, upper) [rad], same for both arms
     1: (-2.94088, 2.94088),
     2: (-2.50455, 0.75922),

@@ -25,7 +25,8 @@ FACTS = Path(__file__).resolve().parents[2] / "shared" / "reference" / "ROBOT_FA
 SIDES = {"left": "l", "right": "r"}
 FINGERS = ("thumb", "index", "middle", "ring", "pinky")
 
-# ROBOT_FACTS.md, YuMi left arm: joint -> (parent, child, xyz, rpy, lower, upper, max velocity)
+# The founding reference ../shared/reference/ROBOT_FACTS.md (docs/ROBOT_FACTS.md is the repository's
+# own page, checked by tests/test_robot_facts.py), YuMi left arm: joint -> (parent, child, xyz, rpy, lower, upper, max velocity)
 ARM_FACTS = {
     1: ("yumi_body", "yumi_link_1_l", (0.05355, 0.07250, 0.41492), (0.9781, -0.5716, 2.3180), -2.94088, 2.94088, 3.1416),
     2: ("yumi_link_1_l", "yumi_link_2_l", (0.03, 0, 0.1), (1.5708, 0, 0), -2.50455, 0.75922, 3.1416),
@@ -193,7 +194,7 @@ def test_arm_joint_matches_facts(urdf, side, num):
 
 
 def test_arm_table_of_the_reference_file_if_present(urdf):
-    """Re-read the left-arm table of ROBOT_FACTS.md (beside the checkout) and compare."""
+    """Re-read the left-arm table of ../shared/reference/ROBOT_FACTS.md (beside a checkout) and compare."""
     if not FACTS.exists():
         pytest.skip(f"reference facts not available at {FACTS}")
     rows = [line for line in FACTS.read_text().splitlines() if line.startswith("| yumi_joint_")]

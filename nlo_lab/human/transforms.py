@@ -245,7 +245,7 @@ def _to_numpy(x: Any) -> np.ndarray:
 
 
 def map_to_robot(demo: Demonstration, robot: Any) -> np.ndarray:
-    """The human arm trajectories in the robot's frame (DESIGN, "Metric").
+    """The human arm trajectories in the robot's frame (docs/DESIGN.md, "Metric").
 
     Per arm: positions relative to the shoulder, scaled by
     ``robot arm length / human arm length`` (upper + forearm; human: the median

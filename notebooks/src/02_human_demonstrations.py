@@ -99,7 +99,7 @@ plot_graph(skeleton_graph(), NODE_NAMES, title="human skeleton graph");
 print("node features of the real recording:", node_features(real).shape)
 
 # %% [markdown]
-# For the metric (DESIGN "Metric"), the human arm is mapped into a robot's frame: positions relative to the
+# For the metric (`docs/DESIGN.md`, "Metric"), the human arm is mapped into a robot's frame: positions relative to the
 # shoulder, scaled by the ratio of arm lengths, placed at the robot's shoulder.
 
 # %%

@@ -46,7 +46,7 @@ for init, r in runs.items():
     print(f"{init:12s}" + "".join(f"{h[min(b, len(h) - 1)]:10.2f}" for b in BUDGETS))
 
 # %% [markdown]
-# The tracking error (DESIGN "Metric": discrete Fréchet distance of wrist and elbow paths, mapped into the
+# The tracking error (`docs/DESIGN.md`, "Metric": discrete Fréchet distance of wrist and elbow paths, mapped into the
 # robot's frame) tells the same story in metres:
 
 # %%

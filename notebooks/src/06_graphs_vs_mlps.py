@@ -62,7 +62,7 @@ for name in VARIANTS:
 # ## Init and Optim on unseen motions
 #
 # 'Init' decodes the encoder's latent (`encoder_only`); 'Optim' continues with latent optimisation through
-# the frozen decoder (`latent_encoder`). The metric is DESIGN's Fréchet distance (wrist and elbow, mean).
+# the frozen decoder (`latent_encoder`). The metric is the Fréchet distance of `docs/DESIGN.md`, "Metric" (wrist and elbow, mean).
 
 # %%
 from nlo_lab.baselines import BaselineSettings, run_method

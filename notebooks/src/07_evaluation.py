@@ -55,7 +55,7 @@ print(r.method, r.angles.shape, f"{r.seconds:.2f} s")
 # %% [markdown]
 # ## Table I on our data
 #
-# `evaluate` runs every method on every sequence and scores it with DESIGN's metric: the discrete
+# `evaluate` runs every method on every sequence and scores it with the metric of `docs/DESIGN.md`: the discrete
 # Fréchet distance of wrist and elbow paths after mapping the human into the robot's frame (mean of
 # the two), plus self-collision frames and joint-limit violations.
 
