@@ -2,21 +2,13 @@
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 import pytest
 import torch
 
 from nlo_lab.collision import capsule_distance, segment_distance
-from nlo_lab.robots import Robot, load_robot
 
 N = 2001  # samples per segment for the brute-force reference
-
-
-@functools.lru_cache(maxsize=None)
-def robot64(name: str) -> Robot:
-    return load_robot(name).to(dtype=torch.float64)
 
 
 def brute_force(a0, a1, b0, b1, n=N):
@@ -89,7 +81,7 @@ def test_capsule_distance_subtracts_radii():
 
 
 @pytest.mark.parametrize("name", ["yumi", "nao", "pepper"])
-def test_robot_capsule_distances_match_brute_force(name):
+def test_robot_capsule_distances_match_brute_force(name, robot64):
     robot = robot64(name)
     g = torch.Generator().manual_seed(3)
     q = robot.lower_limits + torch.rand(3, robot.n_joints, generator=g, dtype=torch.float64) * (robot.upper_limits - robot.lower_limits)
@@ -128,7 +120,7 @@ def test_numpy_and_torch_closed_forms_agree():
 
 
 @pytest.mark.parametrize("name", ["yumi", "nao", "pepper"])
-def test_robot_capsule_distances_agree_with_trimesh_meshes(name):
+def test_robot_capsule_distances_agree_with_trimesh_meshes(name, robot64):
     """An independent check with trimesh: each capsule a triangle mesh; gaps and overlaps measured between meshes.
 
     Points sampled evenly on one mesh, their distance to the other mesh's surface (signed

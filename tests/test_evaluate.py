@@ -14,7 +14,6 @@ from nlo_lab.baselines import METHODS, BaselineSettings, SupervisedSettings, tra
 from nlo_lab.cli import main as cli_main
 from nlo_lab.evaluate import JSON_KEYS, SequenceScore, Evaluation, evaluate, format_table, to_json
 from nlo_lab.losses import targets_from_demonstration
-from nlo_lab.robots import load_robot
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
 FAST = BaselineSettings(iterations=2, ik_iterations=3)
@@ -27,11 +26,6 @@ def _demos(robot, n=2, frames=5):
         d.name = f"clip_{i}"
         out.append(d)
     return out
-
-
-@pytest.fixture(scope="module")
-def nao():
-    return load_robot("nao")
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import logging
 import math
 import xml.etree.ElementTree as ET
@@ -17,11 +16,6 @@ from nlo_lab.robots import Robot, load_robot
 yourdfpy = pytest.importorskip("yourdfpy")
 
 ROBOTS = ["yumi", "nao", "pepper"]
-
-
-@functools.lru_cache(maxsize=None)
-def robot64(name: str) -> Robot:
-    return load_robot(name).to(dtype=torch.float64)
 
 
 def random_q(robot: Robot, batch: int, seed: int = 0) -> torch.Tensor:
@@ -39,7 +33,7 @@ def test_rpy_round_trip():
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_batched_equals_looped(name):
+def test_batched_equals_looped(name, robot64):
     robot = robot64(name)
     q = random_q(robot, 7, seed=1)
     T = robot.forward_kinematics_tensor(q)  # (7, L, 4, 4)
@@ -54,7 +48,7 @@ def test_batched_equals_looped(name):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_float32_follows_float64(name):
+def test_float32_follows_float64(name, robot64):
     robot = load_robot(name)
     q = random_q(robot64(name), 5, seed=2)
     T32 = robot.forward_kinematics_tensor(q.float())
@@ -64,7 +58,7 @@ def test_float32_follows_float64(name):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_gradient_matches_finite_differences(name):
+def test_gradient_matches_finite_differences(name, robot64):
     robot = robot64(name)
     q = random_q(robot, 2, seed=3).requires_grad_(True)
     idx = [robot.link_index(robot.arm(s).wrist) for s in ("left", "right")]
@@ -90,7 +84,7 @@ def yourdfpy_poses(robot: Robot, q: np.ndarray) -> list[dict[str, np.ndarray]]:
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_agrees_with_pytorch_kinematics(name):
+def test_agrees_with_pytorch_kinematics(name, robot64):
     """The reference: pytorch-kinematics reads the URDF itself; every link, every robot, poses and gradients."""
     pytest.importorskip("pytorch_kinematics")
     from nlo_lab.pk_chain import PKChain
@@ -115,7 +109,7 @@ def test_agrees_with_pytorch_kinematics(name):
     torch.testing.assert_close(grads[0], grads[1], atol=1e-5, rtol=0)
 
 
-def test_pk_chain_angles_expand_the_mimic_joints():
+def test_pk_chain_angles_expand_the_mimic_joints(robot64):
     pytest.importorskip("pytorch_kinematics")
     from nlo_lab.pk_chain import PKChain
 
@@ -132,7 +126,7 @@ def test_pk_chain_angles_expand_the_mimic_joints():
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_agrees_with_yourdfpy(name):
+def test_agrees_with_yourdfpy(name, robot64):
     robot = robot64(name)
     q = random_q(robot, 6, seed=4)
     ours = robot.forward_kinematics(q)
@@ -158,7 +152,7 @@ def mimic_table(robot: Robot) -> list[tuple[str, str, str, str, np.ndarray, str,
     return out
 
 
-def test_coupled_joints_follow_their_ratios():
+def test_coupled_joints_follow_their_ratios(robot64):
     robot = robot64("yumi")
     table = mimic_table(robot)
     assert len(table) == 12, "six coupled joints per Inspire hand"
@@ -178,14 +172,14 @@ def test_coupled_joints_follow_their_ratios():
             np.testing.assert_allclose(T_rel[:3, 3], 0.0, atol=1e-12)
 
 
-def test_wrong_number_of_angles():
+def test_wrong_number_of_angles(robot64):
     robot = robot64("nao")
     with pytest.raises(ValueError, match="expected 10 joint angles"):
         robot.forward_kinematics(torch.zeros(2, 9, dtype=torch.float64))
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_pointer_jumping_equals_level_by_level(name, monkeypatch):
+def test_pointer_jumping_equals_level_by_level(name, monkeypatch, robot64):
     import nlo_lab.kinematics as kin
 
     robot = robot64(name)
@@ -198,7 +192,7 @@ def test_pointer_jumping_equals_level_by_level(name, monkeypatch):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_link_subsets_and_mapped_points_equal_full_fk(name):
+def test_link_subsets_and_mapped_points_equal_full_fk(name, robot64):
     robot = robot64(name)
     q = random_q(robot, 4, seed=6)
     T = robot.forward_kinematics_tensor(q)  # (4, L, 4, 4)
@@ -213,7 +207,7 @@ def test_link_subsets_and_mapped_points_equal_full_fk(name):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_mapped_points_closed_form_gradient_equals_autograd(name):
+def test_mapped_points_closed_form_gradient_equals_autograd(name, robot64):
     """map_points' written-out gradient (axis x lever arm, mimic joints included) = autograd through the FK."""
     from nlo_lab.losses import _constants
 

@@ -24,13 +24,7 @@ from nlo_lab.robots import load_robot
 from nlo_lab.train import load_pretrained
 from nlo_lab.trajectory import RobotTrajectory
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "pose"
 RECORDINGS = ["holistic_both_hands_47f.pose", "holistic_world_97f.pose", "mediapipe_right_hand_170f.pose"]
-
-
-@pytest.fixture(scope="module")
-def robots():
-    return {name: load_robot(name) for name in ("yumi", "nao", "pepper")}
 
 
 def _load_quiet(path, **kw):
@@ -273,11 +267,8 @@ def _rotated_pose_bytes(path: Path, degrees: float) -> bytes:
 
 
 @pytest.fixture(scope="module", params=RECORDINGS)
-def recording(request):
-    path = SHARED / request.param
-    if not path.is_file():
-        pytest.skip(f"shared recordings not available at {SHARED}")
-    return path
+def recording(request, shared_pose):
+    return shared_pose(request.param)
 
 
 @pytest.mark.parametrize("degrees", [90, 180, 37.5])
@@ -296,11 +287,9 @@ def test_rolled_camera_gives_the_same_demonstration(recording, degrees, tmp_path
     np.testing.assert_allclose(got.wrist_rotations, base.wrist_rotations, atol=1e-2, equal_nan=True)
 
 
-def test_sideways_recording_without_hips_takes_up_from_the_face(tmp_path):
+def test_sideways_recording_without_hips_takes_up_from_the_face(tmp_path, shared_pose):
     """The issue's case: a phone held sideways, hips not visible (confidence <= 0.01 here)."""
-    path = SHARED / "holistic_both_hands_47f.pose"
-    if not path.is_file():
-        pytest.skip(f"shared recordings not available at {SHARED}")
+    path = shared_pose("holistic_both_hands_47f.pose")
     rolled = tmp_path / "sideways.pose"
     rolled.write_bytes(_rotated_pose_bytes(path, 90))
     d = _load_quiet(rolled)
@@ -310,10 +299,8 @@ def test_sideways_recording_without_hips_takes_up_from_the_face(tmp_path):
         assert np.nanmean(d.position(side, "wrist")[:, 0]) > 0.05  # forward, not behind the back
 
 
-def test_no_face_no_hips_warns_and_falls_back_to_the_image_up(tmp_path):
-    path = SHARED / "holistic_world_97f.pose"
-    if not path.is_file():
-        pytest.skip(f"shared recordings not available at {SHARED}")
+def test_no_face_no_hips_warns_and_falls_back_to_the_image_up(tmp_path, shared_pose):
+    path = shared_pose("holistic_world_97f.pose")
     from pose_format import Pose
 
     pose = Pose.read(path.read_bytes())
@@ -335,10 +322,8 @@ def test_no_face_no_hips_warns_and_falls_back_to_the_image_up(tmp_path):
     assert d.meta["up_from"] == "image"
 
 
-def test_image_only_recording_reports_image_depth(capsys):
-    path = SHARED / "mediapipe_right_hand_170f.pose"
-    if not path.is_file():
-        pytest.skip(f"shared recordings not available at {SHARED}")
+def test_image_only_recording_reports_image_depth(capsys, shared_pose):
+    path = shared_pose("mediapipe_right_hand_170f.pose")
     with pytest.warns(UserWarning, match="no world landmarks"):
         d = load_demonstration(path)
     assert d.meta["depth"] == "image"

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -16,7 +14,6 @@ from nlo_lab.errors import DemonstrationError  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
 from nlo_lab.human.io_pose import MAX_GAP_SECONDS, load_pose  # noqa: E402
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "pose"
 BODY8 = ["LEFT_SHOULDER", "RIGHT_SHOULDER", "LEFT_ELBOW", "RIGHT_ELBOW", "LEFT_WRIST", "RIGHT_WRIST", "LEFT_HIP", "RIGHT_HIP"]
 HAND21 = ["WRIST"] + [f"{f}_{p}" for f in ("THUMB",) for p in ("CMC", "MCP", "IP", "TIP")] + [
     f"{f}_FINGER_{p}" if f != "PINKY" else f"PINKY_{p}" for f in ("INDEX", "MIDDLE", "RING", "PINKY") for p in ("MCP", "PIP", "DIP", "TIP")
@@ -236,11 +233,8 @@ MAX_UPPER_ARM_CV = 0.15
 
 
 @pytest.fixture(params=REAL)
-def real(request):
-    path = SHARED / request.param
-    if not path.exists():
-        pytest.skip(f"shared recordings not available at {SHARED}")
-    return load_demonstration(path)
+def real(request, shared_pose):
+    return load_demonstration(shared_pose(request.param))
 
 
 def test_real_origin_between_shoulders_left_at_plus_y(real):
@@ -280,11 +274,8 @@ def test_real_world_files_have_the_hands_in_front(real):
         assert np.nanmean(real.position(side, "wrist")[:, 0]) > 0.1
 
 
-def test_real_missing_left_hand_is_masked_not_zero():
-    path = SHARED / "mediapipe_right_hand_170f.pose"
-    if not path.exists():
-        pytest.skip(f"shared recordings not available at {SHARED}")
-    d = load_demonstration(path)
+def test_real_missing_left_hand_is_masked_not_zero(shared_pose):
+    d = load_demonstration(shared_pose("mediapipe_right_hand_170f.pose"))
     assert d.meta["arm_source"] == "POSE_LANDMARKS"  # the 8-point layout, no world landmarks
     assert not d.finger_mask[:, 0].any() and not d.wrist_mask[:, 0].any()
     assert np.isnan(d.finger_positions[:, 0]).all() and np.isnan(d.wrist_rotations[:, 0]).all()

@@ -9,7 +9,6 @@ ones the package uses; the URDFs' velocity attributes are unused) and
 from __future__ import annotations
 
 import json
-import math
 import re
 from pathlib import Path
 
@@ -17,6 +16,7 @@ import numpy as np
 import pytest
 
 yourdfpy = pytest.importorskip("yourdfpy")
+Rotation = pytest.importorskip("scipy.spatial.transform").Rotation
 
 from nlo_lab.robots import load_robot  # noqa: E402
 
@@ -27,11 +27,8 @@ NAMES = ("yumi", "nao", "pepper")
 
 
 def rpy_matrix(rpy) -> np.ndarray:
-    r, p, y = rpy
-    rx = np.array([[1, 0, 0], [0, math.cos(r), -math.sin(r)], [0, math.sin(r), math.cos(r)]])
-    ry = np.array([[math.cos(p), 0, math.sin(p)], [0, 1, 0], [-math.sin(p), 0, math.cos(p)]])
-    rz = np.array([[math.cos(y), -math.sin(y), 0], [math.sin(y), math.cos(y), 0], [0, 0, 1]])
-    return rz @ ry @ rx
+    """URDF roll-pitch-yaw: about the fixed x, then y, then z axes (R = Rz Ry Rx)."""
+    return Rotation.from_euler("xyz", rpy).as_matrix()
 
 
 def sections() -> dict[str, str]:

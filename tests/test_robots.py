@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import functools
 import json
 import math
+from typing import Callable
 import shutil
 
 import pytest
@@ -16,11 +16,6 @@ from nlo_lab.paths import ROBOTS_DIR
 from nlo_lab.robots import Robot, known_robots, load_robot
 
 ROBOTS = ["yumi", "nao", "pepper"]
-
-
-@functools.lru_cache(maxsize=None)
-def robot64(name: str) -> Robot:
-    return load_robot(name).to(dtype=torch.float64)
 
 
 # --------------------------------------------------------------- joint tables (docs/ROBOT_FACTS.md)
@@ -56,7 +51,7 @@ PEPPER = {
 }  # fmt: skip
 
 
-def expected_limits(name: str) -> dict[str, tuple[float, float]]:
+def expected_limits(name: str, robot64: Callable[[str], Robot]) -> dict[str, tuple[float, float]]:
     if name == "nao":
         return NAO
     if name == "pepper":
@@ -72,9 +67,9 @@ def expected_limits(name: str) -> dict[str, tuple[float, float]]:
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_joint_counts_and_limits_match_robot_facts(name):
+def test_joint_counts_and_limits_match_robot_facts(name, robot64):
     robot = robot64(name)
-    expected = expected_limits(name)
+    expected = expected_limits(name, robot64)
     assert robot.n_joints == {"yumi": 26, "nao": 10, "pepper": 10}[name]
     assert sorted(robot.joint_names) == sorted(expected)
     for i, joint in enumerate(robot.joint_names):
@@ -90,7 +85,7 @@ def test_known_robots_are_bundled():
 
 # --------------------------------------------------------------- frames
 @pytest.mark.parametrize("name", ROBOTS)
-def test_origin_is_midpoint_of_shoulders_left_arm_at_plus_y(name):
+def test_origin_is_midpoint_of_shoulders_left_arm_at_plus_y(name, robot64):
     robot = robot64(name)
     left, right = robot.shoulder_position("left"), robot.shoulder_position("right")
     # 1e-4 m: the published rpy (1.5708 for pi/2, 4-digit YuMi base angles) leave ~4e-5 m residue
@@ -115,7 +110,7 @@ PUBLISHED = {
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_zero_pose_reproduces_published_lengths(name):
+def test_zero_pose_reproduces_published_lengths(name, robot64):
     robot = robot64(name)
     q0 = torch.zeros(1, robot.n_joints, dtype=torch.float64)
     poses = robot.forward_kinematics(q0)
@@ -130,7 +125,7 @@ def test_zero_pose_reproduces_published_lengths(name):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_zero_pose_lengths_are_role_link_distances(name):
+def test_zero_pose_lengths_are_role_link_distances(name, robot64):
     robot = robot64(name)
     poses = robot.forward_kinematics(robot.reference_q[None])
     for side in ("left", "right"):
@@ -143,7 +138,7 @@ def test_zero_pose_lengths_are_role_link_distances(name):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_wrist_alignment_is_mirror_symmetric_and_points_along_the_hand(name):
+def test_wrist_alignment_is_mirror_symmetric_and_points_along_the_hand(name, robot64):
     """Human wrist frame (x along the hand, y pinky->index, z = x cross y) on both sides.
 
     Mirroring the robot (y -> -y) maps the right hand frame's x and y onto the
@@ -179,7 +174,7 @@ def test_wrist_alignment_is_mirror_symmetric_and_points_along_the_hand(name):
 
 
 @pytest.mark.parametrize("name", ["nao", "pepper"])
-def test_nao_pepper_hands_are_palm_down_thumb_in_at_zero(name):
+def test_nao_pepper_hands_are_palm_down_thumb_in_at_zero(name, robot64):
     """Our NAO/Pepper hands: palm down at the zero pose, thumb towards the body's midline."""
     robot = robot64(name)
     poses = robot.forward_kinematics(torch.zeros(1, robot.n_joints, dtype=torch.float64))
@@ -194,7 +189,7 @@ def test_nao_pepper_hands_are_palm_down_thumb_in_at_zero(name):
 
 # --------------------------------------------------------------- graph
 @pytest.mark.parametrize("name", ROBOTS)
-def test_structure_graph(name):
+def test_structure_graph(name, robot64):
     robot = robot64(name)
     g = robot.graph
     assert g.node_names == tuple(robot.joint_names)
@@ -212,7 +207,7 @@ def test_structure_graph(name):
     assert int((g.node_type == NODE_ARM).sum()) == (14 if name == "yumi" else 10)
 
 
-def test_graph_edge_features_are_child_joint_origins():
+def test_graph_edge_features_are_child_joint_origins(robot64):
     robot = robot64("nao")
     g = robot.graph
     i, j = robot.joint_names.index("LShoulderRoll"), robot.joint_names.index("LElbowYaw")
@@ -227,7 +222,7 @@ def test_graph_edge_features_are_child_joint_origins():
 
 # --------------------------------------------------------------- collision spec
 @pytest.mark.parametrize("name", ROBOTS)
-def test_collision_pairs_are_not_adjacent_and_clear_at_neutral_pose(name):
+def test_collision_pairs_are_not_adjacent_and_clear_at_neutral_pose(name, robot64):
     robot = robot64(name)
     parent = {j.child: j.parent for j in robot.model.joints}
     for a, b in robot.spec.collision_pairs:
@@ -379,7 +374,7 @@ def test_collision_pair_of_adjacent_links(tmp_path):
         load_robot(spec)
 
 
-def test_errors_are_nlo_lab_errors():
+def test_errors_are_nlo_lab_errors(robot64):
     assert issubclass(RobotDescriptionError, NloLabError) and issubclass(UnknownRobotError, NloLabError)
     assert math.isfinite(robot64("nao").zero_pose_lengths("left")[0])
 

@@ -22,11 +22,6 @@ from robot_targets import demonstration_from_robot, random_feasible_pose
 
 
 @pytest.fixture(scope="module")
-def nao():
-    return load_robot("nao")
-
-
-@pytest.fixture(scope="module")
 def pose_data(nao):
     """Small train / validation sets the robot can meet exactly."""
     train = targets_from_demonstration(demonstration_from_robot(nao, random_feasible_pose(nao, 96, seed=21)))

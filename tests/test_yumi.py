@@ -20,7 +20,6 @@ yourdfpy = pytest.importorskip("yourdfpy")
 ROBOTS = Path(__file__).resolve().parents[1] / "assets" / "robots"
 URDF = ROBOTS / "yumi.urdf"
 SPEC = ROBOTS / "yumi.json"
-FACTS = Path(__file__).resolve().parents[2] / "shared" / "reference" / "ROBOT_FACTS.md"
 
 SIDES = {"left": "l", "right": "r"}
 FINGERS = ("thumb", "index", "middle", "ring", "pinky")
@@ -193,11 +192,10 @@ def test_arm_joint_matches_facts(urdf, side, num):
     assert joint.limit.effort > 0
 
 
-def test_arm_table_of_the_reference_file_if_present(urdf):
+def test_arm_table_of_the_reference_file_if_present(urdf, shared_file):
     """Re-read the left-arm table of ../shared/reference/ROBOT_FACTS.md (beside a checkout) and compare."""
-    if not FACTS.exists():
-        pytest.skip(f"reference facts not available at {FACTS}")
-    rows = [line for line in FACTS.read_text().splitlines() if line.startswith("| yumi_joint_")]
+    facts = shared_file("reference", "ROBOT_FACTS.md")
+    rows = [line for line in facts.read_text().splitlines() if line.startswith("| yumi_joint_")]
     assert len(rows) == 7
     for row in rows:
         cells = [c.strip() for c in row.strip("|").split("|")]
