@@ -11,7 +11,7 @@ time. ``--json`` prints the contract object as the last line of stdout::
                         "velocity_violations": n, "max_joint_speed_ratio": r, "slowdown": x,
                         "depth": "world"}}}
 
-The joint-speed keys (issue 14) take each method's output as it is, frames 1/fps apart
+The joint-speed keys take each method's output as it is, frames 1/fps apart
 (no method retimes here; ``nlo-lab retarget`` does): ``velocity_violations`` summed over
 the sequences, ``max_joint_speed_ratio`` and ``slowdown`` (what retiming would need) the
 largest over the sequences, ``depth`` the demonstrations' (``"world"`` for the corpus).
