@@ -32,6 +32,12 @@ INITS = ("encoder", "random", "train-stats", "zeros")
 DEMO_CLIP = "demo:introduction_06"  # "HELLO, NAME, STUDENT" (133 frames at 20 fps)
 OUTPUT_FILES = ("trajectory.npz", "trajectory.csv", "viewer.html")  # the set `retarget --out` writes
 MAX_SEED = 2**32 - 1  # numpy's and torch's generators both take it
+# Stated ranges of the numeric flags: a value outside is refused (exit 2, one line) before any work.
+ITERS_RANGE = (0, 10_000)  # Adam steps; 0 = the start point. The paper's longest budget is 600
+EPOCHS_RANGE = (1, 10_000)  # passes over the training frames (30 by default)
+LIMIT_RANGE = (1, 1_000_000)  # sequences of a split to evaluate
+THREADS_RANGE = (1, 256)  # Holistic instances of the pose estimation, at most
+WEIGHT_RANGE = (0.0, 1e6)  # each loss weight: 1000x the largest default; beyond it float32 losses overflow to NaN
 
 
 class UsageError(NloLabError):
@@ -44,27 +50,27 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: {message}")
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-    return value
-
-
 def _ranged_int(lo: int, hi: int):
     def parse(text: str) -> int:
+        if len(text) > 40:  # int() of a huge digit string is slow and its echo floods the line
+            raise argparse.ArgumentTypeError(f"must be a whole number in [{lo}, {hi}], got {len(text)} characters")
         try:
             value = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"expected a whole number in [{lo}, {hi}], got {text!r}") from None
         if not lo <= value <= hi:
             raise argparse.ArgumentTypeError(f"must be in [{lo}, {hi}], got {text}")
         return value
 
     return parse
+
+
+def _check_weights(weights) -> None:
+    """Each loss weight within :data:`WEIGHT_RANGE` (refused before any work)."""
+    lo, hi = WEIGHT_RANGE
+    for name, value in weights.as_dict().items():
+        if not lo <= value <= hi:  # NaN fails this too
+            raise UsageError(f"nlo-lab retarget: --weights: weight {name}={value!r} must be in [{lo:g}, {hi:g}]")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -77,8 +83,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a .pose/.h5/.npz file, a video (.mp4/.mov/.webm/.avi), or demo:NAME for a clip of the embedded corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
     p.add_argument("--init", default="encoder", choices=INITS, help="initialisation of the latent code (default: encoder)")
-    p.add_argument("--iters", type=_positive_int, default=100, help="latent optimisation budget (default: 100)")
-    p.add_argument("--weights", default=None, help="loss weights, e.g. ee=1000,ori=100,elbow=100,finger=100,collision=1000")
+    p.add_argument("--iters", type=_ranged_int(*ITERS_RANGE), default=100,
+                   help=f"latent optimisation budget, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
+    p.add_argument("--weights", default=None,
+                   help=f"loss weights, each {WEIGHT_RANGE[0]:g}..{WEIGHT_RANGE[1]:g}, "
+                        "e.g. ee=1000,ori=100,elbow=100,finger=100,collision=1000")
     p.add_argument("--out", default=None, help="folder for trajectory.npz, trajectory.csv and viewer.html")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--seed", type=_ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
@@ -90,7 +99,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("train", help="train the encoder and decoder of a robot on the synthetic corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
-    p.add_argument("--epochs", type=_positive_int, default=None, help="passes over the training frames")
+    p.add_argument("--epochs", type=_ranged_int(*EPOCHS_RANGE), default=None,
+                   help=f"passes over the training frames, {EPOCHS_RANGE[0]}..{EPOCHS_RANGE[1]}")
     p.add_argument("--out", default=None, help="checkpoint path (default: assets/checkpoints/NAME.pt in a checkout, ./NAME.pt in an installed package)")
     p.add_argument("--seed", type=_ranged_int(0, MAX_SEED), default=0)
     p.add_argument("--quiet", action="store_true", help="no progress bar, no warnings")
@@ -99,7 +109,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--robot", required=True)
     p.add_argument("--split", default="test", choices=("train", "test"))
     p.add_argument("--json", action="store_true", help="print the results as one JSON object on the last line")
-    p.add_argument("--limit", type=_positive_int, default=None, help="evaluate only the first N sequences")
+    p.add_argument("--limit", type=_ranged_int(*LIMIT_RANGE), default=None,
+                   help=f"evaluate only the first N sequences, {LIMIT_RANGE[0]}..{LIMIT_RANGE[1]}")
 
     sub.add_parser("demo", help="retarget a clip of the embedded test split to YuMi and print the summary")
 
@@ -184,6 +195,7 @@ def cmd_retarget(args) -> int:
     if args.out:
         check_output_place(args.out, OUTPUT_FILES)  # refused before any work starts
     weights = LossWeights.from_string(args.weights) if args.weights else LossWeights()
+    _check_weights(weights)
     settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed)
     robot = load_robot(args.robot)
     save_pose = _check_save_pose(args)

@@ -285,6 +285,14 @@ FLAG_CASES = {
     "negative seed": (["--seed", "-1"], "--seed"),
     "iters not a number": (["--iters", "1e9"], "--iters"),
     "negative iters": (["--iters", "-3"], "--iters"),
+    "iters 10**12": (["--iters", str(10**12)], "--iters"),
+    "iters just past the range": (["--iters", str(cli.ITERS_RANGE[1] + 1)], "--iters"),
+    "iters with 100000 digits": (["--iters", "9" * 100_000], "--iters"),
+    "threads 0": (["--threads", "0"], "--threads"),
+    "threads 10**6": (["--threads", str(10**6)], "--threads"),
+    "weights 1e39": (["--weights", "ee=1e39"], "weight ee"),
+    "weights infinite": (["--weights", "collision=inf"], "collision"),
+    "weights past the range": (["--weights", f"smooth={cli.WEIGHT_RANGE[1] * 2:g}"], "smooth"),
     "unknown init": (["--init", "bogus"], "--init"),
     "weights garbage": (["--weights", "ee=,,=3"], "weight ee"),
     "weights unknown term": (["--weights", "nope=1"], "nope"),
@@ -306,9 +314,38 @@ def test_port_out_of_range(work, capsys):
     fails_cleanly(capsys, work, ["lab", "--port", "99999"], "--port")
 
 
-def test_huge_weight_gives_a_nan_loss_error_not_an_output(work, demo_npz, capsys):
-    fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "nao", "--iters", "2", "--weights", "ee=1e39",
-                                 "--json", "--out", "out"], "NaN")
+@pytest.mark.parametrize("argv, needle", [
+    (["train", "--robot", "nao", "--epochs", "0"], "--epochs"),
+    (["train", "--robot", "nao", "--epochs", str(10**12)], "--epochs"),
+    (["evaluate", "--robot", "nao", "--limit", "0"], "--limit"),
+    (["evaluate", "--robot", "nao", "--limit", "-5"], "--limit"),
+    (["lab", "--port", "0"], "--port"),
+])
+def test_numeric_flags_of_the_other_commands_are_bounded(argv, needle, work, capsys):
+    err = fails_cleanly(capsys, work, argv, needle)
+    assert "in [" in err  # the range is stated
+
+
+def test_flag_ranges_are_stated_in_help():
+    helps = {a.dest: a.help for a in cli.build_parser()._subparsers._group_actions[0].choices["retarget"]._actions}
+    assert f"{cli.ITERS_RANGE[0]}..{cli.ITERS_RANGE[1]}" in helps["iters"]
+    assert f"{cli.WEIGHT_RANGE[1]:g}" in helps["weights"]
+
+
+def test_the_largest_weights_in_range_still_give_a_finite_result(work, demo_npz, capsys):
+    top = cli.WEIGHT_RANGE[1]
+    weights = ",".join(f"{k}={top:g}" for k in ("ee", "ori", "elbow", "finger", "collision", "latent", "smooth"))
+    code, out, err = run(["retarget", demo_npz, "--robot", "nao", "--iters", "2", "--weights", weights, "--json"], capsys)
+    assert code == 0, err
+    assert json.loads(out)["frames"] == 12
+
+
+def test_a_nan_loss_is_an_error_not_an_output():
+    from nlo_lab.losses import LossWeights
+    from nlo_lab.optimize import OptimizeSettings
+
+    with pytest.raises(Exception, match="NaN"):  # the command line's range check keeps such weights out
+        retarget(make_demo(T=6), load_robot("nao"), weights=LossWeights(ee=1e39), settings=OptimizeSettings(iterations=2))
 
 
 def test_retarget_rechecks_the_demonstration():
