@@ -241,6 +241,56 @@ def test_pose_point_names_and_file_names_are_escaped(work, capsys):
     assert "\x1b" not in err
 
 
+def _body_counts_offset(path: Path) -> int:
+    """Where a v0.2 file's body counts (fps float32, frames uint32, people uint16) start."""
+    from pose_format.pose_header import PoseHeader
+    from pose_format.utils.reader import BufferReader
+
+    reader = BufferReader(path.read_bytes())
+    PoseHeader.read(reader)
+    return reader.read_offset
+
+
+def _crafted_pose(work: Path, frames: int | None = None, people: int | None = None, extra: bytes = b"") -> Path:
+    """A valid small .pose whose body counts are then overwritten (the data stays a few kB)."""
+    import struct
+
+    path = work / "huge.pose"
+    write_pose(path, T=10)
+    data = bytearray(path.read_bytes())
+    at = _body_counts_offset(path)
+    _fps, old_frames, old_people = struct.unpack_from("<fIH", data, at)
+    struct.pack_into("<fIH", data, at, _fps, old_frames if frames is None else frames, old_people if people is None else people)
+    path.write_bytes(bytes(data) + extra)
+    return path
+
+
+@pytest.mark.parametrize("frames, people, needle", [
+    (4_000_000_000, None, "4000000000 frames"),  # more than MAX_FRAMES: refused on the count alone
+    (400_000, None, "400000 frames x 1 people"),  # within MAX_FRAMES, but the file holds 10 frames
+    (None, 65_535, "65535 people"),
+    (None, 2, "10 frames x 2 people"),
+])
+def test_pose_declaring_a_huge_body_is_refused_before_reading(frames, people, needle, work, capsys, monkeypatch):
+    import pose_format
+
+    path = _crafted_pose(work, frames, people)
+    assert path.stat().st_size < 20_000
+    monkeypatch.setattr(pose_format.Pose, "read", lambda *a, **k: pytest.fail("the body was read"))
+    fails_cleanly(capsys, work, ["retarget", path.name, "--robot", "yumi"], "huge.pose", needle)
+
+
+def test_pose_with_bytes_after_its_body_is_refused(work, capsys):
+    path = _crafted_pose(work, extra=b"\0" * 64)
+    fails_cleanly(capsys, work, ["retarget", path.name, "--robot", "yumi"], "huge.pose", "file holds")
+
+
+def test_pose_size_check_passes_a_valid_file(work):
+    from nlo_lab.human import load_demonstration
+
+    assert len(load_demonstration(_crafted_pose(work))) == 10  # the counts rewritten unchanged
+
+
 def test_truncated_pose(work, capsys):
     write_pose(work / "t.pose")
     data = (work / "t.pose").read_bytes()

@@ -78,7 +78,7 @@ import warnings
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human import conditioning as cond
 from nlo_lab.human.body import BodyParams
-from nlo_lab.human.demonstration import ARM_JOINTS, SIDES, Demonstration
+from nlo_lab.human.demonstration import ARM_JOINTS, MAX_FRAMES, SIDES, Demonstration
 from nlo_lab.human.transforms import body_frame_from_shoulders, check_arm_lengths, fill_gaps, wrist_frame_from_hand
 
 __all__ = [
@@ -91,6 +91,8 @@ __all__ = [
     "HAND_PER_FOREARM",
     "ROTATION_JUMP",
     "DEPTH_SIGN_MARGIN",
+    "MAX_PEOPLE",
+    "MAX_HEADER_BYTES",
     "load_pose",
 ]
 
@@ -112,6 +114,56 @@ _SEGMENT_PER_SHOULDER = {"upper": _BODY.upper_arm / _BODY.shoulder_width, "fore"
 ROTATION_JUMP = cond.ROTATION_JUMP  # [rad] a wrist rotation this far from both neighbours is an outlier frame
 DEPTH_SIGN_MARGIN = 0.05  # [m] MediaPipe's z must put a point this much further away to count as "away"
 _FACE_POINTS = (("LEFT_EAR", "RIGHT_EAR"), ("LEFT_EYE", "RIGHT_EYE"), ("NOSE",))
+# Sizes a .pose header may declare, checked before the body is read or allocated (a crafted
+# file of a few kB must not make us read or allocate gigabytes).
+MAX_PEOPLE = 64  # people per frame (only the first is read)
+MAX_HEADER_BYTES = 1 << 20  # a Holistic header with the face mesh is about 10 kB
+
+
+def _check_sizes(path: Path, size: int) -> None:
+    """Refuse a file whose header declares more than we read, or a body its length cannot hold.
+
+    Reads only the header (at most :data:`MAX_HEADER_BYTES`) and the body's counts: frames at
+    most :data:`~nlo_lab.human.demonstration.MAX_FRAMES`, people at most :data:`MAX_PEOPLE`,
+    and the declared frames x people x points x (dims + confidence) float32 values must be
+    exactly what the file holds after its header.
+    """
+    import struct
+
+    from pose_format.pose_header import PoseHeader
+    from pose_format.utils.reader import BufferReader
+
+    with open(path, "rb") as f:
+        prefix = f.read(min(size, MAX_HEADER_BYTES))
+    reader = BufferReader(prefix)
+    try:
+        header = PoseHeader.read(reader)
+        version = round(float(header.version), 3)
+        points = sum(len(c.points) for c in header.components)
+        dims = header.num_dims()
+        if version == 0.2:
+            _fps, frames, people = struct.unpack_from("<fIH", prefix, reader.read_offset)
+            body_start = reader.read_offset + struct.calcsize("<fIH")
+        elif version == 0.1:  # frames follow from the file's length (pose-format computes them so)
+            _fps, _frames, people = struct.unpack_from("<HHH", prefix, reader.read_offset)
+            body_start = reader.read_offset + struct.calcsize("<HHH")
+            per_frame = people * points * (dims + 1) * 4
+            frames = (size - body_start) // per_frame if per_frame else 0
+        else:
+            return  # other versions: pose-format's own reader decides (it refuses unknown ones)
+    except Exception as err:  # a header pose-format cannot parse, or longer than the limit
+        detail = f"{type(err).__name__}: {err}" if size <= MAX_HEADER_BYTES else f"no header within {MAX_HEADER_BYTES} bytes"
+        raise DemonstrationError(f"not a readable .pose file ({detail})", path=path) from None
+    if frames > MAX_FRAMES:
+        raise DemonstrationError(f"declares {frames} frames, more than the {MAX_FRAMES} this nlo_lab reads", path=path)
+    if people > MAX_PEOPLE:
+        raise DemonstrationError(f"declares {people} people per frame, more than {MAX_PEOPLE}", path=path)
+    body = frames * people * points * (dims + 1) * 4
+    if version == 0.2 and body != size - body_start:
+        raise DemonstrationError(
+            f"declares {frames} frames x {people} people x {points} points ({body} bytes), "
+            f"but the file holds {size - body_start} bytes after its header", path=path,
+        )
 
 
 def _read(path: Path):
@@ -120,6 +172,9 @@ def _read(path: Path):
     except ImportError as err:  # pragma: no cover - a declared dependency
         raise DemonstrationError(f"reading .pose files needs the pose-format package ({err})", path=path) from None
     try:
+        size = path.stat().st_size
+        if size:
+            _check_sizes(path, size)  # before the body is read or allocated
         raw = path.read_bytes()
     except FileNotFoundError:
         raise DemonstrationError("no such file", path=path) from None
