@@ -168,7 +168,9 @@ def _write_outputs(out_dir: Path, result, demo, robot) -> None:
     with output_set(out_dir, OUTPUT_FILES) as tmp:
         result.trajectory.save_npz(tmp / "trajectory.npz")
         result.trajectory.save_csv(tmp / "trajectory.csv")
-        export_html(tmp / "viewer.html", robot, result.trajectory.angles, demo=demo, fps=demo.fps, single_precision=True)
+        # the page plays the trajectory on its own (retimed) time base: what the robot would play
+        export_html(tmp / "viewer.html", robot, result.trajectory.angles, demo=demo, fps=demo.fps, single_precision=True,
+                    times=result.trajectory.times)
         _raise_pending_signal()  # a signal an import swallowed still ends the run, before the swap
 
 

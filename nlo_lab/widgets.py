@@ -255,8 +255,10 @@ class RetargetPanel:
     Attributes:
         controls: ``{"ee", "ori", "elbow", "finger", "collision", "init", "iterations", "robot", "frame"}`` widgets.
         play: the ``Play`` widget linked to the frame slider. With a view, playing runs in the browser:
-            the clip as optimised so far becomes a meshcat animation at the clip's rate (no kernel round
-            trip per frame); stopping shows the slider's frame again. Without one, frames are shown as
+            the clip as optimised so far becomes a meshcat animation (no kernel round trip per frame) on
+            the time base the robot would play it: the recording's rate, slowed where a joint would
+            exceed its velocity limit (:meth:`play_times`, as ``retarget`` retimes); stopping shows the
+            slider's frame again. Without one, frames are shown as
             optimised (no re-optimisation) at ``1000 / play.interval`` frames/s.
         button: re-optimises the whole sequence.
         plot: ``HTML`` widget with the convergence plot (SVG; ``plot_data`` holds its curves).
@@ -430,12 +432,23 @@ class RetargetPanel:
 
         with self._view.hold():
             if change["new"]:
-                self.scene.animate(play=True, repetitions=0)
+                from nlo_lab.viz.tracks import set_key_times
+
+                anim = self.scene.animation()
+                set_key_times(anim, self.play_times())  # what the robot would play, not the recording's rate
+                self._view.vis.set_animation(anim, play=True, repetitions=0)
             else:
                 self._view.vis.set_animation(Animation(), play=False)  # stops the page's animation
                 with self._view.widget.resend():
                     self.scene.set_frame(self.frame)
                 self._shown_frame = self.frame
+
+    def play_times(self) -> np.ndarray:
+        """``(T,)`` times [s] at which Play shows the frames: the current angles retimed to the robot's
+        velocity limits (:func:`nlo_lab.retime.retime_times`, as :func:`nlo_lab.retarget.retarget` does)."""
+        from nlo_lab.retime import retime_times
+
+        return retime_times(self.angles, self.demo.fps, self.robot.velocity_limits.double().numpy())
 
     def reoptimise_frame(self, warm: bool = True) -> OptimizeResult:
         """Re-optimise the current frame and update the plot and the view.

@@ -110,6 +110,31 @@ def test_retarget_json_and_files(capsys, tmp_path):
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary folder left
 
 
+def test_viewer_plays_on_the_trajectory_time_base(capsys, tmp_path):
+    """viewer.html shows the motion as the robot would play it: its keys sit at trajectory.npz's `time`."""
+    import base64
+    import re
+
+    import umsgpack
+
+    out_dir = tmp_path / "out"
+    code, out, err = run(["retarget", "demo:introduction_06", "--robot", "yumi", "--iters", "3", "--out", str(out_dir),
+                          "--json"], capsys)
+    assert code == 0, err
+    summary = json.loads(out)
+    assert summary["slowdown"] > 1.05, "the clip must be retimed for this test to mean anything"
+    with np.load(out_dir / "trajectory.npz") as traj:
+        times = traj["time"]
+    page = (out_dir / "viewer.html").read_text(encoding="utf-8")
+    cmds = [umsgpack.unpackb(base64.b64decode(b)) for b in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", page)]
+    clips = [a["clip"] for c in cmds if c["type"] == "set_animation" for a in c["animations"]]
+    assert clips
+    for clip in clips:  # robot and human: float32 keys, so a relative tolerance
+        for track in clip["tracks"]:
+            seconds = np.array([k["time"] for k in track["keys"]]) / clip["fps"]
+            np.testing.assert_allclose(seconds, times, rtol=1e-6, atol=1e-6)
+
+
 def test_console_script_runs_as_module():
     proc = subprocess.run([sys.executable, "-m", "nlo_lab.cli", "retarget", "x", "--robot"], capture_output=True, text=True)
     assert proc.returncode == 2

@@ -489,3 +489,44 @@ def test_plots():
     with pytest.raises(NloLabError):
         plot_joint_trajectories(q, ["a", "b"])
     plt.close("all")
+
+
+# ----------------------------------------------------------------------------- the output's own time base
+def _key_seconds(clip: dict) -> list[np.ndarray]:
+    """Each track's key times in seconds, as the page plays them (key time / clip fps)."""
+    return [np.array([k["time"] for k in t["keys"]]) / clip["fps"] for t in clip["tracks"]]
+
+
+def test_viewer_plays_the_retimed_time_base(tmp_path, robot):
+    q = sweep(robot, T=12)
+    demo = synthetic_demo(T=12)
+    times = np.cumsum([0.0] + [0.04] * 5 + [0.25] * 6)  # 25 fps, then slowed 6x (a retimed stretch)
+    page = export_html(tmp_path / "viewer.html", robot, q, demo=demo, times=times).read_text(encoding="utf-8")
+    clips = _clips(page)
+    assert any(p.startswith("/meshcat/robot/") for p in clips) and any(p.startswith("/meshcat/human/") for p in clips)
+    for path, clip in clips.items():  # robot and human alike
+        for keys in _key_seconds(clip):
+            np.testing.assert_allclose(keys, times, atol=1e-9, err_msg=path)
+    plain = _clips(export_html(tmp_path / "plain.html", robot, q, demo=demo).read_text(encoding="utf-8"))
+    keys = _key_seconds(next(iter(plain.values())))[0]
+    np.testing.assert_allclose(keys, np.arange(12) / demo.fps)  # no times: the recording's rate
+
+
+def test_viewer_time_base_survives_decimation(robot):
+    from nlo_lab.viz.export import VIEWER_MAX_FRAMES, static_html
+
+    T = 2 * VIEWER_MAX_FRAMES + 7  # decimated to every 3rd frame
+    q = np.zeros((T, robot.n_joints))
+    rng = np.random.default_rng(1)
+    times = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.2, T - 1))])
+    clips = _clips(static_html(robot, q, fps=50.0, times=times, single_precision=False))
+    keys = _key_seconds(next(iter(clips.values())))[0]
+    np.testing.assert_allclose(keys, times[::3], rtol=1e-12)
+    assert keys[-1] == pytest.approx(times[-1 - (T - 1) % 3])
+
+
+@pytest.mark.parametrize("bad", [np.arange(5.0), np.array([0.0, 1.0, 1.0] + [2.0 + i for i in range(9)])])
+def test_viewer_refuses_times_that_do_not_fit(bad, tmp_path, robot):
+    with pytest.raises(NloLabError, match="times"):
+        export_html(tmp_path / "viewer.html", robot, sweep(robot, T=12), times=bad)
+    assert not (tmp_path / "viewer.html").exists()

@@ -235,3 +235,20 @@ def test_views_show_bad_input_in_the_widget():
     for expected, widget in cases.items():
         assert isinstance(widget, SceneWidget) and expected in widget.message, widget.message
         assert widget.message.startswith("Cannot show this view")
+
+
+def test_play_animates_on_the_robots_time_base(demo):
+    """Play shows what the robot would play: the keys sit at the retimed times, not at the recording's rate."""
+    p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2)
+    lo, hi = p.robot.lower_limits.double().numpy(), p.robot.upper_limits.double().numpy()
+    p.angles = np.where(np.arange(len(demo))[:, None] % 2 == 0, lo, hi) * 0.9  # too fast for any joint: retimed
+    times = p.play_times()
+    assert times[-1] > 2 * (len(demo) - 1) / demo.fps
+    sent = []
+    p._view.widget.send = lambda content, buffers=None: sent.append(_unpack_all(buffers[0]))
+    p.play.playing = True
+    (anim,) = [c for c in sent[0] if c["type"] == "set_animation"]
+    for a in anim["animations"]:
+        for track in a["clip"]["tracks"]:
+            np.testing.assert_allclose(np.array([k["time"] for k in track["keys"]]) / a["clip"]["fps"], times, rtol=1e-6)
+    p.play.playing = False

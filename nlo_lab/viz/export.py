@@ -119,6 +119,11 @@ def recording_visualizer(single_precision: bool = False) -> Visualizer:
     return Visualizer(window=RecordingWindow(single_precision))
 
 
+def _decimation_step(q, max_frames: int) -> int:
+    """k of :func:`decimate`: keep every k-th frame so at most ``max_frames`` remain."""
+    return -(-len(q) // max_frames) if q.ndim == 2 else 1
+
+
 def decimate(angles: Any, demo: Any = None, fps: float | None = None, max_frames: int | None = None):
     """Every k-th frame of ``angles`` (and ``demo``) so at most ``max_frames`` remain, and the rate that keeps the duration.
 
@@ -135,7 +140,7 @@ def decimate(angles: Any, demo: Any = None, fps: float | None = None, max_frames
     max_frames = VIEWER_MAX_FRAMES if max_frames is None else int(max_frames)
     q = np.asarray(angles)
     rate = float(fps if fps is not None else (demo.fps if demo is not None else 30.0))
-    step = -(-len(q) // max_frames) if q.ndim == 2 else 1
+    step = _decimation_step(q, max_frames)
     if step <= 1:
         return angles, demo, fps
     keep = np.arange(0, len(q), step)
@@ -155,18 +160,34 @@ def static_html(
     play: bool = True,
     human_scale: str = "robot",
     single_precision: bool = False,
+    times: Any = None,
 ) -> str:
     """The animated robot (and human) scene as one self-contained HTML string.
 
     Args as :func:`export_html`.
     """
-    from nlo_lab.viz.scene import RetargetScene
+    import numpy as np
 
+    from nlo_lab.viz.scene import RetargetScene
+    from nlo_lab.viz.tracks import set_key_times
+
+    if times is not None:
+        times = np.asarray(times, dtype=np.float64)
+        if times.shape != (len(np.asarray(angles)),):
+            raise NloLabError(f"times must be ({len(np.asarray(angles))},) to match the angles, got shape {times.shape}")
+    if times is not None:
+        times = times[::_decimation_step(np.asarray(angles), VIEWER_MAX_FRAMES)]  # the frames decimate keeps
     angles, demo, fps = decimate(angles, demo, fps)
     vis = recording_visualizer(single_precision)
     scene = RetargetScene(vis, robot, angles, demo=demo, layout=layout, offset=offset, fps=fps, human_scale=human_scale)
     if len(scene) > 1:
-        scene.animate(play=play, repetitions=0 if play else 1)
+        anim = scene.animation()
+        if times is not None:
+            try:
+                set_key_times(anim, times)  # the trajectory's own time base (retimed): what the robot would play
+            except ValueError as exc:
+                raise NloLabError(f"times: {exc}") from None
+        vis.set_animation(anim, play=play, repetitions=0 if play else 1)
     return vis.static_html()
 
 
@@ -181,6 +202,7 @@ def export_html(
     play: bool = True,
     human_scale: str = "robot",
     single_precision: bool = False,
+    times: Any = None,
 ) -> Path:
     """Write a self-contained animated 3-D view (works offline from ``file://``).
 
@@ -196,6 +218,10 @@ def export_html(
         human_scale: ``"robot"`` (the human mapped into the robot's frame and size, as the metric does)
             or ``"human"`` (as recorded; side layout only).
         single_precision: animation keys as float32 (see below).
+        times: optional ``(T,)`` per-frame times [s] (a trajectory's ``times``, retimed where the
+            robot must go slower than the human): frame ``i`` plays at ``times[i]``, human and
+            robot alike, so the page shows the motion as the robot would play it. None: frames
+            ``1/fps`` apart, as recorded.
 
     The camera is framed on the robot and human over the whole trajectory, from the front-side.
     The page stays small: a recording longer than :data:`VIEWER_MAX_FRAMES` frames keeps
@@ -208,7 +234,7 @@ def export_html(
         The written path.
     """
     page = static_html(robot, angles, demo=demo, fps=fps, layout=layout, offset=offset, play=play, human_scale=human_scale,
-                       single_precision=single_precision)
+                       single_precision=single_precision, times=times)
     target = Path(path)
     if not target.parent.is_dir():
         raise NloLabError(f"{target}: folder {target.parent} does not exist")

@@ -11,7 +11,8 @@ from meshcat.animation import Animation, AnimationClip, AnimationTrack
 
 from nlo_lab.rotations import matrix_to_quat as matrix_to_quaternion  # (x, y, z, w), three.js's order
 
-__all__ = ["matrix_to_quaternion", "add_track", "add_pose_tracks", "add_visible_track", "material", "translation", "Y_TO_Z"]
+__all__ = ["matrix_to_quaternion", "add_track", "add_pose_tracks", "add_visible_track", "set_key_times", "material",
+           "translation", "Y_TO_Z"]
 
 Y_TO_Z = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])  # R_x(+90°): meshcat Y -> URDF Z
 
@@ -37,6 +38,24 @@ def add_pose_tracks(anim: Animation, path, T: np.ndarray, scale: np.ndarray | No
 def add_visible_track(anim: Animation, path, visible: np.ndarray) -> None:
     """A ``visible`` track ``(F,)`` (three.js BooleanKeyframeTrack, step-wise): hide a node in some frames."""
     add_track(anim, path, "visible", "boolean", np.asarray(visible, dtype=bool))
+
+
+def set_key_times(anim: Animation, times) -> None:
+    """Put key ``i`` of every track at ``times[i]`` seconds instead of frame ``i``.
+
+    The tracks hold one key per frame, at frame numbers; the page plays a key at
+    ``frame / clip.fps`` seconds. A retimed trajectory (``RobotTrajectory.time``) plays
+    its frames at their own times, so each key becomes ``times[i] * clip.fps``: the
+    animation then shows the motion as the robot would play it, slowed where it is.
+    """
+    t = np.asarray(times, dtype=np.float64)
+    if t.ndim != 1 or not np.isfinite(t).all() or (np.diff(t) <= 0).any():
+        raise ValueError("times must be finite and strictly increasing")
+    for clip in anim.clips.values():
+        for track in clip.tracks.values():
+            if len(track.frames) != len(t):
+                raise ValueError(f"times has {len(t)} entries for a track of {len(track.frames)} keys")
+            track.frames = (t * clip.fps).tolist()
 
 
 def material(colour: int, opacity: float = 1.0) -> g.MeshLambertMaterial:
