@@ -25,6 +25,7 @@ from nlo_lab.human.io_video import (  # noqa: E402
     VideoWarning,
     estimate_pose,
     load_video,
+    pose_to_demonstration,
     pose_workers,
     read_video_frames,
     video_info,
@@ -149,22 +150,49 @@ def test_every_container_reads(tmp_path, suffix):
     assert demo.name == "clip"
 
 
-def test_pose_workers_never_more_than_asked_or_available(monkeypatch):
+def test_pose_workers_never_more_than_asked_available_or_useful(monkeypatch):
+    from nlo_lab.human import io_video
+
+    monkeypatch.delenv("NLO_LAB_THREADS", raising=False)
     cores = len(os.sched_getaffinity(0))
+    assert pose_workers() == cores  # the default: every core this process may use
     assert pose_workers(1) == 1
     assert pose_workers(64) == min(64, cores)
-    monkeypatch.setenv("NLO_LAB_THREADS", "1")
-    assert pose_workers() == 1
+    monkeypatch.setattr(io_video, "_available_cores", lambda: 8)
+    assert pose_workers() == 8
+    assert pose_workers(3) == 3  # never more than asked
+    monkeypatch.setenv("NLO_LAB_THREADS", "2")
+    assert pose_workers() == 2  # the environment asks too
+    assert pose_workers(5) == 5  # an explicit argument wins over the environment
     monkeypatch.delenv("NLO_LAB_THREADS")
-    assert pose_workers() == 1  # the nlo_lab.threads default: one
+    assert pose_workers(frames=SAMPLE_FRAMES) == 2  # 58 frames are two segments: a third worker has nothing to do
+    assert pose_workers(frames=io_video.SEGMENT_FRAMES) == 1
+    assert pose_workers(frames=5 * io_video.SEGMENT_FRAMES + 1) == 6
+    monkeypatch.setattr(io_video, "_available_cores", lambda: 1)
+    assert pose_workers(8) == 1  # never more than the cores available
     with pytest.raises(DemonstrationError, match="threads"):
         pose_workers(0)
 
 
-def test_two_workers_read_every_frame(tmp_path):
+def test_the_result_does_not_depend_on_the_number_of_workers(sample, monkeypatch):
+    """Two workers (forced, even on one core) give the one-worker landmarks and demonstration, frame by frame."""
+    from nlo_lab.human import io_video
+
+    demo1, pose_file, _ = sample
+    monkeypatch.setattr(io_video, "_available_cores", lambda: 4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", VideoWarning)
+        video = estimate_pose(SAMPLE, threads=4)
+        demo2 = pose_to_demonstration(video)
+    assert video.workers == 2  # capped by the sample's two segments
+    assert video.to_bytes() == pose_file.read_bytes()  # the very .pose one worker wrote (the fixture), byte for byte
+    same_demonstration(demo1, demo2)
+
+
+def test_a_short_clip_gets_one_worker_and_every_frame(tmp_path):
     clip = write_clip(tmp_path / "clip.mp4", sample_frames(6))
     video = estimate_pose(clip, threads=2)
-    assert len(video) == 6 and video.workers == min(2, len(os.sched_getaffinity(0)))
+    assert len(video) == 6 and video.workers == 1  # one segment: a second worker would have nothing to do
 
 
 # ----------------------------------------------------------------------------- bad input

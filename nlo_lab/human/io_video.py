@@ -12,13 +12,16 @@ last release whose wheel bundles the Holistic models, and opencv, which comes wi
 it). Nothing is downloaded at run time: :data:`MODEL_COMPLEXITY` is the one pose
 model the wheel carries.
 
-Threads: pose estimation runs ``workers`` Holistic instances side by side
-(pose-format's ``pose_workers``: frame ``i`` goes to instance ``i % workers``); each
-instance keeps about one core busy. The default is :func:`nlo_lab.threads.default_threads`
-(``NLO_LAB_THREADS``, else 1), so the same video gives the same landmarks on any
-machine; more workers are never more than asked for, nor more than the cores this
-process may use. With more than one worker each instance tracks every
-``workers``-th frame, so the landmarks differ slightly from one worker's.
+Threads: the video is cut into segments of :data:`SEGMENT_FRAMES` consecutive frames,
+and each segment goes to a fresh Holistic instance that tracks through it (MediaPipe
+tracks a person from frame to frame and smooths the landmarks; each segment starts
+that anew from a detection). ``workers`` instances run side by side, one segment each,
+each keeping about one core busy. Because the cut does not depend on the number of
+workers, the landmarks, and so the demonstration, are the same for any number of
+workers, frame by frame, in the video's order. The number of workers
+(:func:`pose_workers`) is the cores this process may use (``os.sched_getaffinity``,
+else ``os.cpu_count()``), never more than asked for (``threads``, ``--threads N``, or
+``NLO_LAB_THREADS``), nor more than the video has segments.
 
 Faults end in :class:`~nlo_lab.errors.DemonstrationError` naming the file: missing
 or empty file, contents that are not a video container, a video no frame of which
@@ -47,6 +50,7 @@ from nlo_lab.human.demonstration import Demonstration
 __all__ = [
     "VIDEO_SUFFIXES",
     "MODEL_COMPLEXITY",
+    "SEGMENT_FRAMES",
     "VideoWarning",
     "VideoPose",
     "pose_workers",
@@ -61,6 +65,10 @@ VIDEO_SUFFIXES = (".mp4", ".mov", ".webm", ".avi")
 # mediapipe 0.10.21 ships pose_landmark_full.tflite only: complexity 1. Complexity 0 (lite) and
 # 2 (heavy) would be downloaded on first use, which library code must never do.
 MODEL_COMPLEXITY = 1
+# Frames per segment of the pose estimation (see the module docstring): long enough that
+# tracking restarts rarely (once a second at 30 fps), short enough that the 58-frame sample
+# already has two segments for two cores.
+SEGMENT_FRAMES = 30
 _POSE = "POSE_LANDMARKS"
 _HANDS = {"left": "LEFT_HAND_LANDMARKS", "right": "RIGHT_HAND_LANDMARKS"}
 
@@ -252,19 +260,41 @@ def _native_output_silenced():
 
 
 # ----------------------------------------------------------------------------- pose estimation
-def pose_workers(threads: int | None = None) -> int:
-    """Holistic instances to run: ``threads`` (default :func:`nlo_lab.threads.default_threads`),
-    never more than the cores this process may use."""
-    from nlo_lab.threads import default_threads
-
-    asked = default_threads() if threads is None else int(threads)
-    if asked < 1:
-        raise DemonstrationError(f"threads must be >= 1, got {asked}")
+def _available_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the system has one)."""
     try:
-        cores = len(os.sched_getaffinity(0))
+        return max(1, len(os.sched_getaffinity(0)))
     except (AttributeError, OSError):
-        cores = os.cpu_count() or 1
-    return max(1, min(asked, cores))
+        return max(1, os.cpu_count() or 1)
+
+
+def pose_workers(threads: int | None = None, frames: int = 0) -> int:
+    """Holistic instances to run side by side.
+
+    Args:
+        threads: the most the caller allows; None: ``NLO_LAB_THREADS`` if set, else no limit.
+        frames: the video's frame count (0: unknown): no more workers than it has segments of
+            :data:`SEGMENT_FRAMES`.
+
+    Returns:
+        ``min(threads, cores available, segments)``, at least 1.
+    """
+    if threads is None:
+        env = os.environ.get("NLO_LAB_THREADS")
+        try:
+            asked = int(env) if env else None
+        except ValueError:
+            asked = None
+        if asked is not None and asked < 1:
+            asked = 1
+    else:
+        asked = int(threads)
+        if asked < 1:
+            raise DemonstrationError(f"threads must be >= 1, got {asked}")
+    workers = _available_cores() if asked is None else min(asked, _available_cores())
+    if frames > 0:
+        workers = min(workers, -(-int(frames) // SEGMENT_FRAMES))
+    return max(1, workers)
 
 
 @dataclass
@@ -276,7 +306,7 @@ class VideoPose:
         pose: the ``pose_format.Pose`` (components POSE_LANDMARKS, FACE_LANDMARKS,
             LEFT/RIGHT_HAND_LANDMARKS, POSE_WORLD_LANDMARKS).
         seconds: wall time of the pose estimation [s] (decoding included).
-        workers: Holistic instances used.
+        workers: Holistic instances used side by side (:func:`pose_workers`).
         fps, width, height: of the video.
     """
 
@@ -310,12 +340,37 @@ def _holistic(path: Path):
     return load_holistic
 
 
+def _segments(frames, size: int) -> Iterator[list[np.ndarray]]:
+    """Consecutive lists of ``size`` frames (the last one shorter)."""
+    chunk: list[np.ndarray] = []
+    for frame in frames:
+        chunk.append(frame)
+        if len(chunk) == size:
+            yield chunk
+            chunk = []
+    if chunk:
+        yield chunk
+
+
+def _join(poses: list):
+    """One ``Pose`` of the segments' poses, in order (same header; frames concatenated)."""
+    from pose_format import Pose
+    from pose_format.numpy import NumPyPoseBody
+
+    if len(poses) == 1:
+        return poses[0]
+    data = np.ma.concatenate([p.body.data for p in poses], axis=0)
+    confidence = np.concatenate([p.body.confidence for p in poses], axis=0)
+    return Pose(poses[0].header, NumPyPoseBody(poses[0].body.fps, data, confidence))
+
+
 def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -> VideoPose:
     """MediaPipe Holistic on every frame of a video, through pose-format.
 
     Args:
         path: a ``.mp4``, ``.mov``, ``.webm`` or ``.avi`` file.
-        threads: Holistic instances side by side (:func:`pose_workers`).
+        threads: the most Holistic instances to run side by side (:func:`pose_workers`;
+            default: every core available). The result does not depend on it.
         progress: a progress bar over the frames on stderr (in a notebook: below the cell).
 
     Returns:
@@ -325,17 +380,25 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
         DemonstrationError: the file is missing, empty, not a video, undecodable or
             truncated, or no person is found in any frame.
     """
+    from concurrent.futures import ThreadPoolExecutor
+
     path = Path(path)
     info = _open_info(path)
-    workers = pose_workers(threads)
+    workers = pose_workers(threads, info.frames)
     load_holistic = _holistic(path)
     frames = _Frames(path, info)
+
+    def segment_pose(segment: list[np.ndarray]):
+        # a fresh instance per segment (reuse=False): it starts from a detection, whoever runs it
+        return load_holistic(segment, fps=info.fps, width=info.width, height=info.height, progress=False,
+                             additional_holistic_config={"model_complexity": MODEL_COMPLEXITY},
+                             pose_workers=1, reuse=False)
+
     start = time.perf_counter()
     bar_stream = _stderr_stream() if progress else None
+    poses = []
     try:
-        with _native_output_silenced(), warnings.catch_warnings():
-            # pose-format warns that interleaved workers differ slightly from one: documented above
-            warnings.simplefilter("ignore")
+        with _native_output_silenced(), ThreadPoolExecutor(max_workers=workers) as pool:
             source = frames
             if progress:
                 from tqdm.auto import tqdm
@@ -345,11 +408,12 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
                 source = tqdm(frames, total=info.frames or None, desc=f"pose estimation {path.name}", unit="frame",
                               file=bar_stream or sys.stderr, leave=False, dynamic_ncols=True, mininterval=0)
             try:
-                pose = load_holistic(source, fps=info.fps, width=info.width, height=info.height, progress=False,
-                                     additional_holistic_config={"model_complexity": MODEL_COMPLEXITY},
-                                     pose_workers=workers, reuse=False)
-            except ValueError:
-                pose = None  # no frame at all (pose-format cannot stack nothing): reported below
+                pending = []  # futures in the video's order; at most `workers` ahead of decoding (bounded memory)
+                for segment in _segments(source, SEGMENT_FRAMES):
+                    pending.append(pool.submit(segment_pose, segment))
+                    if len(pending) > workers:
+                        poses.append(pending.pop(0).result())
+                poses.extend(f.result() for f in pending)
             finally:
                 if progress:
                     source.close()
@@ -358,9 +422,9 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
             bar_stream.close()
     seconds = time.perf_counter() - start
     frames.check_complete()
-    if pose is None:
+    if not poses:
         raise DemonstrationError("unreadable or damaged video: no frame decodes", path=path)
-    result = VideoPose(path=path, pose=pose, seconds=seconds, workers=workers, fps=info.fps,
+    result = VideoPose(path=path, pose=_join(poses), seconds=seconds, workers=workers, fps=info.fps,
                        width=info.width, height=info.height)
     _check_person(result)
     return result
@@ -422,7 +486,8 @@ def load_video(path, *, threads: int | None = None, progress: bool = False, save
 
     Args:
         path: a ``.mp4``, ``.mov``, ``.webm`` or ``.avi`` file.
-        threads: Holistic instances side by side (default ``NLO_LAB_THREADS``, else 1).
+        threads: the most Holistic instances side by side (default: every core available, see
+            :func:`pose_workers`); the demonstration does not depend on it.
         progress: show a progress bar of the pose estimation.
         save_pose: also keep the landmarks as this ``.pose`` file (written atomically,
             only once the demonstration has been read without error).
