@@ -94,8 +94,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal), no warnings")
     p.add_argument("--save-pose", metavar="FILE", default=None,
                    help="video input: also keep MediaPipe Holistic's landmarks as this .pose file")
-    p.add_argument("--threads", type=_ranged_int(1, 256), default=None,
-                   help="video input: cores for the pose estimation, at most (default: NLO_LAB_THREADS, else 1)")
+    p.add_argument("--threads", type=_ranged_int(*THREADS_RANGE), default=None,
+                   help=f"video input: the most cores the pose estimation may use, {THREADS_RANGE[0]}..{THREADS_RANGE[1]} "
+                        "(default: NLO_LAB_THREADS, else every core available; the result is the same for any N)")
 
     p = sub.add_parser("train", help="train the encoder and decoder of a robot on the synthetic corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")

@@ -40,8 +40,9 @@ print(path.name)
 #
 # `estimate_pose` decodes the video and runs MediaPipe Holistic on every frame (the model ships inside the
 # `mediapipe` wheel: nothing is downloaded). It keeps the image landmarks and the *world* landmarks, which
-# MediaPipe gives in metres about the hips. `threads` runs that many Holistic instances side by side; the
-# default is one (or `NLO_LAB_THREADS`), never more than asked.
+# MediaPipe gives in metres about the hips. The video is cut into segments of 30 frames, each tracked by its
+# own Holistic instance; by default one instance runs per core available, `threads=N` (or `NLO_LAB_THREADS`)
+# caps that at N. The cut does not depend on N, so neither do the landmarks.
 #
 # `pose_to_demonstration` then reads the landmarks exactly as the `.pose` reader reads a file: body frame
 # from the shoulders, arms from the world landmarks, wrists and fingers from the 21 hand points, short gaps
@@ -136,8 +137,8 @@ print(run.stderr.strip())
 #
 # 1. Film one sign twice, once with your hands always in the picture and once with one hand leaving it.
 #    Before running: which fingers will be masked, and what will the robot's hand do in those frames?
-# 2. Run the pose estimation with `threads=2`. Predict the speed-up on this machine, then measure it
-#    (`video.seconds`). Do the landmarks change? (Each instance tracks every second frame.)
+# 2. Run the pose estimation with `threads=1`, then `threads=2`. Predict the speed-up on this machine, then
+#    measure it (`video.seconds`). Do the landmarks change? (Each segment of 30 frames is tracked on its own.)
 # 3. Retarget the same video to NAO and Pepper. Which robot's Fréchet distance is lowest, and why?
 # 4. Film yourself from the side instead of the front. Which joint do you expect to be estimated worst?
 # 5. Open `viewer.html` from the export folder and compare a fast movement with the video: does the robot keep up?
