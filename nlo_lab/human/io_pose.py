@@ -140,7 +140,7 @@ def _check_sizes(path: Path, size: int) -> None:
         header = PoseHeader.read(reader)
         version = round(float(header.version), 3)
         points = sum(len(c.points) for c in header.components)
-        dims = header.num_dims()
+        dims = max(len(c.format) for c in header.components) - 1  # as pose-format's body reader counts them
         if version == 0.2:
             _fps, frames, people = struct.unpack_from("<fIH", prefix, reader.read_offset)
             body_start = reader.read_offset + struct.calcsize("<fIH")
