@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import time
 from dataclasses import asdict, dataclass, field
@@ -38,6 +37,7 @@ from torch import nn
 from nlo_lab.errors import SettingsError
 from nlo_lab.losses import LossWeights, Targets, objective, targets_from_demonstration
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
+from nlo_lab.settings import check_int, check_positive
 
 __all__ = [
     "METHODS",
@@ -69,22 +69,6 @@ METHODS = ("latent_encoder", "encoder_only", "latent_random", "joint_space", "nn
 LATENT_METHODS = ("latent_encoder", "encoder_only", "latent_random")  # need a trained model
 
 
-def _int(name: str, value, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise SettingsError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
-def _pos(name: str, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SettingsError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise SettingsError(f"{name} must be finite and > 0, got {value!r}")
-    return v
-
-
 @dataclass(frozen=True)
 class SupervisedSettings:
     """How the supervised network (``nn_supervised``) is made.
@@ -111,12 +95,12 @@ class SupervisedSettings:
 
     def __post_init__(self) -> None:
         for name, minimum in (("frame_stride", 1), ("label_iterations", 0), ("epochs", 1), ("batch_size", 1), ("seed", 0), ("corpus_seed", 0)):
-            object.__setattr__(self, name, _int(name, getattr(self, name), minimum))
+            object.__setattr__(self, name, check_int(name, getattr(self, name), minimum))
         hidden = tuple(self.hidden)
         if not hidden or any(isinstance(h, bool) or not isinstance(h, (int, np.integer)) or h < 1 for h in hidden):
             raise SettingsError(f"hidden must be a non-empty tuple of widths >= 1, got {self.hidden!r}")
         object.__setattr__(self, "hidden", tuple(int(h) for h in hidden))
-        object.__setattr__(self, "lr", _pos("lr", self.lr))
+        object.__setattr__(self, "lr", check_positive("lr", self.lr))
 
 
 @dataclass(frozen=True)
@@ -146,12 +130,12 @@ class BaselineSettings:
     supervised: SupervisedSettings = field(default_factory=SupervisedSettings)
 
     def __post_init__(self) -> None:
-        _int("iterations", self.iterations, 0)
-        _int("patience", self.patience, 1)
-        _int("seed", self.seed, 0)
-        _int("ik_iterations", self.ik_iterations, 0)
+        check_int("iterations", self.iterations, 0)
+        check_int("patience", self.patience, 1)
+        check_int("seed", self.seed, 0)
+        check_int("ik_iterations", self.ik_iterations, 0)
         for name in ("random_sigma", "joint_lr", "ik_damping", "ik_tolerance"):
-            object.__setattr__(self, name, _pos(name, getattr(self, name)))
+            object.__setattr__(self, name, check_positive(name, getattr(self, name)))
         if not isinstance(self.supervised, SupervisedSettings):
             raise SettingsError(f"supervised must be a SupervisedSettings, got {type(self.supervised).__name__}")
 

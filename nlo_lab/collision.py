@@ -14,13 +14,14 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from nlo_lab import backend
+
 __all__ = ["segment_distance", "segment_distance_ends", "closest_parameters", "capsule_distance"]
 
 _EPS = 1e-12  # [m^2] denominators below this are treated as degenerate
 # rows d1 = a1 - a0, d2 = b1 - b0, r = a0 - b0 of the end points (a0, a1, b0, b1)
 _DIFF = np.array([[-1.0, 1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 1.0], [1.0, 0.0, -1.0, 0.0]])
 _DIFF_T: dict = {}  # device -> _DIFF as a float64 tensor
-_NUMPY_MAX_PAIRS = 4096  # measured crossover of the numpy and torch paths on the CPU (1 thread): ~3000 pairs
 
 
 # (clamp below, clamp to [0, 1]) per library; np.clip's Python wrapper costs
@@ -76,13 +77,18 @@ def _distance_parts(ends: torch.Tensor) -> tuple[torch.Tensor, ...]:
     pairs torch's kernels are faster.
     """
     flat = ends.detach().reshape(-1, 4, 3)
-    if flat.device.type == "cpu" and flat.shape[0] <= _NUMPY_MAX_PAIRS:
-        E = flat.numpy().transpose(1, 2, 0).astype(np.float64)
-        return tuple(torch.from_numpy(np.ascontiguousarray(x)) for x in _distance_xp(E, _DIFF, np))
+    if flat.device.type == "cpu" and backend.numpy_collision(flat.shape[0]):
+        return _distance_parts_numpy(flat)
     diff = _DIFF_T.get(flat.device)
     if diff is None:
         diff = _DIFF_T[flat.device] = torch.as_tensor(_DIFF, device=flat.device)
     return _distance_xp(flat.to(torch.float64).permute(1, 2, 0), diff, torch)
+
+
+def _distance_parts_numpy(flat: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    """:func:`_distance_xp` in numpy for ``flat (n, 4, 3)`` CPU end points (the fast path)."""
+    E = flat.numpy().transpose(1, 2, 0).astype(np.float64)
+    return tuple(torch.from_numpy(np.ascontiguousarray(x)) for x in _distance_xp(E, _DIFF, np))
 
 
 def _closest_st(ends: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

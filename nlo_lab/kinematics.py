@@ -33,6 +33,7 @@ import numpy as np
 import torch
 from torch.autograd.function import once_differentiable
 
+from nlo_lab import backend
 from nlo_lab.errors import RobotDescriptionError
 from nlo_lab.rotations import matrix_to_rpy, rpy_to_matrix  # re-exported: their old home
 
@@ -48,8 +49,6 @@ __all__ = [
 
 MOVING_TYPES = ("revolute", "continuous")
 SUPPORTED_TYPES = MOVING_TYPES + ("fixed",)
-# batch x levels above which FK goes level by level instead of by pointer jumping (measured)
-_JUMP_MAX_WORK = 128
 
 
 # --------------------------------------------------------------------------- URDF model
@@ -480,16 +479,32 @@ class KinematicTree:
         local = torch.addmm(c["local_const"], sc, c["local_coef"]).view(B, -1, 4, 4)  # (B, 1+M, 4, 4) T_parent_body
         # Few tiny matmuls cost less than many (per-op overhead) at small batch; at
         # large batch the matrix count matters, and levels compose each body once.
-        if B * len(self.level_slices) <= _JUMP_MAX_WORK:
-            T = local.view(-1, 4, 4)  # (B * (1+M), 4, 4): bmm has less overhead than a 4-d matmul
-            for anc in c["jumps"]:
-                T = torch.bmm(T.index_select(0, self._batch_index(c, anc, B)), T)
-            return T.view(B, -1, 4, 4)
+        if backend.fk_pointer_jumping(B * len(self.level_slices)):
+            return self._compose_by_jumps(local, c)
+        return self._compose_by_levels(local, c)
+
+    def _compose_by_levels(self, local: torch.Tensor, c: dict) -> torch.Tensor:
+        """The reference: ``T_root_body = T_root_parent @ T_parent_body``, one tree level at a time.
+
+        ``local (B, 1+M, 4, 4)`` -> ``(B, 1+M, 4, 4)``.
+        """
         root, *moving = local.split([1] + [e - s for s, e in self.level_slices], 1)  # split: one cheap backward
         levels = [root, moving[0]]  # level 0 hangs from the root, whose frame is the identity
         for A_l, parent in zip(moving[1:], c["level_parent"][1:]):
             levels.append(levels[-1].index_select(1, parent) @ A_l)
         return torch.cat(levels, 1)
+
+    def _compose_by_jumps(self, local: torch.Tensor, c: dict) -> torch.Tensor:
+        """The same product by pointer jumping: ``log2(depth)`` rounds of ``T <- T[ancestor] @ T``.
+
+        ``local (B, 1+M, 4, 4)`` -> ``(B, 1+M, 4, 4)``; fewer, larger matmuls than
+        :meth:`_compose_by_levels` (cheaper where per-op overhead dominates).
+        """
+        B = local.shape[0]
+        T = local.view(-1, 4, 4)  # (B * (1+M), 4, 4): bmm has less overhead than a 4-d matmul
+        for anc in c["jumps"]:
+            T = torch.bmm(T.index_select(0, self._batch_index(c, anc, B)), T)
+        return T.view(B, -1, 4, 4)
 
     def _batch_index(self, c: dict, body_index: torch.Tensor, B: int) -> torch.Tensor:
         """``body_index`` applied to each of ``B`` samples of a flat ``(B * (1+M), ...)`` tensor (cached per B)."""
@@ -554,7 +569,7 @@ class KinematicTree:
         body = np.array([self.link_body[i] for i in idx], dtype=np.int64)
         return body, np.einsum("kij,kj->ki", self.link_const[idx], vectors)
 
-    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor, analytic: bool = True) -> torch.Tensor:
+    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor, analytic: bool | None = None) -> torch.Tensor:
         """World coordinates of vectors fixed in bodies (see :meth:`point_map`).
 
         Args:
@@ -564,12 +579,14 @@ class KinematicTree:
             analytic: when ``q`` needs a gradient, compute it in closed form
                 (:class:`_MapPoints`, first derivatives only); False lets
                 autograd differentiate the FK (the reference, and for
-                higher derivatives).
+                higher derivatives); None = unless :func:`nlo_lab.backend.reference`.
 
         Returns:
             ``(B, k, 3)``: points [m] (``w = 1``) or directions (``w = 0``) in the root frame.
         """
         q = self._flat_angles(q)
+        if analytic is None:
+            analytic = backend.analytic_fk_gradient()
         if analytic and q.requires_grad and torch.is_grad_enabled():
             return _MapPoints.apply(q, self, body, vectors)
         T = self.body_poses(q).index_select(1, body)[..., :3, :]  # (B, k, 3, 4)

@@ -50,6 +50,7 @@ from typing import Optional
 import numpy as np
 import torch
 
+from nlo_lab import backend
 from nlo_lab.collision import segment_distance_ends
 from nlo_lab.errors import DemonstrationError, SettingsError
 from nlo_lab.fused_objective import _UNIT_EPS, PointTerms, point_terms
@@ -79,10 +80,6 @@ __all__ = [
 ]
 
 TERMS = ("ee", "ori", "elbow", "finger", "collision")
-# Up to this many frames the terms run in numpy (fused_objective). Measured on YuMi,
-# 1 thread, forward + backward of the objective: batch 1 0.70 vs 1.18 ms (torch),
-# 32: 2.0 vs 2.3 ms, 64: equal, 200: 7.7 vs 7.2 ms.
-FUSED_MAX_FRAMES = 64
 COLLISION_FORMS = ("hinge", "paper")
 # A joint faster than this [rad/s] is smoothed as if its limit were this: NAO's wrist
 # (24.6 rad/s) could otherwise jump 0.85 rad between two frames at little cost, though
@@ -560,10 +557,11 @@ class Objective:
         collision_form: see :func:`collision_loss`.
         fused: compute the terms from the FK points in numpy with a hand-written
             backward (:mod:`nlo_lab.fused_objective`); ``None`` = on the CPU for
-            at most :data:`FUSED_MAX_FRAMES` frames; ``False`` = torch ops (the reference).
+            as many frames as :func:`nlo_lab.backend.numpy_objective` allows; ``False`` = torch ops (the reference).
         cull: with torch ops, measure exactly only the capsule pairs that may be
             closer than their margin (:func:`near_pair_distances`); the others add
-            exactly 0 to the loss and its gradient either way. False = every pair.
+            exactly 0 to the loss and its gradient either way. False = every pair;
+            None = unless :func:`nlo_lab.backend.reference`.
     """
 
     def __init__(
@@ -573,12 +571,13 @@ class Objective:
         weights: LossWeights | None = None,
         collision_form: str = "hinge",
         fused: bool | None = None,
-        cull: bool = True,
+        cull: bool | None = None,
     ):
         if collision_form not in COLLISION_FORMS:
             raise SettingsError(f"unknown collision form {collision_form!r}; expected one of {COLLISION_FORMS}")
         weights = weights or LossWeights()
-        self.robot, self.n_frames, self.collision_form, self.cull = robot, len(targets), collision_form, cull
+        self.robot, self.n_frames, self.collision_form = robot, len(targets), collision_form
+        self.cull = backend.cull_far_pairs() if cull is None else cull
         t = targets
         c = self._c = _constants(robot, t.dtype, t.shoulder.device)
         with torch.no_grad():
@@ -597,7 +596,7 @@ class Objective:
             self.mask = torch.cat(masks, 1)  # (T, V) bool
             self.weights = torch.tensor([getattr(weights, n) for n in TERMS], dtype=t.dtype, device=t.shoulder.device)  # (5,)
         if fused is None:
-            fused = t.shoulder.device.type == "cpu" and len(targets) <= FUSED_MAX_FRAMES
+            fused = t.shoulder.device.type == "cpu" and backend.numpy_objective(len(targets))
         self._plan = None
         if fused:
             self._plan = PointTerms(

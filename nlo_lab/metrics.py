@@ -210,15 +210,7 @@ def acceleration_error(a: Any, b: Any, fps: float) -> float:
 
 # ----------------------------------------------------------------- robot side
 def _angles(robot, angles: Any) -> np.ndarray:
-    q = np.asarray(angles, dtype=np.float64)
-    if q.ndim == 1:
-        q = q[None]
-    if q.ndim != 2 or q.shape[1] != robot.n_joints:
-        raise NloLabError(f"angles must be (T, {robot.n_joints}) for robot {robot.name!r}, got shape {np.shape(angles)}")
-    if not np.isfinite(q).all():
-        frame = int(np.argwhere(~np.isfinite(q))[0][0])
-        raise NloLabError(f"angles hold NaN or inf at frame {frame}")
-    return q
+    return robot.check_angles(angles)  # (T, n) float64
 
 
 def _poses_torch(robot, q: np.ndarray):

@@ -35,14 +35,11 @@ from typing import Any
 import torch
 from torch import nn
 
+from nlo_lab import backend
 from nlo_lab.errors import SettingsError
 from nlo_lab.fused_decoder import DecoderPlan, decode_fused
 from nlo_lab.graph import Graph
 
-# Up to this batch the frozen decoder runs in numpy (fused_decoder): measured on
-# YuMi (1 thread), fwd+bwd at batch 1: 266 us numpy vs 473 us torch; at 170:
-# 15.4 ms vs 2.6 ms (numpy's stacked small matmuls do not batch).
-FUSED_MAX_BATCH = 8
 
 __all__ = [
     "GraphLayer",
@@ -335,7 +332,7 @@ class GraphDecoder(nn.Module):
         """``z (B, N_r, k)`` -> ``q (B, n)`` [rad]."""
         w = self._weights()
         plan = w.get("plan")  # frozen weights on the CPU: numpy with a hand-written backward
-        if plan is not None and z.shape[0] <= FUSED_MAX_BATCH and z.device.type == "cpu" and z.dtype == w["mid"].dtype:
+        if plan is not None and backend.numpy_decoder(z.shape[0]) and z.device.type == "cpu" and z.dtype == w["mid"].dtype:
             return decode_fused(z, plan)
         return _remap(self._preactivation(z, w), w["mid"], w["half"], w["lower"], w["upper"])
 

@@ -85,17 +85,7 @@ def _angles(robot, q) -> np.ndarray:
     if q is None:
         q = getattr(robot, "neutral_q", None)
         q = robot.reference_q if q is None else q
-    if hasattr(q, "detach"):
-        q = q.detach().cpu().numpy()
-    a = np.asarray(q, dtype=np.float64)
-    if a.ndim == 1:
-        a = a[None]
-    if a.ndim != 2 or a.shape[1] != robot.n_joints:
-        raise NloLabError(f"angles for robot {robot.name!r} must be ({robot.n_joints},) or (T, {robot.n_joints}), got shape {a.shape}")
-    if not np.isfinite(a).all():
-        bad = np.argwhere(~np.isfinite(a))[0]
-        raise NloLabError(f"angles for robot {robot.name!r} are not finite (frame {bad[0]}, joint {robot.joint_names[bad[1]]!r})")
-    return a
+    return robot.check_angles(q)  # (T, n) float64
 
 
 def _failed(widget, exc: Exception):

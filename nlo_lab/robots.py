@@ -32,7 +32,7 @@ import numpy as np
 import torch
 
 from nlo_lab.collision import segment_distance_ends
-from nlo_lab.errors import RobotDescriptionError, UnknownRobotError
+from nlo_lab.errors import NloLabError, RobotDescriptionError, UnknownRobotError
 from nlo_lab.graph import NODE_ARM, NODE_HAND, Graph
 from nlo_lab.human.demonstration import FINGERS, SIDES
 from nlo_lab.kinematics import KinematicTree, URDFModel, parse_urdf
@@ -477,6 +477,78 @@ class Robot:
     def wrist_alignment(self, side: str) -> torch.Tensor:
         """``(3, 3)`` ``R_wristlink_handframe`` of ``side`` in the robot's dtype and device."""
         return self.arm(side).wrist_alignment.to(dtype=self.dtype, device=self.device)
+
+    @property
+    def root_link(self) -> str:
+        """The URDF's root link: the robot frame (origin between the shoulders)."""
+        return self.model.root
+
+    def point_map(self, links: Sequence[str], vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Fixed points and directions on links, prepared for :meth:`KinematicTree.map_points`.
+
+        Args:
+            links: ``k`` link names.
+            vectors: ``(k, 4)`` homogeneous vectors in those link frames: points
+                ``(x, y, z, 1)`` [m] and directions ``(x, y, z, 0)``.
+
+        Returns:
+            ``body (k,)`` indices into :meth:`KinematicTree.body_poses` and the
+            ``(k, 4)`` vectors expressed in those body frames; then
+            ``robot.tree.map_points(q, body, vectors)`` gives them in the world.
+        """
+        unknown = sorted(set(links) - set(self.link_names))
+        if unknown:
+            raise RobotDescriptionError(f"{self.name}: no link named {unknown[0]!r}")
+        return self.tree.point_map(list(links), np.asarray(vectors, dtype=np.float64))
+
+    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor) -> torch.Tensor:
+        """``q (B, n)`` -> ``(B, k, 3)``: the vectors of :meth:`point_map` in the world [m].
+
+        ``body`` and ``vectors`` are :meth:`point_map`'s results as tensors (long,
+        and the dtype of ``q``). Differentiable in ``q``.
+        """
+        return self.tree.map_points(q, body, vectors)
+
+    @property
+    def capsule_radii(self) -> torch.Tensor:
+        """``(C,)`` radius of each capsule [m], spec order, in the robot's dtype and device."""
+        return torch.as_tensor(self._cap_r, dtype=self.dtype, device=self.device)
+
+    @property
+    def pair_capsules(self) -> np.ndarray:
+        """``(P, 2)`` int64 capsule indices (spec order) of each collision pair."""
+        return self._pair_idx.copy()
+
+    @property
+    def pair_radii(self) -> torch.Tensor:
+        """``(P,)`` radius of a + radius of b per collision pair [m], in the robot's dtype and device."""
+        return self._pair_radii(self.dtype, self.device)
+
+    def check_angles(self, q) -> np.ndarray:
+        """Joint angles as a float64 ``(T, n)`` array, or one clear error.
+
+        Args:
+            q: ``(n,)`` or ``(T, n)`` angles [rad] (array, list or tensor), in
+                :attr:`joint_names` order.
+
+        Raises:
+            NloLabError: the wrong shape, or a NaN or infinite angle (the message
+                names the frame and the joint).
+        """
+        if isinstance(q, torch.Tensor):
+            q = q.detach().cpu().numpy()
+        try:
+            a = np.asarray(q, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise NloLabError(f"angles for robot {self.name!r} must be numbers, got {type(q).__name__}") from None
+        if a.ndim == 1:
+            a = a[None]
+        if a.ndim != 2 or a.shape[1] != self.n_joints:
+            raise NloLabError(f"angles for robot {self.name!r} must be ({self.n_joints},) or (T, {self.n_joints}), got shape {np.shape(q)}")
+        if not np.isfinite(a).all():
+            frame, joint = np.argwhere(~np.isfinite(a))[0]
+            raise NloLabError(f"angles for robot {self.name!r} are not finite (frame {frame}, joint {self.joint_names[joint]!r})")
+        return a
 
     def link_index(self, link: str) -> int:
         """Index of ``link`` in :meth:`forward_kinematics_tensor`'s link dimension."""

@@ -179,15 +179,15 @@ def test_wrong_number_of_angles(robot64):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_pointer_jumping_equals_level_by_level(name, monkeypatch, robot64):
-    import nlo_lab.kinematics as kin
+def test_pointer_jumping_equals_level_by_level(name, robot64):
+    from nlo_lab import backend
 
     robot = robot64(name)
     q = random_q(robot, 3, seed=5)
-    monkeypatch.setattr(kin, "_JUMP_MAX_WORK", 10**9)  # always pointer jumping
-    jump = robot.forward_kinematics_tensor(q)
-    monkeypatch.setattr(kin, "_JUMP_MAX_WORK", 0)  # always level by level
-    levels = robot.forward_kinematics_tensor(q)
+    with backend.use(fk_jump_max_work=10**9):  # always pointer jumping
+        jump = robot.forward_kinematics_tensor(q)
+    with backend.use(fk_jump_max_work=0):  # always level by level
+        levels = robot.forward_kinematics_tensor(q)
     torch.testing.assert_close(jump, levels, atol=1e-12, rtol=0)
 
 

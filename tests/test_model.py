@@ -202,14 +202,14 @@ def test_frozen_decoder_cache_follows_in_place_updates():
 @pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
 def test_frozen_decoder_numpy_path_equals_torch_values_and_latent_gradients(widths, dtype):
     """The frozen decoder's numpy path (small batches, hand-written backward) = the torch ops."""
-    from nlo_lab.model import FUSED_MAX_BATCH
+    from nlo_lab import backend
 
     torch.manual_seed(10)
     rest = LOWER + 0.3 * (UPPER - LOWER)  # a rest offset, as trained models have
     dec = GraphDecoder(chain_graph(), LOWER, UPPER, latent_per_node=3, widths=widths, rest=rest).to(dtype)
     for p in dec.parameters():
         p.requires_grad_(False)
-    z = (3 * torch.randn(FUSED_MAX_BATCH, 5, 3, dtype=dtype)).requires_grad_(True)  # 3σ: some joints near a limit
+    z = (3 * torch.randn(backend.current().decoder_max_batch, 5, 3, dtype=dtype)).requires_grad_(True)  # 3σ: some joints near a limit
     assert dec._weights().get("plan") is not None
     q = dec(z)
     assert q.grad_fn is not None and "Decode" in type(q.grad_fn).__name__  # the numpy path ran

@@ -387,3 +387,62 @@ def test_forward_kinematics_links_equals_the_full_dict():
     full = robot.forward_kinematics(q[None])
     for k, n in enumerate(names):
         torch.testing.assert_close(T[:, k], full[n], atol=1e-12, rtol=0)
+
+
+# --------------------------------------------------------------- the interface the objective uses
+@pytest.mark.parametrize("name", ROBOTS)
+def test_root_link_is_the_spec_base_link_at_the_identity(name):
+    robot = robot64(name)
+    assert robot.root_link == robot.spec.base_link == robot.link_names[0]
+    T = robot.forward_kinematics(robot.reference_q[None])[robot.root_link]
+    torch.testing.assert_close(T[0], torch.eye(4, dtype=torch.float64))
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_point_map_puts_link_points_where_fk_does(name):
+    robot = robot64(name)
+    links = [robot.arm("left").elbow, robot.arm("right").wrist, robot.root_link]
+    local = torch.tensor([[0.03, -0.02, 0.01, 1.0], [0.0, 0.0, 1.0, 0.0], [0.1, 0.2, 0.3, 1.0]], dtype=torch.float64)
+    body, vec = robot.point_map(links, local.numpy())
+    g = torch.Generator().manual_seed(1)
+    q = robot.lower_limits + torch.rand(3, robot.n_joints, generator=g, dtype=torch.float64) * (robot.upper_limits - robot.lower_limits)
+    got = robot.map_points(q, torch.as_tensor(body), torch.as_tensor(vec))  # (3, 3, 3)
+    T = robot.forward_kinematics_links(q, links)  # (3, 3, 4, 4)
+    torch.testing.assert_close(got, (T @ local[..., None]).squeeze(-1)[..., :3])
+    with pytest.raises(RobotDescriptionError, match="no link named 'nowhere'"):
+        robot.point_map(["nowhere"], [[0.0, 0.0, 0.0, 1.0]])
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_capsule_and_pair_radii_follow_the_spec(name):
+    robot = robot64(name).to(dtype=torch.float32)
+    caps = robot.spec.capsules
+    assert robot.capsule_radii.dtype == torch.float32
+    assert robot.capsule_radii.tolist() == pytest.approx([c.radius for c in caps])
+    names = [c.name for c in caps]
+    assert [(names[a], names[b]) for a, b in robot.pair_capsules] == list(robot.spec.collision_pairs)
+    expected = [caps[a].radius + caps[b].radius for a, b in robot.pair_capsules]
+    assert robot.pair_radii.tolist() == pytest.approx(expected)
+    # the pair distances are the axis distances minus these radii
+    T = robot.forward_kinematics_tensor(robot.neutral_q[None])
+    from nlo_lab.collision import segment_distance_ends
+
+    seg = robot.capsule_segments(T)[0]  # (C, 2, 3)
+    ends = torch.cat([seg[robot.pair_capsules[:, 0]], seg[robot.pair_capsules[:, 1]]], 1)  # (P, 4, 3)
+    torch.testing.assert_close(robot.capsule_distances(T)[0], segment_distance_ends(ends) - robot.pair_radii)
+
+
+def test_check_angles_shapes_and_errors():
+    robot = robot64("nao")
+    n = robot.n_joints
+    one = robot.check_angles(torch.zeros(n))
+    assert one.shape == (1, n) and one.dtype.name == "float64"
+    assert robot.check_angles([[0.0] * n] * 3).shape == (3, n)
+    with pytest.raises(NloLabError, match=rf"must be \({n},\) or \(T, {n}\), got shape \(2, {n - 1}\)"):
+        robot.check_angles(torch.zeros(2, n - 1))
+    bad = torch.zeros(4, n)
+    bad[2, 3] = float("nan")
+    with pytest.raises(NloLabError, match=f"not finite \\(frame 2, joint '{robot.joint_names[3]}'\\)"):
+        robot.check_angles(bad)
+    with pytest.raises(NloLabError, match="must be numbers"):
+        robot.check_angles([["a"] * n])
