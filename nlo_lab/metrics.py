@@ -210,7 +210,9 @@ def acceleration_error(a: Any, b: Any, fps: float) -> float:
 
 # ----------------------------------------------------------------- robot side
 def _angles(robot, angles: Any) -> np.ndarray:
-    return robot.check_angles(angles)  # (T, n) float64
+    from nlo_lab.robots import check_angles
+
+    return check_angles(angles, robot.n_joints, robot.name, getattr(robot, "joint_names", None))  # (T, n) float64
 
 
 def _poses_torch(robot, q: np.ndarray):

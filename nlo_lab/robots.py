@@ -39,7 +39,7 @@ from nlo_lab.kinematics import KinematicTree, URDFModel, parse_urdf
 from nlo_lab.rotations import matrix_to_rpy, rpy_to_matrix
 from nlo_lab.paths import BUNDLED_ROBOTS, ROBOTS_DIR, is_bundled, repair_hint
 
-__all__ = ["ArmSpec", "CapsuleSpec", "RobotSpec", "Robot", "load_robot", "load_spec", "known_robots"]
+__all__ = ["ArmSpec", "CapsuleSpec", "RobotSpec", "Robot", "load_robot", "load_spec", "known_robots", "check_angles"]
 
 
 # --------------------------------------------------------------------------- spec
@@ -324,6 +324,34 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
 
 
 # --------------------------------------------------------------------------- robot
+def check_angles(q, n_joints: int, robot: str = "robot", joint_names: Sequence[str] | None = None) -> np.ndarray:
+    """Joint angles as a float64 ``(T, n)`` array, or one clear error.
+
+    Args:
+        q: ``(n,)`` or ``(T, n)`` angles [rad] (array, list or tensor).
+        n_joints: ``n``; robot: its name and joint_names its joints, for the message.
+
+    Raises:
+        NloLabError: the wrong shape, or a NaN or infinite angle (the message
+            names the frame and the joint).
+    """
+    if isinstance(q, torch.Tensor):
+        q = q.detach().cpu().numpy()
+    try:
+        a = np.asarray(q, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise NloLabError(f"angles for robot {robot!r} must be numbers, got {type(q).__name__}") from None
+    if a.ndim == 1:
+        a = a[None]
+    if a.ndim != 2 or a.shape[1] != n_joints:
+        raise NloLabError(f"angles for robot {robot!r} must be ({n_joints},) or (T, {n_joints}), got shape {np.shape(q)}")
+    if not np.isfinite(a).all():
+        frame, joint = np.argwhere(~np.isfinite(a))[0]
+        name = repr(joint_names[joint]) if joint_names is not None else str(joint)
+        raise NloLabError(f"angles for robot {robot!r} are not finite (frame {frame}, joint {name})")
+    return a
+
+
 class Robot:
     """A robot: joint order and limits, batched FK, capsule distances and structure graph.
 
@@ -525,30 +553,8 @@ class Robot:
         return self._pair_radii(self.dtype, self.device)
 
     def check_angles(self, q) -> np.ndarray:
-        """Joint angles as a float64 ``(T, n)`` array, or one clear error.
-
-        Args:
-            q: ``(n,)`` or ``(T, n)`` angles [rad] (array, list or tensor), in
-                :attr:`joint_names` order.
-
-        Raises:
-            NloLabError: the wrong shape, or a NaN or infinite angle (the message
-                names the frame and the joint).
-        """
-        if isinstance(q, torch.Tensor):
-            q = q.detach().cpu().numpy()
-        try:
-            a = np.asarray(q, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise NloLabError(f"angles for robot {self.name!r} must be numbers, got {type(q).__name__}") from None
-        if a.ndim == 1:
-            a = a[None]
-        if a.ndim != 2 or a.shape[1] != self.n_joints:
-            raise NloLabError(f"angles for robot {self.name!r} must be ({self.n_joints},) or (T, {self.n_joints}), got shape {np.shape(q)}")
-        if not np.isfinite(a).all():
-            frame, joint = np.argwhere(~np.isfinite(a))[0]
-            raise NloLabError(f"angles for robot {self.name!r} are not finite (frame {frame}, joint {self.joint_names[joint]!r})")
-        return a
+        """:func:`check_angles` for this robot: ``(n,)`` or ``(T, n)`` -> float64 ``(T, n)``."""
+        return check_angles(q, self.n_joints, self.name, self.joint_names)
 
     def link_index(self, link: str) -> int:
         """Index of ``link`` in :meth:`forward_kinematics_tensor`'s link dimension."""
