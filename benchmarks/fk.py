@@ -18,7 +18,7 @@ from pathlib import Path
 
 import torch
 
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
@@ -44,7 +44,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
-    from nlo_lab.pk_chain import PKChain
+    from nlo_lab.robot.pk_chain import PKChain
 
     robot = load_robot(args.robot)
     pk_ref = PKChain(robot, dtype=torch.float32)  # the same URDF as a pytorch-kinematics chain, mimic joints expanded
@@ -95,7 +95,7 @@ def main() -> None:
         text = "\n".join([
             f"## Forward kinematics on {robot.name} against pytorch-kinematics", "", results_doc.stamp(),
             f"{robot.n_joints} actuated angles, {len(tree.moving_names)} moving joints, {len(robot.link_names)} links; float32, "
-            f"median of {args.runs} runs. pytorch-kinematics gets the mimic joints expanded by `nlo_lab.pk_chain.PKChain`; "
+            f"median of {args.runs} runs. pytorch-kinematics gets the mimic joints expanded by `nlo_lab.robot.pk_chain.PKChain`; "
             "both give the same poses on every link (asserted here; the tests check every robot to 1e-6 m, gradients included).",
             "", "| batch | ours fwd ms | pk fwd ms | ratio | ours fwd+bwd ms | pk fwd+bwd ms | ratio |", "|---:|---:|---:|---:|---:|---:|---:|",
             *rows, "",

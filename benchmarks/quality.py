@@ -49,7 +49,7 @@ from nlo_lab.human.corpus import sign_corpus  # noqa: E402
 from nlo_lab.losses import targets_from_demonstration  # noqa: E402
 from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent  # noqa: E402
-from nlo_lab.robots import load_robot  # noqa: E402
+from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.train import TrainSettings, corpus_targets, load_pretrained, train_model  # noqa: E402
 
 BUDGETS = (0, 10, 25, 50, 100)

@@ -48,7 +48,7 @@ from nlo_lab.human.corpus import sign_corpus  # noqa: E402
 from nlo_lab.losses import targets_from_demonstration  # noqa: E402
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent  # noqa: E402
 from nlo_lab.retarget import retarget  # noqa: E402
-from nlo_lab.robots import load_robot  # noqa: E402
+from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.train import TrainSettings, load_pretrained, train_model  # noqa: E402
 
 LENGTHS = (30, 50, 100, 170, 250, 350, 500)

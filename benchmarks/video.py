@@ -33,7 +33,7 @@ from results_doc import ROOT, stamp, update_section
 from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration, video_info
 from nlo_lab.optimize import OptimizeSettings
 from nlo_lab.retarget import retarget
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.train import load_pretrained
 
 SAMPLE = ROOT / "assets" / "recordings" / "signer_webcam_58f.mp4"

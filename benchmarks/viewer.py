@@ -49,7 +49,7 @@ def notebook(clip: str, frames: int) -> dict:
         "from nlo_lab.notebook import setup\nsetup()",
         f"from nlo_lab.human import corpus_clip\ndemo = corpus_clip({clip!r}).slice(0, {frames})\nprint(len(demo), 'frames')",
         "from nlo_lab.widgets import RetargetPanel\npanel = RetargetPanel(demo, 'yumi')\npanel",
-        "from nlo_lab.robots import load_robot\nfrom nlo_lab.widgets import JointPanel\njoints = JointPanel(load_robot('yumi'))\njoints",
+        "from nlo_lab.robot import load_robot\nfrom nlo_lab.widgets import JointPanel\njoints = JointPanel(load_robot('yumi'))\njoints",
     ]
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
@@ -80,7 +80,7 @@ def bare_page_fps(browser, tmp: Path, clip: str, frames: int, size: list[int]) -
     import numpy as np
 
     from nlo_lab.human import corpus_clip
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
     from nlo_lab.viz.export import export_html
 
     robot = load_robot("yumi")

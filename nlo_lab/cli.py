@@ -7,7 +7,7 @@ that names what is wrong and where, with names taken from files escaped
 (exit 1). Warnings, ours and the libraries', go through one channel: one line
 each (``nlo-lab: warning: ...``), silenced by ``--quiet``. SIGTERM, SIGHUP and
 SIGINT end the run with exit 128+signal after the clean-up ran: the outputs of
-``retarget --out`` appear as a whole set or not at all (:func:`nlo_lab._atomic.output_set`).
+``retarget --out`` appear as a whole set or not at all (:func:`nlo_lab.atomic_files.output_set`).
 """
 
 from __future__ import annotations
@@ -163,7 +163,7 @@ def _load_video(args, progress: bool):
 
 def _write_outputs(out_dir: Path, result, demo, robot) -> None:
     """Write the set into a temporary folder beside ``out_dir``, then swap it in (all or nothing)."""
-    from nlo_lab._atomic import output_set
+    from nlo_lab.atomic_files import output_set
     from nlo_lab.viz import export_html
 
     with output_set(out_dir, OUTPUT_FILES) as tmp:
@@ -189,11 +189,11 @@ def _print_summary(summary: dict) -> None:
 
 
 def cmd_retarget(args) -> int:
-    from nlo_lab._atomic import check_output_place
+    from nlo_lab.atomic_files import check_output_place
     from nlo_lab.losses import LossWeights
     from nlo_lab.optimize import OptimizeSettings
     from nlo_lab.retarget import retarget
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
 
     if args.out:
         check_output_place(args.out, OUTPUT_FILES)  # refused before any work starts
@@ -214,7 +214,7 @@ def cmd_retarget(args) -> int:
     if args.out:
         _write_outputs(Path(args.out), result, demo, robot)
     if save_pose is not None:
-        from nlo_lab._atomic import atomic_write_bytes
+        from nlo_lab.atomic_files import atomic_write_bytes
 
         atomic_write_bytes(save_pose, video.to_bytes())
     if args.json:
@@ -254,7 +254,7 @@ def cmd_evaluate(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
 
     for name in ROBOTS:
         robot = load_robot(name)

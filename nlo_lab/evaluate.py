@@ -308,7 +308,7 @@ def main(argv: list[str] | None = None) -> int:
 
     if args.threads:
         torch.set_num_threads(max(1, args.threads))
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
 
     robot = load_robot(args.robot)
     methods = _check_methods([m.strip() for m in args.methods.split(",") if m.strip()])

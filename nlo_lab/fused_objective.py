@@ -12,7 +12,7 @@ arithmetic. This module does the same arithmetic in numpy inside one
 * ``sq = mask * |v - v̂|²`` summed per term: ``d sq / d v = 2 (v - v̂)``, and
   through the normalisation ``d / d v = (I - u uᵀ) / |v| · d / d u``;
 * capsule distances ``d = dist(ends) - r`` with the envelope-theorem gradient of
-  :mod:`nlo_lab.collision`, through the hinge ``((m - d)/m)²`` or the paper's
+  :mod:`nlo_lab.robot.collision`, through the hinge ``((m - d)/m)²`` or the paper's
   ``exp(-d²)`` below ``m``;
 * the gradient reaches the points as ``Rᵀ g_v + S g_ends`` (``S`` scatters the
   capsule end points back onto the points).
@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from torch.autograd.function import once_differentiable
 
-from nlo_lab.collision import _DIFF, _distance_xp
+from nlo_lab.robot.collision import segment_closest_points
 
 __all__ = ["PointTerms", "point_terms"]
 
@@ -84,7 +84,7 @@ class PointTerms:
         coll = None
         if n_pairs:
             E = P[:, self.pair_points].reshape(B * n_pairs, 4, 3).transpose(1, 2, 0).astype(np.float64)  # (4, 3, B*P)
-            _, _, w, dist, u = _distance_xp(E, _DIFF, np)
+            _, _, w, dist, u = segment_closest_points(E)
             d = dist.reshape(B, n_pairs) - self.radii  # (B, P) surface distance [m]
             if self.form == "paper":
                 near = d < self.margins

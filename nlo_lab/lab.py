@@ -13,7 +13,7 @@ import os
 import sys
 from pathlib import Path
 
-from nlo_lab._atomic import atomic_write_bytes
+from nlo_lab.atomic_files import atomic_write_bytes
 from nlo_lab.errors import NloLabError
 from nlo_lab.paths import NOTEBOOKS_DIR, repair_hint
 

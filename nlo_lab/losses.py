@@ -51,12 +51,12 @@ import numpy as np
 import torch
 
 from nlo_lab import backend
-from nlo_lab.collision import segment_distance_ends
+from nlo_lab.robot.collision import segment_distance_ends
 from nlo_lab.errors import DemonstrationError, SettingsError
 from nlo_lab.fused_objective import _UNIT_EPS, PointTerms, point_terms
 from nlo_lab.human.demonstration import FINGERS, SIDES, Demonstration
 from nlo_lab.human.skeleton import edge_features, node_features
-from nlo_lab.kinematics import left_matmul
+from nlo_lab.robot.point_gradient import left_matmul
 
 __all__ = [
     "LossWeights",
@@ -518,7 +518,7 @@ def near_pair_distances(ends: torch.Tensor, radii: torch.Tensor, margins: torch.
     radii is at least the margin (plus :data:`CULL_SLACK` for rounding), the pair is
     certainly clear: it gets the bound itself, without gradient, which every
     :func:`collision_loss` form maps to exactly 0 loss and 0 gradient. Only the other
-    pairs go through :func:`nlo_lab.collision.segment_distance_ends` (on the test split
+    pairs go through :func:`nlo_lab.robot.collision.segment_distance_ends` (on the test split
     with YuMi about one pair in seven at batch 170).
 
     Args:
@@ -546,12 +546,12 @@ class Objective:
     it every iteration, where per-op overhead dominates at small batch.
 
     A call maps every needed point and direction to the world at once
-    (:meth:`nlo_lab.kinematics.KinematicTree.map_points`), forms the residual
+    (:meth:`nlo_lab.robot.kinematics.KinematicTree.map_points`), forms the residual
     rows of ee, ori (wrist rotation columns), elbow and finger with one matmul,
     and the capsule pair distances from the same points.
 
     Args:
-        robot: a loaded ``nlo_lab.robots.Robot``.
+        robot: a loaded ``nlo_lab.robot.Robot``.
         targets: :class:`Targets` (T frames); its dtype and device are used.
         weights: :class:`LossWeights`.
         collision_form: see :func:`collision_loss`.
@@ -638,7 +638,7 @@ def objective(
     """The weighted objective ``L(D, K(q))`` per sample (without the latent term).
 
     Args:
-        robot: a loaded ``nlo_lab.robots.Robot``.
+        robot: a loaded ``nlo_lab.robot.Robot``.
         q: ``(B, n)`` joint angles [rad].
         targets: :class:`Targets` with ``B`` frames.
         weights: :class:`LossWeights` (defaults of the paper).

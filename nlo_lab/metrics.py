@@ -210,7 +210,7 @@ def acceleration_error(a: Any, b: Any, fps: float) -> float:
 
 # ----------------------------------------------------------------- robot side
 def _angles(robot, angles: Any) -> np.ndarray:
-    from nlo_lab.robots import check_angles
+    from nlo_lab.robot import check_angles
 
     return check_angles(angles, robot.n_joints, robot.name, getattr(robot, "joint_names", None))  # (T, n) float64
 
@@ -244,7 +244,7 @@ def tracking_errors(demo: "Demonstration", robot, angles: Any) -> dict[str, floa
 
     Args:
         demo: the human demonstration (``T`` frames).
-        robot: a ``nlo_lab.robots.Robot``.
+        robot: a ``nlo_lab.robot.Robot``.
         angles: ``(T, n_joints)`` joint angles [rad].
 
     Returns:
@@ -290,7 +290,7 @@ def self_collision_frames(robot, angles: Any) -> int:
     """Number of frames where any checked capsule pair penetrates (distance < 0).
 
     Args:
-        robot: a ``nlo_lab.robots.Robot``.
+        robot: a ``nlo_lab.robot.Robot``.
         angles: ``(T, n_joints)`` [rad].
     """
     q = _angles(robot, angles)

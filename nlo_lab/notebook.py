@@ -75,7 +75,7 @@ def setup(seed: int = 0, quiet: bool = False) -> None:
 # ------------------------------------------------------------------ the 3-D views
 def _robot(robot):
     if isinstance(robot, str):
-        from nlo_lab.robots import load_robot
+        from nlo_lab.robot import load_robot
 
         return load_robot(robot)
     return robot
@@ -102,7 +102,7 @@ def show_view(robot, angles=None, demo=None, *, layout: str = "side", height: in
     The animation plays in the browser; the viewer's Open Controls panel pauses and scrubs it.
 
     Args:
-        robot: a loaded ``nlo_lab.robots.Robot`` or its name.
+        robot: a loaded ``nlo_lab.robot.Robot`` or its name.
         angles: ``(T, n)`` or ``(n,)`` joint angles [rad]; the robot's neutral pose if None.
         demo: optional ``Demonstration`` with the same number of frames.
         layout: ``"side"`` or ``"overlay"``.

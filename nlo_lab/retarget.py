@@ -29,7 +29,7 @@ from nlo_lab.metrics import (
 )
 from nlo_lab.optimize import OptimizeResult, OptimizeSettings, initial_latent, optimize_latent
 from nlo_lab.retime import retime_times
-from nlo_lab.robots import Robot
+from nlo_lab.robot import Robot
 from nlo_lab.threads import single_thread
 from nlo_lab.train import load_pretrained
 from nlo_lab.trajectory import RobotTrajectory
@@ -79,7 +79,7 @@ def retarget(
 
     Args:
         demo: the human demonstration.
-        robot: a loaded robot (``nlo_lab.robots.load_robot``).
+        robot: a loaded robot (``nlo_lab.robot.load_robot``).
         settings: initialisation strategy, iteration budget, ... (defaults: encoder, 100).
         weights: loss weights (defaults of the paper).
         model: a trained model for this robot; the shipped checkpoint when omitted.

@@ -9,7 +9,7 @@ Conventions of the package:
 
 Every function takes leading batch dimensions. The differentiable rotation
 maths of the optimiser stays in torch (FK builds its rotations from the joint
-axes with Rodrigues' formula, see :mod:`nlo_lab.kinematics`).
+axes with Rodrigues' formula, see :mod:`nlo_lab.robot.kinematics`).
 """
 
 from __future__ import annotations
@@ -20,7 +20,9 @@ from typing import Sequence
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-__all__ = ["rpy_to_matrix", "matrix_to_rpy", "quat_to_matrix", "matrix_to_quat", "slerp"]
+__all__ = ["rpy_to_matrix", "matrix_to_rpy", "quat_to_matrix", "matrix_to_quat", "slerp", "hand_frame"]
+
+_EPS = 1e-9  # [m] below this length a hand direction is undefined
 
 
 def _flat(a: np.ndarray, tail: tuple[int, ...]) -> tuple[np.ndarray, tuple[int, ...]]:
@@ -85,3 +87,30 @@ def slerp(q0: np.ndarray, q1: np.ndarray, a: np.ndarray | float) -> np.ndarray:
     step = (r0.inv() * Rotation.from_quat(f1)).as_rotvec()  # the relative rotation, at most pi (shorter arc)
     q = (r0 * Rotation.from_rotvec(step * a[:, None])).as_quat()
     return np.where(q[:, 3:] < 0, -q, q).reshape(lead + (4,))
+
+
+def hand_frame(wrist: np.ndarray, middle_base: np.ndarray, index_base: np.ndarray, pinky_base: np.ndarray) -> np.ndarray:
+    """The hand's frame from four hand points: the wrist convention of the whole package.
+
+    Columns: x = wrist -> middle-finger base, y = pinky base -> index base made
+    orthogonal to x, z = x cross y (a proper rotation for either hand).
+
+    Args:
+        wrist, middle_base, index_base, pinky_base: ``(..., 3)`` points [m] in any frame.
+
+    Returns:
+        ``(..., 3, 3)`` rotation matrices in that frame; NaN where the points are
+        degenerate (coincident or collinear).
+    """
+    x = _unit(np.asarray(middle_base, dtype=np.float64) - np.asarray(wrist, dtype=np.float64))
+    across = np.asarray(index_base, dtype=np.float64) - np.asarray(pinky_base, dtype=np.float64)
+    y = _unit(across - np.sum(across * x, axis=-1, keepdims=True) * x)
+    z = np.stack([x[..., 1] * y[..., 2] - x[..., 2] * y[..., 1], x[..., 2] * y[..., 0] - x[..., 0] * y[..., 2], x[..., 0] * y[..., 1] - x[..., 1] * y[..., 0]], -1)
+    return np.stack([x, y, z], axis=-1)  # (..., 3, 3)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    """Unit vectors along the last axis; NaN where the length is below :data:`_EPS`."""
+    n = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))  # not np.linalg.norm: cheaper on small arrays
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > _EPS, v / np.where(n > _EPS, n, 1.0), np.nan)

@@ -123,7 +123,7 @@ class TrainResult:
 
 def _resolve_robot(robot):
     if isinstance(robot, str):
-        from nlo_lab.robots import load_robot
+        from nlo_lab.robot import load_robot
 
         return load_robot(robot)
     return robot

@@ -1,6 +1,6 @@
 """A robot's joint trajectory and its files (.npz, .json, .csv).
 
-Writes are atomic (:mod:`nlo_lab._atomic`): the data goes to a temporary file in the
+Writes are atomic (:mod:`nlo_lab.atomic_files`): the data goes to a temporary file in the
 destination folder which is then renamed over the target, so a reader never sees half a
 file; the file gets the umask-derived mode of an ordinary ``open``.
 """
@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from nlo_lab._atomic import atomic_write_bytes
+from nlo_lab.atomic_files import atomic_write_bytes
 from nlo_lab.errors import NloLabError
 
 __all__ = ["RobotTrajectory", "TrajectoryError", "FORMAT_VERSION"]
@@ -229,7 +229,7 @@ class RobotTrajectory:
 
 
 def _atomic_write(path: str | os.PathLike, payload: bytes) -> Path:
-    """Write ``payload`` to ``path`` atomically (:mod:`nlo_lab._atomic`); a missing folder is a TrajectoryError."""
+    """Write ``payload`` to ``path`` atomically (:mod:`nlo_lab.atomic_files`); a missing folder is a TrajectoryError."""
     target = Path(path)
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():

@@ -48,7 +48,7 @@ def save_upload(upload, folder) -> Path | None:
     Raises:
         NloLabError: the upload's name has no video extension.
     """
-    from nlo_lab._atomic import atomic_write_bytes
+    from nlo_lab.atomic_files import atomic_write_bytes
     from nlo_lab.human.io_video import VIDEO_SUFFIXES
 
     value = getattr(upload, "value", upload) or ()
@@ -69,7 +69,7 @@ class VideoView:
     Args:
         frames: ``(T, H, W, 3)`` RGB ``uint8`` video frames
             (:func:`nlo_lab.human.io_video.read_video_frames`).
-        robot: a loaded ``nlo_lab.robots.Robot``.
+        robot: a loaded ``nlo_lab.robot.Robot``.
         angles: ``(T, n)`` the robot's joint angles [rad].
         demo: the ``Demonstration`` read from the video (``T`` frames), drawn beside the robot.
         fps: playing rate; the demonstration's by default.

@@ -154,7 +154,7 @@ class JointPanel:
     """One slider per actuated joint (within its limits) driving the robot, and FK of a link.
 
     Args:
-        robot: a loaded ``nlo_lab.robots.Robot``.
+        robot: a loaded ``nlo_lab.robot.Robot``.
         q: start angles ``(n,)`` [rad]; the neutral pose if None.
         link: the link whose pose is printed (default: the left wrist).
         view: ``"auto"``, None or a meshcat ``Visualizer`` (see the module doc).
@@ -393,7 +393,7 @@ class RetargetPanel:
             return robot
         if robot in self._models:
             return self._models[robot][0]
-        from nlo_lab.robots import load_robot
+        from nlo_lab.robot import load_robot
 
         r = load_robot(robot)
         self._models[r.name] = (r, None)

@@ -18,7 +18,7 @@ from typing import Callable
 import pytest
 import torch
 
-from nlo_lab.robots import Robot, load_robot
+from nlo_lab.robot import Robot, load_robot
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"  # beside the checkout (and in CI), never in a user's clone
 SHARED_POSE = SHARED / "data" / "pose"  # the real MediaPipe recordings

@@ -1,4 +1,4 @@
-"""Tests of nlo_lab._atomic and of the three writers that use it (trajectory, demonstration, viewer page)."""
+"""Tests of nlo_lab.atomic_files and of the three writers that use it (trajectory, demonstration, viewer page)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nlo_lab._atomic import atomic_path, atomic_write_bytes, current_umask
+from nlo_lab.atomic_files import atomic_path, atomic_write_bytes, current_umask
 from nlo_lab.human import Demonstration, save_npz
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.trajectory import RobotTrajectory
 from nlo_lab.viz import export_html
 

@@ -8,7 +8,7 @@ import torch
 
 from nlo_lab import backend
 from nlo_lab.errors import SettingsError
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 
 ROBOTS = ("yumi", "nao", "pepper")
 
@@ -102,7 +102,7 @@ def test_fk_pointer_jumping_equals_level_by_level(robot):
 
 
 def test_reference_fk_composes_level_by_level(robot, monkeypatch):
-    from nlo_lab.kinematics import KinematicTree
+    from nlo_lab.robot.kinematics import KinematicTree
 
     monkeypatch.setattr(KinematicTree, "_compose_by_jumps", _raise)
     q = random_q(robot, 1, seed=2)
@@ -121,9 +121,9 @@ def test_mapped_points_analytic_gradient_equals_autograd(robot):
 
 
 def test_reference_mapped_points_use_autograd(robot, monkeypatch):
-    from nlo_lab import kinematics
+    from nlo_lab.robot import point_gradient
 
-    monkeypatch.setattr(kinematics._MapPoints, "apply", _raise)
+    monkeypatch.setattr(point_gradient.MapPoints, "apply", _raise)
     body, vec = robot.point_map([robot.arm("left").wrist], [[0.0, 0.0, 0.0, 1.0]])
     q = random_q(robot, 2, seed=4).requires_grad_(True)
     with backend.reference():
@@ -141,7 +141,7 @@ def test_collision_numpy_equals_torch(robot):
 
 
 def test_reference_collision_runs_in_torch(robot, monkeypatch):
-    from nlo_lab import collision
+    from nlo_lab.robot import collision
 
     monkeypatch.setattr(collision, "_distance_parts_numpy", _raise)
     T = robot.forward_kinematics_tensor(random_q(robot, 2, seed=6))

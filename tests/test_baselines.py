@@ -21,7 +21,7 @@ from nlo_lab.baselines import (
 from nlo_lab.errors import SettingsError
 from nlo_lab.losses import targets_from_demonstration
 from nlo_lab.metrics import limit_violations
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.train import new_model
 from robot_targets import demonstration_from_robot, random_feasible_pose
 

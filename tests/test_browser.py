@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from nlo_lab.human import Demonstration
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.viz import GROUP_COLOURS, RetargetScene, export_html, recording_visualizer, style_viewer
 from nlo_lab.viz.export import scene_html
 

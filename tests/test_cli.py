@@ -178,7 +178,7 @@ def test_retarget_progress_bar_leaves_the_result_unchanged(capsys):
     from nlo_lab.human import corpus_clip, corpus_names
     from nlo_lab.optimize import OptimizeSettings
     from nlo_lab.retarget import retarget
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
 
     robot, demo = load_robot("nao"), corpus_clip(corpus_names("test")[1])
     settings = OptimizeSettings(iterations=4, patience=10)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from nlo_lab.collision import capsule_distance, segment_distance
+from nlo_lab.robot.collision import capsule_distance, segment_distance
 
 N = 2001  # samples per segment for the brute-force reference
 
@@ -105,7 +105,7 @@ def test_numpy_and_torch_closed_forms_agree():
     """The CPU path runs the closed form in numpy; other devices run the same code in torch."""
     import numpy as np
 
-    from nlo_lab.collision import _DIFF, _distance_xp
+    from nlo_lab.robot.collision import segment_closest_points
 
     g = torch.Generator().manual_seed(11)
     ends = torch.randn(200, 4, 3, generator=g, dtype=torch.float64)
@@ -113,8 +113,8 @@ def test_numpy_and_torch_closed_forms_agree():
     ends[20:40, 3] = ends[20:40, 2] + 1e-9  # b is (almost) a point
     ends[40:60, 2:] = ends[40:60, :2] + torch.tensor([0.0, 0.3, 0.0], dtype=torch.float64)  # parallel
     E = ends.permute(1, 2, 0)  # (4, 3, n)
-    ours = _distance_xp(E.numpy(), _DIFF, np)
-    ref = _distance_xp(E, torch.as_tensor(_DIFF), torch)
+    ours = segment_closest_points(E.numpy())
+    ref = segment_closest_points(E)
     for a, b in zip(ours, ref):
         torch.testing.assert_close(torch.from_numpy(np.ascontiguousarray(a)), b, atol=1e-12, rtol=0)
 

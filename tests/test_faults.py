@@ -26,12 +26,12 @@ import pytest
 import torch
 
 from nlo_lab import cli
-from nlo_lab._atomic import TEMP_TAG
+from nlo_lab.atomic_files import TEMP_TAG
 from nlo_lab.cli import OUTPUT_FILES, main
 from nlo_lab.errors import CheckpointError, DemonstrationError, SettingsError
 from nlo_lab.human import save_npz
 from nlo_lab.retarget import retarget
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from test_human_io import write_authors_h5
 from test_pose_reader import write_pose
 from test_transforms import make_demo
@@ -645,12 +645,12 @@ def _old_set(out: Path) -> None:
 
 
 def test_swap_without_an_atomic_exchange(tmp_path, monkeypatch):
-    from nlo_lab import _atomic
+    from nlo_lab import atomic_files
 
-    monkeypatch.setattr(_atomic, "_exchange", lambda a, b: False)  # an old kernel or a file system without it
+    monkeypatch.setattr(atomic_files, "_exchange", lambda a, b: False)  # an old kernel or a file system without it
     out = tmp_path / "out"
     _old_set(out)
-    with _atomic.output_set(out, OUTPUT_FILES) as tmp:
+    with atomic_files.output_set(out, OUTPUT_FILES) as tmp:
         for name in OUTPUT_FILES:
             (tmp / name).write_text(f"new {name}")
     assert {p.name: p.read_text() for p in out.iterdir()} == {**{n: f"new {n}" for n in OUTPUT_FILES}, "notes.txt": "the user's own file"}
@@ -658,9 +658,9 @@ def test_swap_without_an_atomic_exchange(tmp_path, monkeypatch):
 
 
 def test_failed_swap_puts_the_old_set_back(tmp_path, monkeypatch):
-    from nlo_lab import _atomic
+    from nlo_lab import atomic_files
 
-    monkeypatch.setattr(_atomic, "_exchange", lambda a, b: False)
+    monkeypatch.setattr(atomic_files, "_exchange", lambda a, b: False)
     out = tmp_path / "out"
     _old_set(out)
     before = tree(tmp_path)
@@ -676,7 +676,7 @@ def test_failed_swap_puts_the_old_set_back(tmp_path, monkeypatch):
 
     monkeypatch.setattr(os, "rename", rename)
     with pytest.raises(OSError, match="Input/output"):
-        with _atomic.output_set(out, OUTPUT_FILES) as tmp:
+        with atomic_files.output_set(out, OUTPUT_FILES) as tmp:
             new.append(tmp)
             for name in OUTPUT_FILES:
                 (tmp / name).write_text("new")
@@ -685,16 +685,16 @@ def test_failed_swap_puts_the_old_set_back(tmp_path, monkeypatch):
 
 
 def test_output_set_lacking_a_file_is_a_bug_and_leaves_nothing(tmp_path):
-    from nlo_lab import _atomic
+    from nlo_lab import atomic_files
 
     with pytest.raises(RuntimeError, match="lacks"):
-        with _atomic.output_set(tmp_path / "out", OUTPUT_FILES) as tmp:
+        with atomic_files.output_set(tmp_path / "out", OUTPUT_FILES) as tmp:
             (tmp / "trajectory.npz").write_text("only one")
     assert os.listdir(tmp_path) == []
 
 
 def test_read_only_file_system_names_the_place(work, demo_npz, capsys, monkeypatch):
-    from nlo_lab import _atomic
+    from nlo_lab import atomic_files
 
     real = os.mkdir
 
@@ -703,7 +703,7 @@ def test_read_only_file_system_names_the_place(work, demo_npz, capsys, monkeypat
             raise OSError(errno.EROFS, "Read-only file system", str(path))
         return real(path, *args, **kwargs)
 
-    monkeypatch.setattr(_atomic.os, "mkdir", read_only)
+    monkeypatch.setattr(atomic_files.os, "mkdir", read_only)
     err = fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--out", "out"],
                         "Read-only file system", f"cannot write in {work}")
     assert TEMP_TAG not in err

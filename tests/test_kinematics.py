@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from nlo_lab.rotations import matrix_to_rpy, rpy_to_matrix
-from nlo_lab.robots import Robot, load_robot
+from nlo_lab.robot import Robot, load_robot
 
 yourdfpy = pytest.importorskip("yourdfpy")
 
@@ -87,7 +87,7 @@ def yourdfpy_poses(robot: Robot, q: np.ndarray) -> list[dict[str, np.ndarray]]:
 def test_agrees_with_pytorch_kinematics(name, robot64):
     """The reference: pytorch-kinematics reads the URDF itself; every link, every robot, poses and gradients."""
     pytest.importorskip("pytorch_kinematics")
-    from nlo_lab.pk_chain import PKChain
+    from nlo_lab.robot.pk_chain import PKChain
 
     robot = robot64(name)
     ref = PKChain(robot)
@@ -111,7 +111,7 @@ def test_agrees_with_pytorch_kinematics(name, robot64):
 
 def test_pk_chain_angles_expand_the_mimic_joints(robot64):
     pytest.importorskip("pytorch_kinematics")
-    from nlo_lab.pk_chain import PKChain
+    from nlo_lab.robot.pk_chain import PKChain
 
     robot = robot64("yumi")
     ref = PKChain(robot)

@@ -12,7 +12,7 @@ from nlo_lab.losses import LossWeights
 from nlo_lab.metrics import frechet_distance, frechet_distance_reference
 from nlo_lab.optimize import OptimizeSettings
 from nlo_lab.retarget import retarget
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.viz import _packing
 from nlo_lab.viz.export import VIEWER_MAX_FRAMES, decimate, recording_visualizer, static_html
 from test_transforms import make_demo

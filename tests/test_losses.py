@@ -20,7 +20,7 @@ from nlo_lab.losses import (
     objective,
     targets_from_demonstration,
 )
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
 ROBOTS = ("yumi", "nao", "pepper")
@@ -240,7 +240,7 @@ def test_culling_far_capsule_pairs_changes_nothing(robot, dtype):
     """Objective(cull=True) (exact distances only where a pair may be within its margin)
     = every pair measured, values and gradients; and the bound it uses for the other
     pairs never exceeds the true surface distance."""
-    from nlo_lab.collision import segment_distance_ends
+    from nlo_lab.robot.collision import segment_distance_ends
     from nlo_lab.human.corpus import sign_corpus
     from nlo_lab.losses import Objective, near_pair_distances
 

@@ -261,7 +261,7 @@ def test_self_collision_frames_counts_frames_with_any_penetration():
 
 def test_real_robot_mid_pose_is_feasible():
     from nlo_lab.metrics import self_collision_frames
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
 
     robot = load_robot("nao")
     mid = 0.5 * (robot.lower_limits + robot.upper_limits).double().numpy()

@@ -20,7 +20,7 @@ from nlo_lab.metrics import joint_speed_ratios, max_joint_step, max_joint_speed_
 from nlo_lab.optimize import OptimizeSettings, optimize_latent, sequence_start, initial_latent
 from nlo_lab.retarget import retarget
 from nlo_lab.retime import retime_times, segment_durations
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.train import load_pretrained
 from nlo_lab.trajectory import RobotTrajectory
 
@@ -53,7 +53,7 @@ def test_published_velocity_limits_in_the_specs(robots):
 
 def test_spec_with_a_bad_velocity_limit_is_rejected(tmp_path):
     from nlo_lab.errors import RobotDescriptionError
-    from nlo_lab.robots import ROBOTS_DIR
+    from nlo_lab.robot import ROBOTS_DIR
 
     data = json.loads((ROBOTS_DIR / "nao.json").read_text())
     data["urdf"] = str(ROBOTS_DIR / "nao.urdf")

@@ -175,17 +175,17 @@ def test_a_checkpoint_outside_the_package_gets_no_repair_hint(tmp_path, monkeypa
 @pytest.fixture
 def bundled_copy(tmp_path, monkeypatch):
     """A copy of the bundled robots that the package treats as its own assets."""
-    import nlo_lab.robots as robots
+    import nlo_lab.robot.spec as spec
 
     assets = tmp_path / "assets"
     shutil.copytree(paths.ROBOTS_DIR, assets / "robots")
     monkeypatch.setattr(paths, "ASSETS", assets)
-    monkeypatch.setattr(robots, "ROBOTS_DIR", assets / "robots")
+    monkeypatch.setattr(spec, "ROBOTS_DIR", assets / "robots")
     return assets / "robots"
 
 
 def test_a_missing_bundled_robot_is_a_damaged_install_not_an_unknown_name(bundled_copy, installed):
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
 
     (bundled_copy / "yumi.json").unlink()
     with pytest.raises(RobotDescriptionError, match=r"yumi\.json.*pip install --force-reinstall"):
@@ -193,7 +193,7 @@ def test_a_missing_bundled_robot_is_a_damaged_install_not_an_unknown_name(bundle
 
 
 def test_a_corrupt_bundled_urdf_names_the_file_and_the_repair(bundled_copy, installed):
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
 
     (bundled_copy / "nao.urdf").write_text("<robot name='nao'><link name=")
     with pytest.raises(RobotDescriptionError, match=r"nao\.urdf.*pip install --force-reinstall"):
@@ -204,7 +204,7 @@ def test_a_corrupt_bundled_urdf_names_the_file_and_the_repair(bundled_copy, inst
 
 
 def test_a_users_own_robot_gets_no_repair_hint(tmp_path):
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
 
     spec = tmp_path / "mine.json"
     spec.write_text('{"urdf": "mine.urdf", "base_link": "b", "actuated_joints": ["j"], "arms": {}}')

@@ -18,7 +18,7 @@ import pytest
 yourdfpy = pytest.importorskip("yourdfpy")
 Rotation = pytest.importorskip("scipy.spatial.transform").Rotation
 
-from nlo_lab.robots import load_robot  # noqa: E402
+from nlo_lab.robot import load_robot  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 FACTS = REPO / "docs" / "ROBOT_FACTS.md"

@@ -13,7 +13,7 @@ import torch
 from nlo_lab.errors import NloLabError, RobotDescriptionError, UnknownRobotError
 from nlo_lab.graph import NODE_ARM, NODE_HAND
 from nlo_lab.paths import ROBOTS_DIR
-from nlo_lab.robots import Robot, known_robots, load_robot
+from nlo_lab.robot import Robot, known_robots, load_robot
 
 ROBOTS = ["yumi", "nao", "pepper"]
 
@@ -425,7 +425,7 @@ def test_capsule_and_pair_radii_follow_the_spec(name):
     assert robot.pair_radii.tolist() == pytest.approx(expected)
     # the pair distances are the axis distances minus these radii
     T = robot.forward_kinematics_tensor(robot.neutral_q[None])
-    from nlo_lab.collision import segment_distance_ends
+    from nlo_lab.robot.collision import segment_distance_ends
 
     seg = robot.capsule_segments(T)[0]  # (C, 2, 3)
     ends = torch.cat([seg[robot.pair_capsules[:, 0]], seg[robot.pair_capsules[:, 1]]], 1)  # (P, 4, 3)
@@ -446,3 +446,11 @@ def test_check_angles_shapes_and_errors():
         robot.check_angles(bad)
     with pytest.raises(NloLabError, match="must be numbers"):
         robot.check_angles([["a"] * n])
+
+
+def test_the_old_import_path_is_the_robot_package():
+    import nlo_lab.robot as new
+    import nlo_lab.robots as old
+
+    for name in old.__all__:
+        assert getattr(old, name) is getattr(new, name)

@@ -90,3 +90,32 @@ def test_bad_shapes_are_refused():
         rpy_to_matrix([1.0, 2.0])
     with pytest.raises(ValueError, match=r"\(\.\.\., 4\)"):
         quat_to_matrix(np.zeros((2, 3)))
+
+
+def test_hand_frame_is_a_rotation_with_x_along_the_hand_and_y_across():
+    from nlo_lab.rotations import hand_frame
+
+    rng = np.random.default_rng(4)
+    wrist, middle, index, pinky = rng.normal(size=(4, 50, 3))
+    R = hand_frame(wrist, middle, index, pinky)  # (50, 3, 3)
+    np.testing.assert_allclose(R.swapaxes(-1, -2) @ R, np.broadcast_to(np.eye(3), R.shape), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-12)
+    along = (middle - wrist) / np.linalg.norm(middle - wrist, axis=-1, keepdims=True)
+    np.testing.assert_allclose(R[..., 0], along, atol=1e-12)
+    assert (np.sum(R[..., 1] * (index - pinky), axis=-1) > 0).all()  # y points little finger -> index
+    flat = hand_frame(np.zeros(3), np.array([1.0, 0, 0]), np.array([2.0, 0, 0]), np.array([3.0, 0, 0]))  # collinear
+    assert np.isnan(flat[:, 1:]).all() and np.isfinite(flat[:, 0]).all()  # no direction across the hand
+    assert np.isnan(hand_frame(*np.zeros((4, 3)))).all()  # coincident: no direction at all
+
+
+def test_the_hand_frame_is_one_formulation():
+    """The synthetic body's and the readers' wrist frames are rotations.hand_frame."""
+    from nlo_lab.human.body import hand_frame as body_hand_frame
+    from nlo_lab.human.transforms import wrist_frame_from_hand
+    from nlo_lab.rotations import hand_frame
+
+    rng = np.random.default_rng(5)
+    wrist, bases = rng.normal(size=(7, 3)), rng.normal(size=(7, 5, 3))
+    expected = hand_frame(wrist, bases[:, 2], bases[:, 1], bases[:, 4])
+    np.testing.assert_array_equal(body_hand_frame(wrist, bases), expected)
+    np.testing.assert_array_equal(wrist_frame_from_hand(wrist, bases[:, 1], bases[:, 4], bases[:, 2]), expected)

@@ -8,7 +8,7 @@ import torch
 import nlo_lab.train as train_mod
 from nlo_lab.errors import CheckpointError, SettingsError
 from nlo_lab.losses import targets_from_demonstration
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.train import (
     CHECKPOINT_FORMAT_VERSION,
     TrainSettings,

@@ -194,11 +194,9 @@ def test_map_to_robot_keeps_masked_points_nan():
 
 
 def test_map_to_robot_with_a_real_robot():
-    robots = pytest.importorskip("nlo_lab.robots", reason="nlo_lab.robots is not built yet")
-    try:
-        robot = robots.load_robot("nao")
-    except Exception as err:  # the robot module may exist but not yet ship NAO
-        pytest.skip(f"load_robot('nao') not available yet: {err}")
+    from nlo_lab.robot import load_robot
+
+    robot = load_robot("nao")
     demo = make_demo()
     out = map_to_robot(demo, robot)
     shoulder = np.asarray(robot.shoulder_position("left").detach().cpu().numpy(), float)

@@ -121,7 +121,7 @@ def test_sample_retargets_feasibly(sample):
     from nlo_lab.metrics import limit_violations, max_joint_step, self_collision_frames, velocity_violations
     from nlo_lab.optimize import OptimizeSettings
     from nlo_lab.retarget import retarget
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
 
     demo, _, _ = sample
     robot = load_robot("yumi")

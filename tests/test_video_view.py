@@ -7,7 +7,7 @@ import pytest
 
 from nlo_lab.errors import NloLabError
 from nlo_lab.human import sign_corpus
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.video_view import VideoView, jpeg_bytes, save_upload
 
 T = 6

@@ -18,7 +18,7 @@ import umsgpack
 
 from nlo_lab.errors import NloLabError
 from nlo_lab.human import Demonstration
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.viz import (
     GROUP_COLOURS,
     RetargetScene,

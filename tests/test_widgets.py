@@ -10,7 +10,7 @@ import umsgpack
 from nlo_lab.errors import SettingsError
 from nlo_lab.human import load_demonstration
 from nlo_lab.notebook import budget, recording_path, show_robot, show_view, is_test_mode
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.train import new_model
 from nlo_lab.viz import SceneWidget, recording_visualizer
 from nlo_lab.widgets import JointPanel, RetargetPanel, svg_convergence

@@ -1,7 +1,7 @@
 """The YuMi description (assets/robots/yumi.urdf + yumi.json) against the published facts.
 
 Uses yourdfpy directly so that it does not depend on the package's loader
-(one test at the end checks that ``nlo_lab.robots.load_robot`` reads it).
+(one test at the end checks that ``nlo_lab.robot.load_robot`` reads it).
 """
 
 from __future__ import annotations
@@ -460,10 +460,8 @@ def test_no_pair_is_in_contact_at_every_pose(poser, urdf, spec):
 
 # ----------------------------------------------------------------------------- loader
 def test_load_robot_reads_yumi(spec):
-    try:
-        from nlo_lab.robots import load_robot
-    except ImportError as exc:  # the loader is written in parallel
-        pytest.skip(f"nlo_lab.robots.load_robot not available yet: {exc}")
+    from nlo_lab.robot import load_robot
+
     robot = load_robot("yumi")
     assert robot.n_joints == 26
     assert list(robot.joint_names) == spec["actuated_joints"]

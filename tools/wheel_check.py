@@ -162,7 +162,7 @@ def venv_with_deps(wheel: Path, lowest: bool) -> Path:
 SMOKE = r"""
 import json, sys
 import nlo_lab, nlo_lab.paths as paths
-from nlo_lab.robots import load_robot, known_robots
+from nlo_lab.robot import load_robot, known_robots
 from nlo_lab.train import load_pretrained
 assert "site-packages" in nlo_lab.__file__, nlo_lab.__file__
 assert paths.ASSETS.parent == paths.PACKAGE_DIR, paths.ASSETS
@@ -174,7 +174,7 @@ for name in known_robots():
 # what the lowest versions must also do: the reference FK, a .pose file, a plot, the widgets
 import matplotlib
 matplotlib.use("Agg")
-from nlo_lab.pk_chain import PKChain
+from nlo_lab.robot.pk_chain import PKChain
 from nlo_lab.human import load_demonstration
 from nlo_lab.viz import plot_convergence
 import nlo_lab.widgets

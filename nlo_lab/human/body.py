@@ -33,6 +33,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from nlo_lab import rotations
 from nlo_lab.errors import SettingsError
 
 __all__ = [
@@ -298,16 +299,9 @@ def _finger_chain(params: BodyParams, fingers: np.ndarray) -> np.ndarray:
 
 
 def hand_frame(wrist: np.ndarray, finger_base: np.ndarray) -> np.ndarray:
-    """``R_body_wrist`` from hand points, ``(..., 3), (..., 5, 3) -> (..., 3, 3)``.
-
-    x = wrist -> middle MCP, y = little MCP -> index MCP made orthogonal to x, z = x cross y.
-    """
-    x = finger_base[..., 2, :] - wrist
-    x = x / _norm(x, True)
-    y = finger_base[..., 1, :] - finger_base[..., 4, :]
-    y = y - np.sum(y * x, axis=-1, keepdims=True) * x
-    y = y / _norm(y, True)
-    return np.stack([x, y, _cross(x, y)], axis=-1)
+    """``R_body_wrist`` from hand points, ``(..., 3), (..., 5, 3) -> (..., 3, 3)``: :func:`nlo_lab.rotations.hand_frame`
+    of the middle, index and little finger bases (MCP joints)."""
+    return rotations.hand_frame(wrist, finger_base[..., 2, :], finger_base[..., 1, :], finger_base[..., 4, :])
 
 
 def arm_fk(params: BodyParams, arm: np.ndarray, fingers: np.ndarray, side: str) -> ArmPose:

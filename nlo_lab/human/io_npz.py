@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nlo_lab._atomic import atomic_path
+from nlo_lab.atomic_files import atomic_path
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human.demonstration import MAX_FRAMES, Demonstration
 from nlo_lab.human.transforms import check_arm_lengths

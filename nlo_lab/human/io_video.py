@@ -501,7 +501,7 @@ def load_video(path, *, threads: int | None = None, progress: bool = False, save
     video = estimate_pose(path, threads=threads, progress=progress)
     demo = pose_to_demonstration(video)
     if save_pose is not None:
-        from nlo_lab._atomic import atomic_write_bytes
+        from nlo_lab.atomic_files import atomic_write_bytes
 
         atomic_write_bytes(save_pose, video.to_bytes())
     return demo

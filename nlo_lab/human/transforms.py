@@ -14,7 +14,7 @@ import numpy as np
 
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human.demonstration import SIDES, Demonstration
-from nlo_lab.rotations import matrix_to_quat, quat_to_matrix, slerp  # re-exported: their old home
+from nlo_lab.rotations import hand_frame, matrix_to_quat, quat_to_matrix, slerp  # re-exported: their old home
 
 __all__ = [
     "wrist_frame_from_hand",
@@ -41,23 +41,9 @@ def _normalize(v: np.ndarray) -> np.ndarray:
 def wrist_frame_from_hand(
     wrist: np.ndarray, index_base: np.ndarray, pinky_base: np.ndarray, middle_base: np.ndarray
 ) -> np.ndarray:
-    """Wrist orientation from four hand points, in the convention of :mod:`demonstration`.
-
-    Columns: x = wrist -> middle-finger base, y = pinky base -> index base made
-    orthogonal to x, z = x cross y (a proper rotation for either hand).
-
-    Args:
-        wrist, index_base, pinky_base, middle_base: ``(..., 3)`` points [m] in any frame.
-
-    Returns:
-        ``(..., 3, 3)`` rotation matrices in that frame; NaN where the points are degenerate
-        (coincident or collinear).
-    """
-    x = _normalize(np.asarray(middle_base, float) - np.asarray(wrist, float))
-    across = np.asarray(index_base, float) - np.asarray(pinky_base, float)
-    y = _normalize(across - np.sum(across * x, axis=-1, keepdims=True) * x)
-    z = np.cross(x, y)
-    return np.stack([x, y, z], axis=-1)  # (..., 3, 3)
+    """Wrist orientation ``(..., 3, 3)`` from four hand points ``(..., 3)``: :func:`nlo_lab.rotations.hand_frame`
+    (x = wrist -> middle base, y = pinky base -> index base made orthogonal, z = x cross y; NaN where degenerate)."""
+    return hand_frame(wrist, middle_base, index_base, pinky_base)
 
 
 def body_frame_from_shoulders(
@@ -255,7 +241,7 @@ def map_to_robot(demo: Demonstration, robot: Any) -> np.ndarray:
     Args:
         demo: the demonstration.
         robot: an object with ``zero_pose_lengths(side) -> (upper, fore)`` and
-            ``shoulder_position(side) -> (3,)`` (a :class:`nlo_lab.robots.Robot`).
+            ``shoulder_position(side) -> (3,)`` (a :class:`nlo_lab.robot.Robot`).
 
     Returns:
         ``(T, 2, 3, 3)`` float64 [m]: side x (shoulder, elbow, wrist) x xyz; NaN where masked.

@@ -20,7 +20,7 @@ from meshcat import Visualizer
 from meshcat.servers.tree import SceneTree, find_node, walk
 from meshcat.servers.zmqserver import VIEWER_ROOT, create_command
 
-from nlo_lab._atomic import atomic_path
+from nlo_lab.atomic_files import atomic_path
 from nlo_lab.errors import NloLabError
 from nlo_lab.viz._packing import packb_single
 
@@ -207,8 +207,8 @@ def export_html(
     """Write a self-contained animated 3-D view (works offline from ``file://``).
 
     Args:
-        path: the ``.html`` file to write (atomically, :mod:`nlo_lab._atomic`; mode from the umask).
-        robot: a ``nlo_lab.robots.Robot``.
+        path: the ``.html`` file to write (atomically, :mod:`nlo_lab.atomic_files`; mode from the umask).
+        robot: a ``nlo_lab.robot.Robot``.
         angles: ``(T, n)`` joint angles [rad].
         demo: optional ``Demonstration`` (same ``T``) shown beside or over the robot.
         fps: animation rate; defaults to the demonstration's, else 30.

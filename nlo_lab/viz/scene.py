@@ -71,7 +71,7 @@ class Visual:
 
 # ------------------------------------------------------------------ URDF side
 def urdf_path_of(robot: Any) -> Path:
-    """The URDF file of a robot object (``nlo_lab.robots.Robot``) or a path given directly."""
+    """The URDF file of a robot object (``nlo_lab.robot.Robot``) or a path given directly."""
     if isinstance(robot, (str, os.PathLike)):
         return Path(robot)
     for owner in (robot, getattr(robot, "spec", None)):
@@ -101,7 +101,7 @@ def urdf_path_of(robot: Any) -> Path:
 
 
 def _load_urdf(path: Path):
-    from nlo_lab.kinematics import load_urdf  # the package's one URDF reader (yourdfpy), errors naming the file
+    from nlo_lab.robot.urdf import load_urdf  # the package's one URDF reader (yourdfpy), errors naming the file
 
     return load_urdf(path)
 
@@ -187,7 +187,7 @@ class RobotScene:
 
     Args:
         vis: a meshcat ``Visualizer``.
-        robot: a ``nlo_lab.robots.Robot`` (needs ``forward_kinematics``, ``n_joints``,
+        robot: a ``nlo_lab.robot.Robot`` (needs ``forward_kinematics``, ``n_joints``,
             and a URDF reachable by :func:`urdf_path_of`).
         path: the scene-tree folder.
         origin: ``(3,)`` position of the robot's base in the viewer [m].
@@ -290,7 +290,7 @@ class RetargetScene:
 
     Args:
         vis: a meshcat ``Visualizer``.
-        robot: a ``nlo_lab.robots.Robot``.
+        robot: a ``nlo_lab.robot.Robot``.
         angles: ``(T, n)`` robot joint angles [rad].
         demo: optional ``Demonstration`` with the same number of frames.
         layout: ``"side"`` (human beside the robot) or ``"overlay"`` (human mapped onto the robot).

@@ -21,7 +21,7 @@ setup()
 # `joint_names` fixes the order of the angle vector `q`.
 
 # %%
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 robots = {name: load_robot(name) for name in ("yumi", "nao", "pepper")}
 for name, robot in robots.items():
     print(f"{name:7s} {robot.n_joints:2d} actuated joints, fingers: {robot.has_fingers}")
@@ -102,7 +102,7 @@ fig.tight_layout()
 # same poses, to the float32 rounding of the URDF's numbers that pytorch-kinematics does when it reads them.
 
 # %%
-from nlo_lab.pk_chain import PKChain
+from nlo_lab.robot.pk_chain import PKChain
 ref = PKChain(yumi)                              # ref.chain is the pytorch_kinematics.Chain
 print(f"{len(ref.joint_names)} joints in the chain, {yumi.n_joints} actuated angles")
 ours, theirs = yumi.forward_kinematics(q), ref.forward_kinematics(q)

@@ -104,7 +104,7 @@ print("node features of the real recording:", node_features(real).shape)
 
 # %%
 from nlo_lab.human import map_to_robot
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 mapped = map_to_robot(demo, load_robot("nao"))     # (T, 2, 3, 3): side, (shoulder, elbow, wrist), xyz [m]
 print(mapped.shape, "left wrist at frame 0 in NAO's frame:", mapped[0, 0, 2].round(3))
 

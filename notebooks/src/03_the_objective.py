@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt
 import torch
 from nlo_lab.human import corpus_clip, corpus_names
 from nlo_lab.losses import LossWeights, objective, targets_from_demonstration
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 robot = load_robot("yumi")
 demo = corpus_clip(corpus_names("test")[0])
 targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)

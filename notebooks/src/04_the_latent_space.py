@@ -17,7 +17,7 @@ setup()
 import matplotlib.pyplot as plt
 import numpy as np
 import torch
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.train import load_pretrained
 robot = load_robot("yumi")
 model = load_pretrained(robot)           # the shipped checkpoint: no training needed

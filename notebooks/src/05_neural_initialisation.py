@@ -16,7 +16,7 @@ setup()
 import numpy as np
 from nlo_lab.human import corpus_clip, corpus_names
 from nlo_lab.losses import targets_from_demonstration
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.train import load_pretrained
 robot = load_robot("yumi")
 model = load_pretrained(robot)

@@ -21,7 +21,7 @@ setup()
 # learns every relation from data. Count the parameters:
 
 # %%
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 from nlo_lab.train import TrainSettings, new_model
 robot = load_robot("yumi")
 for kind in ("graph", "mlp"):

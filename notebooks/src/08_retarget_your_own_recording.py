@@ -37,7 +37,7 @@ print(f"{path.name}: {len(demo)} frames at {demo.fps} fps")
 # %%
 from nlo_lab.optimize import OptimizeSettings
 from nlo_lab.retarget import retarget
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 robot = load_robot("yumi")                 # or "nao", "pepper"
 result = retarget(demo, robot, settings=OptimizeSettings(init="encoder", iterations=budget(100, 10)))
 for key, value in result.summary.items():

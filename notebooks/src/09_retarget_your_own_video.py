@@ -66,7 +66,7 @@ for side, seen in demo.meta["hands"].items():
 # %%
 from nlo_lab.optimize import OptimizeSettings
 from nlo_lab.retarget import retarget
-from nlo_lab.robots import load_robot
+from nlo_lab.robot import load_robot
 robot = load_robot("yumi")                 # or "nao", "pepper"
 result = retarget(demo, robot, settings=OptimizeSettings(iterations=budget(100, 10)))
 for key in ("frames", "seconds", "frechet_m", "self_collision_frames", "limit_violations"):

@@ -16,7 +16,7 @@ import torch
 
 from nlo_lab import backend
 
-__all__ = ["segment_distance", "segment_distance_ends", "closest_parameters", "capsule_distance"]
+__all__ = ["segment_distance", "segment_distance_ends", "closest_parameters", "capsule_distance", "segment_closest_points"]
 
 _EPS = 1e-12  # [m^2] denominators below this are treated as degenerate
 # rows d1 = a1 - a0, d2 = b1 - b0, r = a0 - b0 of the end points (a0, a1, b0, b1)
@@ -32,7 +32,7 @@ _CLAMPS = {
 }
 
 
-def _distance_xp(E, diff, xp):
+def segment_closest_points(E):
     """Closest points and distance of segments, in float64, numpy or torch alike (no gradient).
 
     Ericson's clamped closed form, written as: ``s`` of the infinite lines
@@ -40,15 +40,15 @@ def _distance_xp(E, diff, xp):
     [0, 1], then ``s`` again for the clamped ``t`` (the same minimiser).
 
     Args:
-        E: ``(4, 3, n)`` end points a0, a1, b0, b1 (coordinates first: every
-            product below is on contiguous planes).
-        diff: :data:`_DIFF` as an array of ``xp``.
-        xp: ``numpy`` or ``torch``.
+        E: ``(4, 3, n)`` float64 end points a0, a1, b0, b1 (coordinates first:
+            every product below is on contiguous planes), a numpy array or a
+            tensor; the arithmetic runs in its library.
 
     Returns:
         ``s, t (n,)``, ``w (n, 4)`` with ``p - q = sum_j w_j end_j``, ``dist (n,)``
         and ``u (n, 3)`` the unit vector ``(p - q)/dist`` (0 where the segments meet).
     """
+    xp, diff = (np, _DIFF) if isinstance(E, np.ndarray) else (torch, _diff_tensor(E.device))
     # float64: a*e - b*b cancels badly in float32 for near-parallel segments
     D = (diff @ E.reshape(4, -1)).reshape(3, 1, 3, -1)  # (d1, d2, r) x 1 x (x, y, z) x n
     G = (D * D.swapaxes(0, 1)).sum(2)  # (3, 3, n): every dot product of d1, d2, r
@@ -68,8 +68,16 @@ def _distance_xp(E, diff, xp):
     return s, t, w, xp.where(meet, 0.0, dist), xp.where(meet, 0.0, pq / dist).T
 
 
+def _diff_tensor(device: torch.device) -> torch.Tensor:
+    """:data:`_DIFF` as a float64 tensor on ``device`` (made once per device)."""
+    diff = _DIFF_T.get(device)
+    if diff is None:
+        diff = _DIFF_T[device] = torch.as_tensor(_DIFF, device=device)
+    return diff
+
+
 def _distance_parts(ends: torch.Tensor) -> tuple[torch.Tensor, ...]:
-    """:func:`_distance_xp` of ``ends (..., 4, 3)``; returns float64 tensors ``(n, ...)``.
+    """:func:`segment_closest_points` of ``ends (..., 4, 3)``; returns float64 tensors ``(n, ...)``.
 
     On the CPU and for few pairs the arithmetic runs in numpy: it is some 40
     tiny no-grad ops, and numpy's per-op overhead is a fraction of torch's (the
@@ -79,16 +87,13 @@ def _distance_parts(ends: torch.Tensor) -> tuple[torch.Tensor, ...]:
     flat = ends.detach().reshape(-1, 4, 3)
     if flat.device.type == "cpu" and backend.numpy_collision(flat.shape[0]):
         return _distance_parts_numpy(flat)
-    diff = _DIFF_T.get(flat.device)
-    if diff is None:
-        diff = _DIFF_T[flat.device] = torch.as_tensor(_DIFF, device=flat.device)
-    return _distance_xp(flat.to(torch.float64).permute(1, 2, 0), diff, torch)
+    return segment_closest_points(flat.to(torch.float64).permute(1, 2, 0))
 
 
 def _distance_parts_numpy(flat: torch.Tensor) -> tuple[torch.Tensor, ...]:
-    """:func:`_distance_xp` in numpy for ``flat (n, 4, 3)`` CPU end points (the fast path)."""
+    """:func:`segment_closest_points` in numpy for ``flat (n, 4, 3)`` CPU end points (the fast path)."""
     E = flat.numpy().transpose(1, 2, 0).astype(np.float64)
-    return tuple(torch.from_numpy(np.ascontiguousarray(x)) for x in _distance_xp(E, _DIFF, np))
+    return tuple(torch.from_numpy(np.ascontiguousarray(x)) for x in segment_closest_points(E))
 
 
 def _closest_st(ends: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

@@ -1,19 +1,18 @@
 """Batched, differentiable forward kinematics of a URDF tree.
 
-The URDF is parsed once (:func:`parse_urdf`: yourdfpy reads the file, we
-check the tree, and every problem becomes a
-:class:`~nlo_lab.errors.RobotDescriptionError` naming the file). :class:`KinematicTree` then precomputes, per moving joint, the
-index of its nearest moving ancestor, the fixed transform from that ancestor's
-frame to the joint (fixed joints are folded in), its axis and its mimic rule.
-One forward pass (:meth:`KinematicTree.body_poses`) is
+:class:`KinematicTree` takes a parsed URDF (:func:`nlo_lab.robot.urdf.parse_urdf`)
+and precomputes, per moving joint, the index of its nearest moving ancestor, the
+fixed transform from that ancestor's frame to the joint (fixed joints are folded
+in), its axis and its mimic rule. One forward pass (:meth:`KinematicTree.body_poses`) is
 
 1. the angles of every moving joint (mimic: ``m * q_src + c``) as one matmul,
 2. every local transform ``T_parentbody_body = pre @ Rodrigues(axis, theta)``
    from one matmul on ``[sin theta | cos theta]`` (Rodrigues is linear in sin
    and cos, so the constants ``pre``, ``pre K``, ``pre K^2`` are folded in),
-3. chaining: at small batch by pointer jumping (``ceil(log2(depth + 1))``
-   batched matmuls over all bodies: per-op overhead dominates there), at large
-   batch level by level (each body composed once: matrix count dominates),
+3. chaining, level by level ``T_root_body = T_root_parent @ T_parent_body`` (the
+   reference), or at small batch the same product by pointer jumping
+   (``ceil(log2(depth + 1))`` batched matmuls: per-op overhead dominates there;
+   :mod:`nlo_lab.backend` chooses),
 4. links = (their body's world frame) @ (a constant), one batched matmul.
 
 The objective does not need every link: :meth:`KinematicTree.map_points` maps
@@ -23,261 +22,20 @@ gather and one matmul after step 3.
 
 from __future__ import annotations
 
-import logging
 import math
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 import torch
-from torch.autograd.function import once_differentiable
 
 from nlo_lab import backend
 from nlo_lab.errors import RobotDescriptionError
-from nlo_lab.rotations import matrix_to_rpy, rpy_to_matrix  # re-exported: their old home
+from nlo_lab.robot.point_gradient import MapPoints
+from nlo_lab.robot.urdf import JointInfo, URDFModel
 
-__all__ = [
-    "JointInfo",
-    "URDFModel",
-    "load_urdf",
-    "parse_urdf",
-    "rpy_to_matrix",
-    "matrix_to_rpy",
-    "KinematicTree",
-]
-
-MOVING_TYPES = ("revolute", "continuous")
-SUPPORTED_TYPES = MOVING_TYPES + ("fixed",)
+__all__ = ["KinematicTree"]
 
 
-# --------------------------------------------------------------------------- URDF model
-@dataclass(frozen=True)
-class JointInfo:
-    """One URDF joint.
-
-    Attributes:
-        name: joint name.
-        type: ``"revolute"``, ``"continuous"`` or ``"fixed"``.
-        parent: parent link name.
-        child: child link name.
-        origin: ``(4, 4)`` float64 ``T_parent_joint`` (the ``<origin>``).
-        axis: ``(3,)`` unit axis in the joint frame.
-        lower: lower limit [rad] (``-pi`` for continuous joints without a limit).
-        upper: upper limit [rad].
-        mimic: ``(source_joint, multiplier, offset)`` or ``None``.
-    """
-
-    name: str
-    type: str
-    parent: str
-    child: str
-    origin: np.ndarray
-    axis: np.ndarray
-    lower: float
-    upper: float
-    mimic: tuple[str, float, float] | None = None
-
-    @property
-    def moving(self) -> bool:
-        return self.type in MOVING_TYPES
-
-    @property
-    def origin_xyz_rpy(self) -> np.ndarray:
-        """``(6,)`` the origin as xyz [m] + rpy [rad]."""
-        return np.concatenate([self.origin[:3, 3], matrix_to_rpy(self.origin[:3, :3])])
-
-
-@dataclass(frozen=True)
-class URDFModel:
-    """A parsed URDF: links and joints, joints in depth-first order from the root.
-
-    Attributes:
-        name: the robot's name attribute.
-        path: the file it came from.
-        root: the root link.
-        links: link names, parents before children.
-        joints: joints, parents before children.
-        urdf: the ``yourdfpy.URDF`` it was built from (visuals, materials).
-    """
-
-    name: str
-    path: Path
-    root: str
-    links: tuple[str, ...]
-    joints: tuple[JointInfo, ...]
-    urdf: Any = field(default=None, compare=False, repr=False)
-
-    def joint(self, name: str) -> JointInfo:
-        for j in self.joints:
-            if j.name == name:
-                return j
-        raise RobotDescriptionError(f"{self.path}: no joint named {name!r}")
-
-    def parent_joint(self, link: str) -> JointInfo | None:
-        """The joint whose child is ``link`` (``None`` for the root)."""
-        for j in self.joints:
-            if j.child == link:
-                return j
-        return None
-
-
-class _LogRecorder(logging.Handler):
-    """Collects what yourdfpy logs while it reads one file (it logs, not raises, on bad XML)."""
-
-    def __init__(self) -> None:
-        super().__init__(level=logging.ERROR)
-        self.messages: list[str] = []
-
-    def emit(self, record: logging.LogRecord) -> None:
-        self.messages.append(record.getMessage())
-
-
-def load_urdf(path: str | Path):
-    """Read a URDF file with yourdfpy (no meshes, no scene graph): the one parse of a file.
-
-    Args:
-        path: the ``.urdf`` file.
-
-    Returns:
-        The ``yourdfpy.URDF``; :func:`parse_urdf` builds the kinematic model from
-        it and the viewer its visuals (``Robot.urdf``).
-
-    Raises:
-        RobotDescriptionError: a missing file or malformed XML, naming the file.
-    """
-    import yourdfpy  # imported here: the FK never needs it once the tree is built
-
-    path = Path(path)
-    if not path.is_file():
-        raise RobotDescriptionError(f"URDF file not found: {path}")
-    logger = logging.getLogger("yourdfpy")
-    recorder = _LogRecorder()
-    logger.addHandler(recorder)
-    propagate, logger.propagate = logger.propagate, False  # its complaints become our one error
-    try:
-        urdf = yourdfpy.URDF.load(
-            str(path), build_scene_graph=False, build_collision_scene_graph=False, load_meshes=False, load_collision_meshes=False
-        )
-    except Exception as exc:  # yourdfpy raises assorted types (KeyError, AttributeError, ValueError ...)
-        detail = recorder.messages[0] if recorder.messages else f"{type(exc).__name__}: {exc}"
-        raise RobotDescriptionError(f"{path}: malformed URDF ({detail})") from None
-    finally:
-        logger.removeHandler(recorder)
-        logger.propagate = propagate
-    if recorder.messages:  # yourdfpy recovers from broken XML; we refuse the file
-        raise RobotDescriptionError(f"{path}: malformed URDF XML ({recorder.messages[0]})")
-    return urdf
-
-
-def _vector(value, n: int, what: str, path: Path) -> np.ndarray:
-    values = np.asarray(value, dtype=np.float64).reshape(-1) if value is not None else np.zeros(n)
-    if values.shape != (n,) or not np.all(np.isfinite(values)):
-        raise RobotDescriptionError(f"{path}: {what} must be {n} finite numbers, got {value!r}")
-    return values
-
-
-def parse_urdf(path: str | Path) -> URDFModel:
-    """Read a URDF file into a :class:`URDFModel` (yourdfpy parses, we check the tree).
-
-    Args:
-        path: the ``.urdf`` file.
-
-    Returns:
-        The model, joints ordered parents first; ``model.urdf`` keeps the
-        ``yourdfpy.URDF`` so that nothing parses the file twice.
-
-    Raises:
-        RobotDescriptionError: missing file, malformed XML, a joint naming a link
-            that does not exist, a link with two parents, several roots or a
-            cycle, an unsupported joint type, a bad number, a mimic joint whose
-            source does not exist.
-    """
-    path = Path(path)
-    urdf = load_urdf(path)
-    robot = urdf.robot
-    links = [link.name for link in robot.links]
-    if any(n is None for n in links):
-        raise RobotDescriptionError(f"{path}: a <link> has no name")
-    if len(set(links)) != len(links):
-        dup = sorted({n for n in links if links.count(n) > 1})
-        raise RobotDescriptionError(f"{path}: duplicate link names {dup}")
-    link_set = set(links)
-
-    joints: dict[str, JointInfo] = {}
-    for el in robot.joints:
-        name, jtype = el.name, el.type
-        if name is None:
-            raise RobotDescriptionError(f"{path}: a <joint> has no name")
-        if name in joints:
-            raise RobotDescriptionError(f"{path}: duplicate joint name {name!r}")
-        if jtype not in SUPPORTED_TYPES:
-            raise RobotDescriptionError(
-                f"{path}: joint {name!r} has type {jtype!r}; supported: {', '.join(SUPPORTED_TYPES)}"
-            )
-        for tag, link in (("parent", el.parent), ("child", el.child)):
-            if link not in link_set:
-                raise RobotDescriptionError(f"{path}: joint {name!r} names {tag} link {link!r}, which does not exist")
-        origin = np.eye(4) if el.origin is None else np.asarray(el.origin, dtype=np.float64)
-        if origin.shape != (4, 4) or not np.all(np.isfinite(origin)):
-            raise RobotDescriptionError(f"{path}: joint {name!r} has a bad <origin>")
-        axis = _vector(el.axis if el.axis is not None else [1.0, 0.0, 0.0], 3, f"joint {name!r} axis", path)
-        lower, upper = -math.pi, math.pi
-        if jtype in MOVING_TYPES:
-            if np.linalg.norm(axis) < 1e-9:
-                raise RobotDescriptionError(f"{path}: joint {name!r} has a zero axis")
-            axis = axis / np.linalg.norm(axis)
-            limit = el.limit
-            if limit is None and jtype == "revolute":
-                raise RobotDescriptionError(f"{path}: revolute joint {name!r} has no <limit>")
-            if limit is not None and (limit.lower is not None or jtype == "revolute"):
-                lower = float(_vector(limit.lower if limit.lower is not None else 0.0, 1, f"joint {name!r} lower limit", path)[0])
-                upper = float(_vector(limit.upper if limit.upper is not None else 0.0, 1, f"joint {name!r} upper limit", path)[0])
-            if lower > upper:
-                raise RobotDescriptionError(f"{path}: joint {name!r} has lower limit {lower} > upper limit {upper}")
-        mimic = None
-        if el.mimic is not None:
-            mult = float(_vector(el.mimic.multiplier, 1, f"joint {name!r} mimic multiplier", path)[0])
-            off = float(_vector(el.mimic.offset, 1, f"joint {name!r} mimic offset", path)[0])
-            mimic = (el.mimic.joint, mult, off)
-        joints[name] = JointInfo(name, jtype, el.parent, el.child, origin, axis, lower, upper, mimic)
-
-    for j in joints.values():
-        if j.mimic is not None:
-            src = joints.get(j.mimic[0])
-            if src is None:
-                raise RobotDescriptionError(f"{path}: joint {j.name!r} mimics {j.mimic[0]!r}, which does not exist")
-            if not (j.moving and src.moving):
-                raise RobotDescriptionError(f"{path}: mimic joint {j.name!r} and its source {src.name!r} must both move")
-
-    parent_of: dict[str, JointInfo] = {}
-    for j in joints.values():
-        if j.child in parent_of:
-            raise RobotDescriptionError(f"{path}: link {j.child!r} has two parent joints ({parent_of[j.child].name!r}, {j.name!r})")
-        parent_of[j.child] = j
-    roots = [n for n in links if n not in parent_of]
-    if len(roots) != 1:
-        raise RobotDescriptionError(f"{path}: expected exactly one root link, found {roots}")
-    children: dict[str, list[JointInfo]] = {n: [] for n in links}
-    for j in joints.values():
-        children[j.parent].append(j)
-    order_links, order_joints, stack = [], [], [roots[0]]
-    while stack:  # depth-first, keeps file order among siblings
-        link = stack.pop()
-        order_links.append(link)
-        for j in reversed(children[link]):
-            order_joints.append(j)
-            stack.append(j.child)
-    if len(order_links) != len(links):
-        missing = sorted(set(links) - set(order_links))
-        raise RobotDescriptionError(f"{path}: links {missing} are not connected to the root {roots[0]!r} (cycle?)")
-    # order_joints is in stack-push order; re-sort so that each joint follows its parent link's joint.
-    rank = {n: i for i, n in enumerate(order_links)}
-    order_joints.sort(key=lambda j: rank[j.child])
-    return URDFModel(robot.name or path.stem, path, roots[0], tuple(order_links), tuple(order_joints), urdf)
-
-
-# --------------------------------------------------------------------------- FK
 class KinematicTree:
     """Precomputed index tensors of a URDF tree and its batched FK.
 
@@ -577,7 +335,7 @@ class KinematicTree:
             body: ``(k,)`` long body indices.
             vectors: ``(k, 4)`` homogeneous vectors in the body frames.
             analytic: when ``q`` needs a gradient, compute it in closed form
-                (:class:`_MapPoints`, first derivatives only); False lets
+                (:class:`~nlo_lab.robot.point_gradient.MapPoints`, first derivatives only); False lets
                 autograd differentiate the FK (the reference, and for
                 higher derivatives); None = unless :func:`nlo_lab.backend.reference`.
 
@@ -588,11 +346,11 @@ class KinematicTree:
         if analytic is None:
             analytic = backend.analytic_fk_gradient()
         if analytic and q.requires_grad and torch.is_grad_enabled():
-            return _MapPoints.apply(q, self, body, vectors)
+            return MapPoints.apply(q, self, body, vectors)
         T = self.body_poses(q).index_select(1, body)[..., :3, :]  # (B, k, 3, 4)
         return (T * vectors[:, None, :]).sum(-1)  # not matmul: B*k tiny matmuls are slow
 
-    def _moved_by(self, body: torch.Tensor) -> torch.Tensor:
+    def moved_by(self, body: torch.Tensor) -> torch.Tensor:
         """``(M, k)`` 0/1: moving joint ``j`` moves body ``body[i]`` (it is its child frame or an ancestor's)."""
         key = ("moved_by", body.device, tuple(body.tolist()))
         c = self._cache.get(key)
@@ -606,54 +364,13 @@ class KinematicTree:
             c = self._cache[key] = torch.as_tensor(D, device=body.device)
         return c
 
+    def joint_axes(self, device: torch.device, dtype: torch.dtype) -> torch.Tensor:
+        """``(M, 3)`` unit axis of each moving joint in its own frame."""
+        c = self._consts(device, dtype)
+        if "axis" not in c:
+            c["axis"] = torch.as_tensor(self._np["axis"], dtype=dtype, device=device)
+        return c["axis"]
 
-
-def left_matmul(A: torch.Tensor, X: torch.Tensor) -> torch.Tensor:
-    """``A (m, k) @ X (B, k, c) -> (B, m, c)`` as one 2-d matmul.
-
-    ``A @ X`` broadcasts ``A`` and runs B small matmuls (bmm); folding the batch
-    into the columns is one ``(m, k) @ (k, B c)`` product, and so is its backward.
-    Measured at B = 170 on YuMi's objective rows (20 x 58, 1 thread): 464 us -> 68 us.
-    """
-    B, k, c = X.shape
-    return (A @ X.transpose(0, 1).reshape(k, B * c)).view(A.shape[0], B, c).transpose(0, 1)
-
-
-class _MapPoints(torch.autograd.Function):
-    """:meth:`KinematicTree.map_points` with the gradient written out.
-
-    For a revolute joint ``j`` with world axis ``a_j`` through ``o_j``, a point
-    ``p`` it moves has ``dp/dθ_j = a_j × (p - o_j)`` and a direction ``v`` has
-    ``a_j × v``. So ``dL/dθ_j = a_j · (Σ_i p_i × g_i - o_j × Σ_i w_i g_i)`` over
-    the vectors the joint moves (``w`` = 1 for points, 0 for directions), then
-    ``dL/dq = dL/dθ @ theta_mapᵀ`` through the mimic expansion. A dozen batched
-    ops instead of autograd's chain through every pose product; the forward
-    runs without recording a graph. First derivatives only.
-    """
-
-    @staticmethod
-    def forward(ctx, q, tree: "KinematicTree", body, vectors):
-        with torch.no_grad():
-            poses = tree.body_poses(q)  # (B, 1+M, 4, 4)
-            pts = (poses.index_select(1, body)[..., :3, :] * vectors[:, None, :]).sum(-1)  # (B, k, 3)
-        ctx.tree, ctx.body = tree, body
-        ctx.save_for_backward(poses, pts, vectors)
-        return pts
-
-    @staticmethod
-    @once_differentiable  # a second derivative raises instead of coming out wrong
-    def backward(ctx, g):
-        poses, pts, vectors = ctx.saved_tensors
-        tree = ctx.tree
-        c = tree._consts(g.device, g.dtype)
-        M = len(tree.moving_names)
-        D = tree._moved_by(ctx.body).to(g.dtype)  # (M, k)
-        axis = c.get("axis")
-        if axis is None:
-            axis = c["axis"] = torch.as_tensor(tree._np["axis"], dtype=g.dtype, device=g.device)  # (M, 3)
-        R, o = poses[:, 1:, :3, :3], poses[:, 1:, :3, 3]  # (B, M, 3, 3), (B, M, 3)
-        a = (R * axis[:, None, :]).sum(-1)  # (B, M, 3) world axes R a
-        s1 = left_matmul(D, torch.linalg.cross(pts, g))  # (B, M, 3)
-        s0 = left_matmul(D, g * vectors[:, 3:])  # points only
-        dtheta = (a * (s1 - torch.linalg.cross(o, s0))).sum(-1)  # (B, M)
-        return dtheta @ c["theta_map2"][:, :M].T, None, None, None
+    def angle_map(self, device: torch.device, dtype: torch.dtype) -> torch.Tensor:
+        """``(n, M)``: the moving joints' angles are ``q @ angle_map + offset`` (mimic joints included)."""
+        return self._consts(device, dtype)["theta_map2"][:, : len(self.moving_names)]

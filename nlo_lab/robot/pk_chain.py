@@ -1,11 +1,11 @@
 """A robot as a pytorch-kinematics chain: the field's reference forward kinematics.
 
 pytorch-kinematics (``pytorch_kinematics``) is what robotics users reach for to
-get differentiable FK from a URDF. Our own FK (:mod:`nlo_lab.kinematics`) must
+get differentiable FK from a URDF. Our own FK (:mod:`nlo_lab.robot.kinematics`) must
 agree with it on every robot (``tests/test_kinematics.py``), and notebook 01
 runs the two side by side::
 
-    from nlo_lab.pk_chain import PKChain
+    from nlo_lab.robot.pk_chain import PKChain
     ref = PKChain(robot)                  # the chain of the robot's URDF
     poses = ref.forward_kinematics(q)     # q (..., n) in robot.joint_names order -> {link: (..., 4, 4)}
     ref.chain                             # the pytorch_kinematics.Chain itself
@@ -28,7 +28,7 @@ class PKChain:
     """The robot's URDF as a ``pytorch_kinematics`` chain, fed with our angle vector.
 
     Args:
-        robot: a :class:`nlo_lab.robots.Robot`.
+        robot: a :class:`nlo_lab.robot.Robot`.
         dtype: the chain's dtype (default: the robot's).
     """
 

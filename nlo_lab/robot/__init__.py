@@ -1,0 +1,44 @@
+"""The robot side: spec and URDF, kinematic tree, collision capsules and the structure graph.
+
+::
+
+    from nlo_lab.robot import load_robot
+    robot = load_robot("yumi")               # or "nao", "pepper", or a spec .json
+    poses = robot.forward_kinematics(q)      # q (B, n) [rad] -> {link: (B, 4, 4)}
+    d = robot.capsule_distances(poses)       # (B, P) [m], < 0 = penetration
+
+Modules, along the data's path: :mod:`~nlo_lab.robot.spec` (the spec file),
+:mod:`~nlo_lab.robot.urdf` (the URDF, checked), :mod:`~nlo_lab.robot.kinematics`
+(batched FK) with :mod:`~nlo_lab.robot.point_gradient` (its written-out gradient),
+:mod:`~nlo_lab.robot.collision` (segment and capsule distances),
+:mod:`~nlo_lab.robot.structure_graph`, :mod:`~nlo_lab.robot.robot` (``Robot``) and
+:mod:`~nlo_lab.robot.pk_chain` (pytorch-kinematics as the reference FK).
+"""
+
+from nlo_lab.robot.collision import capsule_distance, closest_parameters, segment_distance, segment_distance_ends
+from nlo_lab.robot.kinematics import KinematicTree
+from nlo_lab.robot.robot import Robot, check_angles, load_robot
+from nlo_lab.robot.spec import ArmSpec, CapsuleSpec, RobotSpec, known_robots, load_spec
+from nlo_lab.robot.structure_graph import structure_graph
+from nlo_lab.robot.urdf import JointInfo, URDFModel, load_urdf, parse_urdf
+
+__all__ = [
+    "Robot",
+    "load_robot",
+    "check_angles",
+    "ArmSpec",
+    "CapsuleSpec",
+    "RobotSpec",
+    "load_spec",
+    "known_robots",
+    "KinematicTree",
+    "JointInfo",
+    "URDFModel",
+    "load_urdf",
+    "parse_urdf",
+    "structure_graph",
+    "segment_distance",
+    "segment_distance_ends",
+    "closest_parameters",
+    "capsule_distance",
+]
