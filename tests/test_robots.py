@@ -391,7 +391,7 @@ def test_forward_kinematics_links_equals_the_full_dict():
 
 # --------------------------------------------------------------- the interface the objective uses
 @pytest.mark.parametrize("name", ROBOTS)
-def test_root_link_is_the_spec_base_link_at_the_identity(name):
+def test_root_link_is_the_spec_base_link_at_the_identity(name, robot64):
     robot = robot64(name)
     assert robot.root_link == robot.spec.base_link == robot.link_names[0]
     T = robot.forward_kinematics(robot.reference_q[None])[robot.root_link]
@@ -399,7 +399,7 @@ def test_root_link_is_the_spec_base_link_at_the_identity(name):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_point_map_puts_link_points_where_fk_does(name):
+def test_point_map_puts_link_points_where_fk_does(name, robot64):
     robot = robot64(name)
     links = [robot.arm("left").elbow, robot.arm("right").wrist, robot.root_link]
     local = torch.tensor([[0.03, -0.02, 0.01, 1.0], [0.0, 0.0, 1.0, 0.0], [0.1, 0.2, 0.3, 1.0]], dtype=torch.float64)
@@ -414,7 +414,7 @@ def test_point_map_puts_link_points_where_fk_does(name):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_capsule_and_pair_radii_follow_the_spec(name):
+def test_capsule_and_pair_radii_follow_the_spec(name, robot64):
     robot = robot64(name).to(dtype=torch.float32)
     caps = robot.spec.capsules
     assert robot.capsule_radii.dtype == torch.float32
@@ -432,7 +432,7 @@ def test_capsule_and_pair_radii_follow_the_spec(name):
     torch.testing.assert_close(robot.capsule_distances(T)[0], segment_distance_ends(ends) - robot.pair_radii)
 
 
-def test_check_angles_shapes_and_errors():
+def test_check_angles_shapes_and_errors(robot64):
     robot = robot64("nao")
     n = robot.n_joints
     one = robot.check_angles(torch.zeros(n))
