@@ -187,7 +187,7 @@ def test_objective_culling_far_pairs_equals_every_pair(robot):
     """The torch path (many frames) measures only the pairs that may be near; the reference measures all."""
     from nlo_lab.losses import Objective
 
-    t, q = _objective_case(robot, frames=12)
+    t, q = _objective_case(robot, frames=48)
     for form in ("hinge", "paper"):
         fast = value_and_grad(lambda x: Objective(robot, t, collision_form=form, fused=False)(x)[1], q)
         with backend.reference():
