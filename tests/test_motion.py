@@ -53,7 +53,7 @@ def test_published_velocity_limits_in_the_specs(robots):
 
 def test_spec_with_a_bad_velocity_limit_is_rejected(tmp_path):
     from nlo_lab.errors import RobotDescriptionError
-    from nlo_lab.robot import ROBOTS_DIR
+    from nlo_lab.paths import ROBOTS_DIR
 
     data = json.loads((ROBOTS_DIR / "nao.json").read_text())
     data["urdf"] = str(ROBOTS_DIR / "nao.urdf")
