@@ -40,7 +40,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
 
-from nlo_lab.baselines import BaselineSettings, run_method  # noqa: E402
+from nlo_lab.evaluation import BaselineSettings, run_method  # noqa: E402
 from nlo_lab.human import map_to_robot, sign_corpus  # noqa: E402
 from nlo_lab.losses import collision_loss, robot_points, targets_from_demonstration  # noqa: E402
 from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402

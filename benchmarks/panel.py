@@ -15,7 +15,7 @@ import statistics
 import torch
 
 from nlo_lab.human import corpus_clip
-from nlo_lab.widgets import RetargetPanel
+from nlo_lab.lab import RetargetPanel
 
 
 def main() -> None:

@@ -10,7 +10,7 @@ Quick check (a few minutes)::
 
 Parts (each method's wall time measured in the same run):
 
-1. **Table I**: every method of ``nlo_lab.baselines`` on the test split: Fréchet
+1. **Table I**: every method of ``nlo_lab.evaluation`` on the test split: Fréchet
    distance per sequence (``*`` = self-collision in the sequence), mean,
    velocity/acceleration error, limit violations, wall time.
 2. **Initialisation ablation** (first ``--ablation-limit`` test sequences):
@@ -42,15 +42,23 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
 
-from nlo_lab.baselines import BaselineSettings, SupervisedSettings, supervised_dataset, supervised_network, train_variant  # noqa: E402
+from nlo_lab.evaluation import BaselineSettings, evaluate, format_table  # noqa: E402
 from nlo_lab.errors import CheckpointError  # noqa: E402
-from nlo_lab.evaluate import evaluate, format_table  # noqa: E402
 from nlo_lab.human.corpus import sign_corpus  # noqa: E402
 from nlo_lab.losses import targets_from_demonstration  # noqa: E402
 from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
-from nlo_lab.train import TrainSettings, corpus_targets, load_pretrained, train_model  # noqa: E402
+from nlo_lab.train import load_pretrained  # noqa: E402
+from nlo_lab.training import (  # noqa: E402
+    SupervisedSettings,
+    TrainSettings,
+    corpus_targets,
+    supervised_dataset,
+    supervised_network,
+    train_model,
+    train_variant,
+)
 
 BUDGETS = (0, 10, 25, 50, 100)
 INITS = {  # label -> OptimizeSettings overrides

@@ -14,7 +14,7 @@ Measured in one run:
    encoder's latent (what a slider move costs), median and 90th percentile over
    ``--frames`` frames.
 3. **Training time**: from the shipped checkpoint's metadata (``train_seconds``,
-   recorded by ``nlo_lab.train``); when there is no checkpoint, a short training run
+   recorded by ``nlo-lab train``); when there is no checkpoint, a short training run
    is timed and the time per epoch extrapolated to the default number of epochs
    (said so in the report).
 4. **Ratio to joint-space optimisation**: per test sequence, the method (encoder +
@@ -41,7 +41,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
 
-from nlo_lab.baselines import mean_objective  # noqa: E402
+from nlo_lab.evaluation import mean_objective  # noqa: E402
 from nlo_lab.errors import CheckpointError  # noqa: E402
 from nlo_lab.human import Demonstration  # noqa: E402
 from nlo_lab.human.corpus import sign_corpus  # noqa: E402
@@ -49,7 +49,8 @@ from nlo_lab.losses import targets_from_demonstration  # noqa: E402
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent  # noqa: E402
 from nlo_lab.retarget import retarget  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
-from nlo_lab.train import TrainSettings, load_pretrained, train_model  # noqa: E402
+from nlo_lab.train import load_pretrained  # noqa: E402
+from nlo_lab.training import TrainSettings, train_model  # noqa: E402
 
 LENGTHS = (30, 50, 100, 170, 250, 350, 500)
 NO_STOP = 10_000
@@ -128,7 +129,7 @@ def main(argv=None) -> int:
         budget = 60.0
         r = train_model(robot, TrainSettings(max_seconds=budget, epochs=1000, progress=False))
         model = r.model
-        from nlo_lab.train import corpus_targets
+        from nlo_lab.training import corpus_targets
 
         steps_per_epoch = len(corpus_targets("train")) // d.batch_size
         per_step = r.seconds / max(1, r.steps)

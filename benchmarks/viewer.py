@@ -46,10 +46,10 @@ def notebook(clip: str, frames: int) -> dict:
     import nbformat
 
     cells = [
-        "from nlo_lab.notebook import setup\nsetup()",
+        "from nlo_lab.lab import setup\nsetup()",
         f"from nlo_lab.human import corpus_clip\ndemo = corpus_clip({clip!r}).slice(0, {frames})\nprint(len(demo), 'frames')",
-        "from nlo_lab.widgets import RetargetPanel\npanel = RetargetPanel(demo, 'yumi')\npanel",
-        "from nlo_lab.robot import load_robot\nfrom nlo_lab.widgets import JointPanel\njoints = JointPanel(load_robot('yumi'))\njoints",
+        "from nlo_lab.lab import RetargetPanel\npanel = RetargetPanel(demo, 'yumi')\npanel",
+        "from nlo_lab.robot import load_robot\nfrom nlo_lab.lab import JointPanel\njoints = JointPanel(load_robot('yumi'))\njoints",
     ]
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}

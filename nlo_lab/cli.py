@@ -8,27 +8,27 @@ that names what is wrong and where, with names taken from files escaped
 each (``nlo-lab: warning: ...``), silenced by ``--quiet``. SIGTERM, SIGHUP and
 SIGINT end the run with exit 128+signal after the clean-up ran: the outputs of
 ``retarget --out`` appear as a whole set or not at all (:func:`nlo_lab.atomic_files.output_set`).
+:mod:`nlo_lab.run_guard` holds that machinery; this module the parser (the only one of nlo_lab)
+and the commands.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import os
 import signal
 import sys
-import threading
-import warnings
 from pathlib import Path
 
 from nlo_lab.errors import Interrupted, NloLabError, escape
+from nlo_lab.paths import BUNDLED_ROBOTS
+from nlo_lab.run_guard import error_line, one_warning_channel, os_error_text, raise_pending_signal, signals_raise
+from nlo_lab.settings import arg_type, check_int, check_positive
 
 __all__ = ["main", "build_parser"]
 
-ROBOTS = ("yumi", "nao", "pepper")
-INITS = ("encoder", "random", "train-stats", "zeros")
 DEMO_CLIP = "demo:introduction_06"  # "HELLO, NAME, STUDENT" (133 frames at 20 fps)
 OUTPUT_FILES = ("trajectory.npz", "trajectory.csv", "viewer.html")  # the set `retarget --out` writes
 MAX_SEED = 2**32 - 1  # numpy's and torch's generators both take it
@@ -36,7 +36,9 @@ MAX_SEED = 2**32 - 1  # numpy's and torch's generators both take it
 ITERS_RANGE = (0, 10_000)  # Adam steps; 0 = the start point. The paper's longest budget is 600
 EPOCHS_RANGE = (1, 10_000)  # passes over the training frames (30 by default)
 LIMIT_RANGE = (1, 1_000_000)  # sequences of a split to evaluate
-THREADS_RANGE = (1, 256)  # Holistic instances of the pose estimation, at most
+THREADS_RANGE = (1, 256)  # Holistic instances of the pose estimation, at most; torch threads of train/evaluate
+BATCH_RANGE = (1, 1_000_000)  # training frames per step
+LATENT_RANGE = (1, 64)  # latent size per robot node
 WEIGHT_RANGE = (0.0, 1e6)  # each loss weight: 1000x the largest default; beyond it float32 losses overflow to NaN
 
 
@@ -51,18 +53,23 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _ranged_int(lo: int, hi: int):
+    """argparse ``type=``: a whole number in ``[lo, hi]`` (the settings' own check)."""
+    check = arg_type(check_int, minimum=lo, maximum=hi)
+
     def parse(text: str) -> int:
         if len(text) > 40:  # int() of a huge digit string is slow and its echo floods the line
             raise argparse.ArgumentTypeError(f"must be a whole number in [{lo}, {hi}], got {len(text)} characters")
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number in [{lo}, {hi}], got {text!r}") from None
-        if not lo <= value <= hi:
-            raise argparse.ArgumentTypeError(f"must be in [{lo}, {hi}], got {text}")
-        return value
+        return check(text)
 
+    parse.__name__ = "int"
     return parse
+
+
+def _positive_float(text: str) -> float:
+    """argparse ``type=``: a finite number > 0 (the settings' own check)."""
+    if len(text) > 40:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {len(text)} characters")
+    return arg_type(check_positive, float)(text)
 
 
 def _check_weights(weights) -> None:
@@ -74,7 +81,11 @@ def _check_weights(weights) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of ``nlo-lab`` (exposed for the docs and the tests)."""
+    """The argument parser of ``nlo-lab`` (exposed for the docs and the tests); the only one of nlo_lab."""
+    from nlo_lab.evaluation import METHODS
+    from nlo_lab.model import MODEL_KINDS
+    from nlo_lab.optimize import INITS
+
     parser = _Parser(prog="nlo-lab", description="Kinematic motion retargeting by neural latent optimisation.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
@@ -101,9 +112,18 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("train", help="train the encoder and decoder of a robot on the synthetic corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
     p.add_argument("--epochs", type=_ranged_int(*EPOCHS_RANGE), default=None,
-                   help=f"passes over the training frames, {EPOCHS_RANGE[0]}..{EPOCHS_RANGE[1]}")
+                   help=f"passes over the training frames, {EPOCHS_RANGE[0]}..{EPOCHS_RANGE[1]} (default: 30)")
+    p.add_argument("--max-seconds", type=_positive_float, default=None,
+                   help="wall-clock budget [s]; training stops after the step that exceeds it (default: 500)")
+    p.add_argument("--batch-size", type=_ranged_int(*BATCH_RANGE), default=None, help="frames per step (default: 64)")
+    p.add_argument("--lr", type=_positive_float, default=None, help="Adam learning rate (default: 0.001)")
+    p.add_argument("--kind", default=None, choices=MODEL_KINDS, help="graph (the paper) or mlp (default: graph)")
+    p.add_argument("--latent-per-node", type=_ranged_int(*LATENT_RANGE), default=None,
+                   help=f"latent size per robot node, {LATENT_RANGE[0]}..{LATENT_RANGE[1]} (default: 4)")
     p.add_argument("--out", default=None, help="checkpoint path (default: assets/checkpoints/NAME.pt in a checkout, ./NAME.pt in an installed package)")
     p.add_argument("--seed", type=_ranged_int(0, MAX_SEED), default=0)
+    p.add_argument("--threads", type=_ranged_int(*THREADS_RANGE), default=None,
+                   help="torch threads (default: NLO_LAB_THREADS, else 1)")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no warnings")
 
     p = sub.add_parser("evaluate", help="compare the method with the baselines on a corpus split")
@@ -112,6 +132,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the results as one JSON object on the last line")
     p.add_argument("--limit", type=_ranged_int(*LIMIT_RANGE), default=None,
                    help=f"evaluate only the first N sequences, {LIMIT_RANGE[0]}..{LIMIT_RANGE[1]}")
+    p.add_argument("--iters", type=_ranged_int(*ITERS_RANGE), default=None,
+                   help=f"iterations of the latent and joint-space methods, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
+    p.add_argument("--methods", default=None, help="comma-separated subset of " + ",".join(METHODS) + " (default: all)")
+    p.add_argument("--threads", type=_ranged_int(*THREADS_RANGE), default=None,
+                   help="torch threads (default: NLO_LAB_THREADS, else 1)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar, no warnings")
 
     sub.add_parser("demo", help="retarget a clip of the embedded test split to YuMi and print the summary")
 
@@ -172,7 +198,7 @@ def _write_outputs(out_dir: Path, result, demo, robot) -> None:
         # the page plays the trajectory on its own (retimed) time base: what the robot would play
         export_html(tmp / "viewer.html", robot, result.trajectory.angles, demo=demo, fps=demo.fps, single_precision=True,
                     times=result.trajectory.times)
-        _raise_pending_signal()  # a signal an import swallowed still ends the run, before the swap
+        raise_pending_signal()  # a signal an import swallowed still ends the run, before the swap
 
 
 def _finite_or_null(summary: dict) -> dict:
@@ -230,33 +256,66 @@ def cmd_retarget(args) -> int:
 
 
 def cmd_train(args) -> int:
-    from nlo_lab.train import main as train_main
+    import dataclasses
 
-    argv = ["--robot", args.robot, "--seed", str(args.seed)]
-    if args.epochs is not None:
-        argv += ["--epochs", str(args.epochs)]
-    if args.out:
-        argv += ["--out", args.out]
-    if args.quiet:
-        argv += ["--quiet"]
-    return int(train_main(argv) or 0)
+    import torch
+
+    from nlo_lab.paths import is_editable_checkout
+    from nlo_lab.robot import load_robot
+    from nlo_lab.train import checkpoint_path, save_checkpoint
+    from nlo_lab.training import TrainSettings, train_model
+
+    flags = {"epochs": args.epochs, "max_seconds": args.max_seconds, "batch_size": args.batch_size, "lr": args.lr,
+             "kind": args.kind, "latent_per_node": args.latent_per_node}
+    settings = dataclasses.replace(TrainSettings(seed=args.seed, progress=not args.quiet), **{k: v for k, v in flags.items() if v is not None})
+    if args.threads is not None:
+        torch.set_num_threads(args.threads)
+    robot = load_robot(args.robot)
+    result = train_model(robot, settings)
+    # A checkout retrains the shipped file in place; an installed package is never written to.
+    out = Path(args.out) if args.out else checkpoint_path(robot.name) if is_editable_checkout() else Path(f"{robot.name}.pt")
+    save_checkpoint(result.model, out, robot)
+    print(
+        f"trained {escape(robot.name)}: {result.steps} steps in {result.seconds:.1f} s, "
+        f"best validation loss {result.val_loss:.4f}; wrote {escape(out)} ({out.stat().st_size / 1e6:.2f} MB)"
+    )
+    return 0
 
 
 def cmd_evaluate(args) -> int:
-    from nlo_lab.evaluate import main as evaluate_main
+    import dataclasses
+    import time
 
-    argv = ["--robot", args.robot, "--split", args.split]
+    import torch
+
+    from nlo_lab.evaluation import METHODS, BaselineSettings, check_methods, evaluate_split, format_table, to_json
+    from nlo_lab.robot import load_robot
+
+    if args.threads is not None:
+        torch.set_num_threads(args.threads)
+    methods = check_methods([m.strip() for m in args.methods.split(",") if m.strip()] if args.methods is not None else METHODS)
+    settings = BaselineSettings() if args.iters is None else dataclasses.replace(BaselineSettings(), iterations=args.iters)
+    robot = load_robot(args.robot)
+    start = time.perf_counter()
+    ev = evaluate_split(robot, args.split, limit=args.limit, settings=settings, methods=methods, progress=not args.quiet)
     if args.json:
-        argv.append("--json")
-    if args.limit is not None:
-        argv += ["--limit", str(args.limit)]
-    return int(evaluate_main(argv) or 0)
+        print(json.dumps(to_json(ev)))
+        return 0
+    print(format_table(ev))
+    if ev.info.get("nn_label_seconds") is not None and ev.info.get("nn_train_seconds") is not None:
+        print(
+            f"nn_supervised: labels {ev.info['nn_label_seconds']:.1f} s + training {ev.info['nn_train_seconds']:.1f} s"
+            " (once, then cached; not part of its wall time)"
+        )
+    frames = sum(s.frames for s in ev.scores[methods[0]].values())
+    print(f"{len(ev.sequences)} {args.split} sequences, {frames} frames, {time.perf_counter() - start:.1f} s in all")
+    return 0
 
 
 def cmd_demo(args) -> int:
     from nlo_lab.robot import load_robot
 
-    for name in ROBOTS:
+    for name in BUNDLED_ROBOTS:
         robot = load_robot(name)
         print(f"\n{name}: {robot.n_joints} actuated joints")
         print(f"  {'joint':<40} {'lower':>9} {'upper':>9}")
@@ -293,94 +352,28 @@ COMMANDS = {
 }
 
 
-# ----------------------------------------------------------------------------- the one error path
-_TERMINATING = ("SIGTERM", "SIGHUP", "SIGINT")
-_pending: list[int] = []  # signals received, even those some library's `except BaseException` swallowed
-
-
-def _on_signal(signum, frame):
-    _pending.append(signum)
-    raise Interrupted(signum)
-
-
-def _raise_pending_signal() -> None:
-    if _pending:
-        raise Interrupted(_pending[0])
-
-
-@contextlib.contextmanager
-def _signals_raise():
-    """SIGTERM, SIGHUP and SIGINT raise :class:`Interrupted` (so ``finally`` blocks clean up)."""
-    if threading.current_thread() is not threading.main_thread():  # handlers only install there
-        yield
-        return
-    previous = {}
-    for name in _TERMINATING:
-        if hasattr(signal, name):
-            sig = getattr(signal, name)
-            previous[sig] = signal.signal(sig, _on_signal)
-    _pending.clear()
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-
-
-@contextlib.contextmanager
-def _one_warning_channel(quiet: bool):
-    """Collect the run's warnings; print each distinct one as one line when the run succeeds.
-
-    A failed run prints its error line only (the one line the error path promises).
-    Python's default filters apply (deprecations inside libraries are not the user's business).
-    """
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.resetwarnings()
-        warnings.simplefilter("ignore" if quiet else "default")
-        for category in (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning):
-            warnings.filterwarnings("ignore", category=category)
-        yield
-    seen = set()
-    for w in caught:
-        line = f"nlo-lab: warning: {escape(w.message)}"
-        if line not in seen:
-            seen.add(line)
-            print(line, file=sys.stderr)
-
-
-def _error(message) -> int:
-    print(f"nlo-lab: error: {escape(message)}", file=sys.stderr)
-    return 2
-
-
-def _os_error(exc: OSError) -> str:
-    reason = exc.strerror or str(exc) or type(exc).__name__
-    where = exc.filename if exc.filename is not None else None
-    return f"{reason}: {where}" if where is not None else reason
-
-
 def main(argv: list[str] | None = None) -> int:
     """Run ``nlo-lab``; returns the exit status (0 ok, 2 bad input or a fault, 128+N on signal N)."""
-    with _signals_raise():
+    with signals_raise():
         try:
             args = build_parser().parse_args(argv)
-            with _one_warning_channel(getattr(args, "quiet", False)):
+            with one_warning_channel(getattr(args, "quiet", False)):
                 import torch
 
                 from nlo_lab.threads import default_threads
 
                 torch.set_num_threads(default_threads())  # see nlo_lab.threads: one thread unless NLO_LAB_THREADS says otherwise
                 status = COMMANDS[args.command](args)
-                _raise_pending_signal()
+                raise_pending_signal()
                 return status
         except NloLabError as exc:
-            return _error(exc)
+            return error_line(exc)
         except FileNotFoundError as exc:
-            return _error(f"file not found: {exc.filename}")
+            return error_line(f"file not found: {exc.filename}")
         except MemoryError:
-            return _error("out of memory (the input is too large for this machine; try a shorter recording)")
+            return error_line("out of memory (the input is too large for this machine; try a shorter recording)")
         except OSError as exc:  # disk full, permissions, I/O errors: the environment, not a bug
-            return _error(_os_error(exc))
+            return error_line(os_error_text(exc))
         except Interrupted as exc:
             name = signal.Signals(exc.signum).name
             print(f"nlo-lab: interrupted by {name}", file=sys.stderr)

@@ -1,4 +1,4 @@
-"""The method and its baselines (nlo_lab.baselines): shapes, limits, IK round trip, NN determinism."""
+"""The method and its baselines (nlo_lab.evaluation.methods, nlo_lab.training.supervised): shapes, limits, IK round trip, NN determinism."""
 
 from __future__ import annotations
 
@@ -8,21 +8,12 @@ import numpy as np
 import pytest
 import torch
 
-from nlo_lab.baselines import (
-    METHODS,
-    BaselineSettings,
-    SupervisedSettings,
-    ik_wrists,
-    run_method,
-    train_supervised_model,
-    train_supervised_net,
-    wrist_positions,
-)
 from nlo_lab.errors import SettingsError
 from nlo_lab.losses import targets_from_demonstration
 from nlo_lab.metrics import limit_violations
 from nlo_lab.robot import load_robot
-from nlo_lab.train import new_model
+from nlo_lab.evaluation import METHODS, BaselineSettings, ik_wrists, run_method, wrist_positions
+from nlo_lab.training import SupervisedSettings, new_model, train_supervised_model, train_supervised_net
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
 FAST = BaselineSettings(iterations=3, ik_iterations=5, supervised=SupervisedSettings(epochs=2, hidden=(16,)))
@@ -132,7 +123,7 @@ def test_unknown_method_is_refused():
 
 
 def test_table3_variants_train_and_stay_inside_the_limits():
-    from nlo_lab.baselines import VARIANTS, train_variant
+    from nlo_lab.training import VARIANTS, train_variant
 
     robot = load_robot("nao")
     q = random_feasible_pose(robot, 16, seed=4)

@@ -188,3 +188,18 @@ def test_retarget_progress_bar_leaves_the_result_unchanged(capsys):
     assert f"retarget {len(demo)} frames to nao" in err
     assert shown.optimization.iterations == quiet.optimization.iterations == 4
     assert np.array_equal(shown.trajectory.angles, quiet.trajectory.angles)
+
+
+def test_the_command_line_is_the_only_argument_parser():
+    """train and evaluate have no parsers of their own: one set of flags, one error path."""
+    import ast
+    from pathlib import Path
+
+    import nlo_lab
+
+    users = []
+    for path in Path(nlo_lab.__file__).parent.rglob("*.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        if any(isinstance(n, ast.Attribute) and n.attr == "ArgumentParser" for n in ast.walk(tree)):
+            users.append(path.name)
+    assert users == ["cli.py"]

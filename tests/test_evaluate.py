@@ -1,4 +1,4 @@
-"""nlo_lab.evaluate: the JSON contract, the table, and the command line's last line."""
+"""nlo_lab.evaluation: the JSON contract, the table, and the command line's last line."""
 
 from __future__ import annotations
 
@@ -7,12 +7,10 @@ import json
 import pytest
 import torch
 
-import nlo_lab.baselines
-import nlo_lab.human.corpus
-import nlo_lab.train
-from nlo_lab.baselines import METHODS, BaselineSettings, SupervisedSettings, train_supervised_net
+import nlo_lab.evaluation.scores as scores
 from nlo_lab.cli import main as cli_main
-from nlo_lab.evaluate import JSON_KEYS, SequenceScore, Evaluation, evaluate, format_table, to_json
+from nlo_lab.evaluation import JSON_KEYS, METHODS, BaselineSettings, Evaluation, SequenceScore, evaluate, format_table, to_json
+from nlo_lab.training import SupervisedSettings, new_model, train_supervised_net
 from nlo_lab.losses import targets_from_demonstration
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
@@ -33,7 +31,7 @@ def small(nao):
     """Two short sequences, an untrained model and a tiny supervised network (no corpus, no checkpoint)."""
     demos = _demos(nao)
     torch.manual_seed(0)
-    model = nlo_lab.train.new_model(nao)
+    model = new_model(nao)
     x = torch.cat([targets_from_demonstration(d).node_features for d in demos])
     q = random_feasible_pose(nao, len(x), seed=1)
     net = train_supervised_net(nao, x, q, SupervisedSettings(epochs=1, hidden=(8,)))
@@ -44,9 +42,9 @@ def small(nao):
 def offline(monkeypatch, nao, small):
     """The command line on the small sequences: corpus, checkpoint and network patched in."""
     demos, model, net = small
-    monkeypatch.setattr(nlo_lab.human.corpus, "sign_corpus", lambda split, seed=0: _demos(nao, n=3))
-    monkeypatch.setattr(nlo_lab.train, "load_pretrained", lambda robot: model)
-    monkeypatch.setattr(nlo_lab.baselines, "supervised_network", lambda robot, settings=None, **k: net)
+    monkeypatch.setattr(scores, "sign_corpus", lambda split, seed=0: _demos(nao, n=3))
+    monkeypatch.setattr(scores, "load_pretrained", lambda robot: model)
+    monkeypatch.setattr(scores, "supervised_network", lambda robot, settings=None, **k: net)
     return demos
 
 
@@ -128,3 +126,23 @@ def test_cli_unknown_robot_exits_2(capsys):
 def test_cli_limit_zero_exits_2(offline, capsys):
     assert cli_main(["evaluate", "--robot", "nao", "--limit", "0"]) == 2
     assert "--limit" in capsys.readouterr().err
+
+
+def test_cli_methods_and_iters_choose_what_runs(offline, capsys, monkeypatch):
+    seen = []
+    real = scores.run_method
+    def spy(name, robot, demo, settings, **k):
+        seen.append((name, settings.iterations))
+        return real(name, robot, demo, settings, **k)
+
+    monkeypatch.setattr(scores, "run_method", spy)
+    status = cli_main(["evaluate", "--robot", "nao", "--json", "--limit", "1", "--methods", "ik, joint_space", "--iters", "3", "--quiet"])
+    obj = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert status == 0 and list(obj["methods"]) == ["ik", "joint_space"]
+    assert seen == [("ik", 3), ("joint_space", 3)]
+
+
+def test_cli_unknown_method_is_one_line_exit_2(offline, capsys):
+    assert cli_main(["evaluate", "--robot", "nao", "--methods", "ik,telepathy"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "telepathy" in err and "Traceback" not in err

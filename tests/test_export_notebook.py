@@ -32,7 +32,7 @@ def test_exported_notebook_holds_the_scene(tmp_path):
     from meshcat.servers.zmqserver import VIEWER_ROOT
     from pathlib import Path
 
-    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("from nlo_lab.notebook import show_robot\nshow_robot('nao')")])
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("from nlo_lab.lab import show_robot\nshow_robot('nao')")])
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
     nbformat.write(nb, tmp_path / "view.ipynb")
     run = subprocess.run([sys.executable, "-m", "jupyter", "nbconvert", "--to", "html", "--execute", "view.ipynb"],

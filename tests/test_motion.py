@@ -341,7 +341,7 @@ def test_savgol_matches_scipy_where_available():
 
 
 def test_panel_has_a_smoothness_slider_that_reaches_the_sequence(robots):
-    from nlo_lab.widgets import RetargetPanel
+    from nlo_lab.lab import RetargetPanel
 
     demo = corpus_clip("hospital_11").slice(35, 60)
     panel = RetargetPanel(demo, "nao", iterations=20, frame_iterations=2, view=None)

@@ -34,7 +34,7 @@ def test_notebook_follows_the_conventions(path):
     assert _tool().problems(path) == []
     nb = nbformat.read(path, as_version=4)
     code = [c for c in nb.cells if c.cell_type == "code"]
-    assert code and "setup()" in code[0].source, "the first code cell must call nlo_lab.notebook.setup()"
+    assert code and "setup()" in code[0].source, "the first code cell must call setup() (nlo_lab.lab)"
     for i, cell in enumerate(code):
         assert "NBVAL_SKIP" not in cell.source, f"code cell {i} is skipped under nbval"
         assert "input(" not in cell.source, f"code cell {i} waits for input"

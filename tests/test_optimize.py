@@ -17,7 +17,7 @@ from nlo_lab.optimize import (
     optimize_stream,
 )
 from nlo_lab.robot import load_robot
-from nlo_lab.train import new_model
+from nlo_lab.training import new_model
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
 

@@ -96,7 +96,7 @@ def test_lab_into_a_file_is_one_line_exit_2(tmp_path, capsys):
 
 
 def test_lab_without_jupyterlab_says_which_extra(tmp_path, monkeypatch):
-    import nlo_lab.lab as lab
+    import nlo_lab.lab.launch as lab
 
     monkeypatch.setattr(lab.importlib.util, "find_spec", lambda name: None)
     with pytest.raises(NloLabError, match=r"nlo_lab\[lab\]"):

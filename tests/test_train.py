@@ -6,18 +6,12 @@ import pytest
 import torch
 
 import nlo_lab.train as train_mod
+import nlo_lab.training.train as training_mod
 from nlo_lab.errors import CheckpointError, SettingsError
 from nlo_lab.losses import targets_from_demonstration
 from nlo_lab.robot import load_robot
-from nlo_lab.train import (
-    CHECKPOINT_FORMAT_VERSION,
-    TrainSettings,
-    load_checkpoint,
-    load_pretrained,
-    new_model,
-    save_checkpoint,
-    train_model,
-)
+from nlo_lab.train import CHECKPOINT_FORMAT_VERSION, load_checkpoint, load_pretrained, save_checkpoint
+from nlo_lab.training import TrainSettings, new_model, train_model
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
 
@@ -48,7 +42,7 @@ def test_training_lowers_the_validation_loss_and_keeps_the_best(nao, pose_data):
     assert result.val_loss < 0.8 * vals[0]
     assert result.steps == 5 * (96 // 16)
     # The returned model is the best state: its validation loss is the reported one.
-    assert train_mod._evaluate(result.model, nao, val, train_mod.LossWeights(), "hinge") == pytest.approx(result.val_loss, rel=1e-4)
+    assert training_mod._evaluate(result.model, nao, val, training_mod.LossWeights(), "hinge") == pytest.approx(result.val_loss, rel=1e-4)
     # Latent statistics of the training latents are filled in.
     z = result.model.encode(train.node_features, train.edge_features)
     torch.testing.assert_close(result.model.latent_mean, z.mean(0), atol=1e-5, rtol=1e-4)
@@ -119,7 +113,7 @@ def test_load_pretrained_without_a_checkpoint_says_how_to_make_one(tmp_path, mon
 
 def test_validation_is_held_out_of_the_training_split_never_the_test_split():
     from nlo_lab.human import corpus_names
-    from nlo_lab.train import train_validation_split
+    from nlo_lab.training import train_validation_split
 
     fit, val = train_validation_split()
     fit_names, val_names = {d.name for d in fit}, {d.name for d in val}
@@ -138,3 +132,39 @@ def test_new_models_start_at_the_robot_neutral_pose_and_checkpoints_keep_it(tmp_
         (nao.lower_limits + nao.upper_limits) / 2 + 0.9 * (nao.upper_limits - nao.lower_limits) / 2), atol=1e-5, rtol=1e-5)
     loaded = load_checkpoint(save_checkpoint(model, tmp_path / "nao.pt", nao), nao)
     torch.testing.assert_close(loaded.decoder.rest_pre, rest)
+
+
+def test_the_command_line_trains_with_its_flags_and_writes_a_loadable_checkpoint(tmp_path, monkeypatch, nao, capsys):
+    from nlo_lab.cli import main as cli_main
+    from robot_targets import demonstration_from_robot as demo_of
+
+    fit = [demo_of(nao, random_feasible_pose(nao, 24, seed=31))]
+    val = [demo_of(nao, random_feasible_pose(nao, 8, seed=32))]
+    monkeypatch.setattr(training_mod, "train_validation_split", lambda seed=0: (fit, val))
+    out = tmp_path / "nao.pt"
+    argv = ["train", "--robot", "nao", "--epochs", "2", "--batch-size", "8", "--lr", "0.002", "--max-seconds", "60",
+            "--latent-per-node", "3", "--kind", "mlp", "--seed", "5", "--out", str(out), "--quiet"]
+    assert cli_main(argv) == 0
+    assert f"wrote {out}" in capsys.readouterr().out
+    model = load_checkpoint(out, nao)
+    settings = model.train_info["train_settings"]
+    assert (settings["epochs"], settings["batch_size"], settings["lr"], settings["max_seconds"]) == (2, 8, 0.002, 60.0)
+    assert (settings["latent_per_node"], settings["kind"], settings["seed"]) == (3, "mlp", 5)
+    assert model.train_info["steps"] == 2 * (24 // 8)
+
+
+@pytest.mark.parametrize("flag, value", [("--max-seconds", "0"), ("--max-seconds", "nan"), ("--lr", "-1"), ("--batch-size", "0"), ("--kind", "cnn")])
+def test_bad_training_flags_are_one_line_exit_2(flag, value, capsys):
+    from nlo_lab.cli import main as cli_main
+
+    assert cli_main(["train", "--robot", "nao", flag, value]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and flag in err and "Traceback" not in err
+
+
+def test_python_m_nlo_lab_train_is_the_command_line(tmp_path):
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "nlo_lab.train", "--robot", "nao", "--epochs", "0"], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 2 and "nlo-lab train: argument --epochs" in r.stderr and "Traceback" not in r.stderr

@@ -1,4 +1,4 @@
-"""nlo_lab.video_view: video frames, skeleton and robot driven by one slider; the upload helper."""
+"""nlo_lab.lab.video_view: video frames, skeleton and robot driven by one slider; the upload helper."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from nlo_lab.errors import NloLabError
 from nlo_lab.human import sign_corpus
 from nlo_lab.robot import load_robot
-from nlo_lab.video_view import VideoView, jpeg_bytes, save_upload
+from nlo_lab.lab import VideoView, jpeg_bytes, save_upload
 
 T = 6
 

@@ -460,8 +460,7 @@ def _own_sockets() -> set[str]:
 
 @pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="needs Linux /proc to inspect sockets")
 def test_views_listen_on_no_port_and_start_no_process():
-    from nlo_lab.notebook import show_view
-    from nlo_lab.widgets import JointPanel
+    from nlo_lab.lab import JointPanel, show_view
 
     children = Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children")
     before = children.read_text() if children.exists() else ""

@@ -9,11 +9,10 @@ import umsgpack
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.human import load_demonstration
-from nlo_lab.notebook import budget, recording_path, show_robot, show_view, is_test_mode
+from nlo_lab.lab import JointPanel, RetargetPanel, budget, is_test_mode, recording_path, show_robot, show_view, svg_convergence
 from nlo_lab.robot import load_robot
-from nlo_lab.train import new_model
+from nlo_lab.training import new_model
 from nlo_lab.viz import SceneWidget, recording_visualizer
-from nlo_lab.widgets import JointPanel, RetargetPanel, svg_convergence
 
 
 @pytest.fixture(scope="module")
@@ -157,7 +156,7 @@ def test_callback_errors_are_shown_in_the_panel(demo, monkeypatch):
     def broken(*args, **kwargs):
         raise RuntimeError("the optimiser broke")
 
-    monkeypatch.setattr("nlo_lab.widgets.optimize_latent", broken)
+    monkeypatch.setattr("nlo_lab.lab.retarget_panel.optimize_latent", broken)
     with pytest.raises(RuntimeError, match="broke"):
         p.controls["ee"].value = 10.0
     assert "the optimiser broke" in p.error and "nlo-lab-panel-error" in p.status.value

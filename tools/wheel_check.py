@@ -177,7 +177,7 @@ matplotlib.use("Agg")
 from nlo_lab.robot.pk_chain import PKChain
 from nlo_lab.human import load_demonstration
 from nlo_lab.viz import plot_convergence
-import nlo_lab.widgets
+import nlo_lab.lab
 robot = load_robot("yumi")
 q = robot.neutral_q[None]
 ours, ref = robot.forward_kinematics(q), PKChain(robot).forward_kinematics(q)

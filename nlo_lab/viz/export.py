@@ -162,9 +162,33 @@ def static_html(
     single_precision: bool = False,
     times: Any = None,
 ) -> str:
-    """The animated robot (and human) scene as one self-contained HTML string.
+    """The animated robot (and human) scene as one self-contained HTML page (works offline from ``file://``).
 
-    Args as :func:`export_html`.
+    Args:
+        robot: a ``nlo_lab.robot.Robot``.
+        angles: ``(T, n)`` joint angles [rad].
+        demo: optional ``Demonstration`` (same ``T``) shown beside or over the robot.
+        fps: animation rate; defaults to the demonstration's, else 30.
+        layout: ``"side"`` or ``"overlay"``.
+        offset: side-by-side shift of the human [m] (float along -Y, or (x, y, z)); None: just beside the robot.
+        play: start playing (looping) when opened; the viewer's Animations panel plays, pauses and scrubs.
+        human_scale: ``"robot"`` (the human mapped into the robot's frame and size, as the metric does)
+            or ``"human"`` (as recorded; side layout only).
+        single_precision: animation keys as float32 (see below).
+        times: optional ``(T,)`` per-frame times [s] (a trajectory's ``times``, retimed where the
+            robot must go slower than the human): frame ``i`` plays at ``times[i]``, human and
+            robot alike, so the page shows the motion as the robot would play it. None: frames
+            ``1/fps`` apart, as recorded.
+
+    The camera is framed on the robot and human over the whole trajectory, from the front-side.
+    The page stays small: a recording longer than :data:`VIEWER_MAX_FRAMES` frames keeps
+    every k-th frame at ``fps / k`` (:func:`decimate`; same duration, three.js interpolates
+    between the keys), and ``single_precision=True`` (what ``nlo-lab retarget --out`` uses)
+    stores the animation keys as float32, the precision three.js computes in (about 30 %
+    smaller; the default keeps float64 for callers that read the numbers back).
+
+    Returns:
+        The page's HTML.
     """
     import numpy as np
 
@@ -191,50 +215,17 @@ def static_html(
     return vis.static_html()
 
 
-def export_html(
-    path: str | os.PathLike,
-    robot: Any,
-    angles: Any,
-    demo: Any = None,
-    fps: float | None = None,
-    layout: str = "side",
-    offset: float | Sequence[float] | None = None,
-    play: bool = True,
-    human_scale: str = "robot",
-    single_precision: bool = False,
-    times: Any = None,
-) -> Path:
-    """Write a self-contained animated 3-D view (works offline from ``file://``).
+def export_html(path: str | os.PathLike, robot: Any, angles: Any, *args: Any, **options: Any) -> Path:
+    """Write :func:`static_html` (same arguments after ``path``) to a file, atomically.
 
     Args:
         path: the ``.html`` file to write (atomically, :mod:`nlo_lab.atomic_files`; mode from the umask).
-        robot: a ``nlo_lab.robot.Robot``.
-        angles: ``(T, n)`` joint angles [rad].
-        demo: optional ``Demonstration`` (same ``T``) shown beside or over the robot.
-        fps: animation rate; defaults to the demonstration's, else 30.
-        layout: ``"side"`` or ``"overlay"``.
-        offset: side-by-side shift of the human [m] (float along -Y, or (x, y, z)); None: just beside the robot.
-        play: start playing (looping) when opened; the viewer's Animations panel plays, pauses and scrubs.
-        human_scale: ``"robot"`` (the human mapped into the robot's frame and size, as the metric does)
-            or ``"human"`` (as recorded; side layout only).
-        single_precision: animation keys as float32 (see below).
-        times: optional ``(T,)`` per-frame times [s] (a trajectory's ``times``, retimed where the
-            robot must go slower than the human): frame ``i`` plays at ``times[i]``, human and
-            robot alike, so the page shows the motion as the robot would play it. None: frames
-            ``1/fps`` apart, as recorded.
-
-    The camera is framed on the robot and human over the whole trajectory, from the front-side.
-    The page stays small: a recording longer than :data:`VIEWER_MAX_FRAMES` frames keeps
-    every k-th frame at ``fps / k`` (:func:`decimate`; same duration, three.js interpolates
-    between the keys), and ``single_precision=True`` (what ``nlo-lab retarget --out`` uses)
-    stores the animation keys as float32, the precision three.js computes in (about 30 %
-    smaller; the default keeps float64 for callers that read the numbers back).
+        robot, angles, *args, **options: as :func:`static_html`.
 
     Returns:
         The written path.
     """
-    page = static_html(robot, angles, demo=demo, fps=fps, layout=layout, offset=offset, play=play, human_scale=human_scale,
-                       single_precision=single_precision, times=times)
+    page = static_html(robot, angles, *args, **options)
     target = Path(path)
     if not target.parent.is_dir():
         raise NloLabError(f"{target}: folder {target.parent} does not exist")

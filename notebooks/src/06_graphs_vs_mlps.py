@@ -22,7 +22,7 @@ setup()
 
 # %%
 from nlo_lab.robot import load_robot
-from nlo_lab.train import TrainSettings, new_model
+from nlo_lab.training import TrainSettings, new_model
 robot = load_robot("yumi")
 for kind in ("graph", "mlp"):
     m = new_model(robot, TrainSettings(kind=kind))
@@ -35,11 +35,11 @@ for kind in ("graph", "mlp"):
 #
 # FK training needs only the human frames: the loss is the objective `L(D, K(f_psi(f_phi(D))))`.
 # Supervised training needs target angles: the paper's AE/GAE fit the output of an optimisation method;
-# ours fit joint-space optimisation results (`nlo_lab.baselines.supervised_dataset`, cached).
+# ours fit joint-space optimisation results (`nlo_lab.training.supervised_dataset`, cached).
 # Both get the same frames.
 
 # %%
-from nlo_lab.baselines import SupervisedSettings, supervised_dataset
+from nlo_lab.training import SupervisedSettings, supervised_dataset
 data, labels, label_seconds = supervised_dataset(robot, SupervisedSettings(frame_stride=budget(4, 64), label_iterations=budget(150, 20)))
 print(f"{len(data)} training frames, labels {tuple(labels.shape)} made in {label_seconds:.1f} s")
 
@@ -50,7 +50,7 @@ print(f"{len(data)} training frames, labels {tuple(labels.shape)} made in {label
 # budgets and reports them in `docs/RESULTS.md`).
 
 # %%
-from nlo_lab.baselines import VARIANTS, train_variant
+from nlo_lab.training import VARIANTS, train_variant
 SECONDS = budget(60, 3)
 variants = {}
 for name in VARIANTS:
@@ -65,7 +65,7 @@ for name in VARIANTS:
 # the frozen decoder (`latent_encoder`). The metric is the Fréchet distance of `docs/DESIGN.md`, "Metric" (wrist and elbow, mean).
 
 # %%
-from nlo_lab.baselines import BaselineSettings, run_method
+from nlo_lab.evaluation import BaselineSettings, run_method
 from nlo_lab.human import corpus_clip, corpus_names
 from nlo_lab.metrics import tracking_errors
 demos = [corpus_clip(n) for n in corpus_names("test")[: budget(4, 1)]]

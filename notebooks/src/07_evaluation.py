@@ -3,7 +3,7 @@
 #
 # ## Learning goals
 #
-# - Run the method and five baselines through **one interface** (`nlo_lab.baselines`): encoder +
+# - Run the method and five baselines through **one interface** (`nlo_lab.evaluation`): encoder +
 #   latent optimisation, the encoder alone ('Init'), latent optimisation from random starts,
 #   joint-space optimisation, a supervised network ('NN') and wrist-only inverse kinematics.
 # - Read a table like the paper's Table I: Fréchet distance per test sequence, `*` for self-collision.
@@ -40,7 +40,8 @@ print([(d.name, len(d)) for d in demos])
 # training frames (the paper's NN learns from an optimiser's output); it is trained once and cached.
 
 # %%
-from nlo_lab.baselines import BaselineSettings, SupervisedSettings, run_method, supervised_network
+from nlo_lab.evaluation import BaselineSettings, run_method
+from nlo_lab.training import SupervisedSettings, supervised_network
 settings = BaselineSettings(
     iterations=budget(100, 10),
     supervised=SupervisedSettings(frame_stride=budget(4, 64), label_iterations=budget(150, 20), epochs=budget(60, 5)),
@@ -60,7 +61,7 @@ print(r.method, r.angles.shape, f"{r.seconds:.2f} s")
 # the two), plus self-collision frames and joint-limit violations.
 
 # %%
-from nlo_lab.evaluate import evaluate, format_table
+from nlo_lab.evaluation import evaluate, format_table
 ev = evaluate(robot, demos, settings, model=model, network=network, progress=False)
 print(format_table(ev))
 
@@ -103,7 +104,7 @@ fig.tight_layout()
 # kinematics, for the method and for IK.
 
 # %%
-from nlo_lab.baselines import wrist_positions
+from nlo_lab.evaluation import wrist_positions
 from nlo_lab.human import map_to_robot
 import torch
 demo = demos[0]
@@ -126,7 +127,7 @@ axes[0].legend(fontsize=7); axes[1].set_xlabel("frame");
 
 # %%
 import json
-from nlo_lab.evaluate import to_json
+from nlo_lab.evaluation import to_json
 obj = to_json(ev)
 print(sorted(obj["methods"]), sorted(obj["methods"]["latent_encoder"]))
 print(json.dumps(obj["methods"]["latent_encoder"], indent=1)[:400])

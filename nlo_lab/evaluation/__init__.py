@@ -1,0 +1,38 @@
+"""Evaluation: the method against its baselines on a corpus split (paper, "Comparative Study").
+
+* :mod:`~nlo_lab.evaluation.methods`: every method behind one interface, :func:`run_method`.
+* :mod:`~nlo_lab.evaluation.scores`: :func:`evaluate` scores methods on demonstrations
+  with the metric of :mod:`nlo_lab.metrics` (``nlo-lab evaluate``).
+* :mod:`~nlo_lab.evaluation.tables`: the JSON contract object and Table I.
+
+The supervised baseline's network is trained by :mod:`nlo_lab.training.supervised`.
+"""
+
+from nlo_lab.evaluation.scores import Evaluation, SequenceScore, check_methods, evaluate, evaluate_split
+from nlo_lab.evaluation.methods import (
+    LATENT_METHODS,
+    METHODS,
+    BaselineSettings,
+    MethodResult,
+    encoder_only,
+    ik,
+    ik_wrists,
+    joint_space,
+    latent_encoder,
+    latent_random,
+    mean_objective,
+    nn_supervised,
+    run_method,
+    wrist_positions,
+)
+from nlo_lab.evaluation.tables import COLLISION_MARK, JSON_KEYS, format_table, to_json
+
+__all__ = [
+    # methods
+    "METHODS", "LATENT_METHODS", "BaselineSettings", "MethodResult", "latent_encoder", "encoder_only",
+    "latent_random", "joint_space", "nn_supervised", "ik", "ik_wrists", "wrist_positions", "run_method", "mean_objective",
+    # scores
+    "SequenceScore", "Evaluation", "check_methods", "evaluate", "evaluate_split",
+    # tables
+    "JSON_KEYS", "COLLISION_MARK", "to_json", "format_table",
+]

@@ -1,0 +1,293 @@
+"""The method and its baselines behind one interface (paper, "Comparative Study").
+
+Every method is a function ``method(robot, demo, settings=None, **context) ->
+MethodResult`` that turns a human :class:`~nlo_lab.human.Demonstration` into
+joint angles ``(T, n)`` inside the limits, and measures its own wall time (from
+the demonstration to the angles: targets, mapping and features included;
+training of a network excluded):
+
+* ``latent_encoder``: the method: encoder initialisation + latent optimisation.
+* ``encoder_only``: the encoder's latent decoded, no optimisation (the paper's 'Init').
+* ``latent_random``: latent optimisation from ``N(0, random_sigma²)``.
+* ``joint_space``: Adam on the angles themselves, same objective, clamped to the limits,
+  from the robot's neutral pose (:func:`nlo_lab.optimize.optimize_joints`).
+* ``nn_supervised``: a feed-forward network from the human node features to the
+  angles, trained supervised on joint-space optimisation results over the
+  training split (the paper's 'NN'); trained once per settings, cached in memory
+  and under the user cache folder (:func:`nlo_lab.training.supervised_network`).
+* ``ik``: damped least squares on the two wrist positions only (the human
+  wrists mapped into the robot frame, :func:`nlo_lab.human.map_to_robot`),
+  limits by clamping after every step; fingers stay at the neutral pose.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+import torch
+
+from nlo_lab.errors import SettingsError
+from nlo_lab.losses import LossWeights, objective, targets_from_demonstration
+from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
+from nlo_lab.settings import check_int, check_positive, validate_fields
+from nlo_lab.train import load_pretrained
+from nlo_lab.training import SupervisedNet, SupervisedSettings, supervised_network
+
+__all__ = [
+    "METHODS",
+    "LATENT_METHODS",
+    "BaselineSettings",
+    "MethodResult",
+    "latent_encoder",
+    "encoder_only",
+    "latent_random",
+    "joint_space",
+    "nn_supervised",
+    "ik",
+    "ik_wrists",
+    "wrist_positions",
+    "run_method",
+    "mean_objective",
+]
+
+METHODS = ("latent_encoder", "encoder_only", "latent_random", "joint_space", "nn_supervised", "ik")
+LATENT_METHODS = ("latent_encoder", "encoder_only", "latent_random")  # need a trained model
+
+
+@dataclass(frozen=True)
+class BaselineSettings:
+    """Settings shared by the methods (override with ``dataclasses.replace``).
+
+    Attributes:
+        iterations: Adam steps of the latent methods and of ``joint_space`` (same budget).
+        patience: early stop after this many evaluations without improvement.
+        random_sigma: σ of ``latent_random``'s start ``N(0, σ²)`` (1 = the latent prior).
+        seed: seed of the random initialisation.
+        joint_lr: Adam step size of ``joint_space`` [rad].
+        ik_iterations: damped-least-squares steps of ``ik``.
+        ik_damping: λ of ``ik`` [m]: ``dq = Jᵀ (J Jᵀ + λ² I)⁻¹ e``.
+        ik_tolerance: ``ik`` stops when every wrist error is below this [m].
+        supervised: :class:`SupervisedSettings` of ``nn_supervised``.
+    """
+
+    iterations: int = 100
+    patience: int = 5
+    random_sigma: float = 1.0
+    seed: int = 0
+    joint_lr: float = 0.05
+    ik_iterations: int = 50
+    ik_damping: float = 0.05
+    ik_tolerance: float = 1e-4
+    supervised: SupervisedSettings = field(default_factory=SupervisedSettings)
+
+    def __post_init__(self) -> None:
+        validate_fields(self, lambda name, v: check_int(name, v, 0), names=("iterations", "seed", "ik_iterations"))
+        validate_fields(self, lambda name, v: check_int(name, v, 1), names=("patience",))
+        validate_fields(self, check_positive, names=("random_sigma", "joint_lr", "ik_damping", "ik_tolerance"))
+        if not isinstance(self.supervised, SupervisedSettings):
+            raise SettingsError(f"supervised must be a SupervisedSettings, got {type(self.supervised).__name__}")
+
+
+@dataclass
+class MethodResult:
+    """What every method returns.
+
+    Attributes:
+        method: the method's name (one of :data:`METHODS`).
+        angles: ``(T, n)`` float64 joint angles [rad], inside the limits.
+        seconds: wall time from the demonstration to the angles [s].
+        history: mean loss per iteration where the method iterates (else empty).
+        iterations: iterations taken.
+    """
+
+    method: str
+    angles: np.ndarray
+    seconds: float
+    history: list[float] = field(default_factory=list)
+    iterations: int = 0
+
+
+def _numpy(q: torch.Tensor) -> np.ndarray:
+    return q.detach().cpu().double().numpy()
+
+
+def _model(robot, model):
+    if model is not None:
+        return model
+    return load_pretrained(robot)
+
+
+def _latent(name: str, robot, demo, settings: BaselineSettings, model, init: str, iterations: int) -> MethodResult:
+    model = _model(robot, model)
+    start = time.perf_counter()
+    targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)
+    opt = OptimizeSettings(init=init, iterations=iterations, patience=settings.patience, latent_sigma=settings.random_sigma, seed=settings.seed)
+    r = optimize_latent(model, robot, targets, opt)
+    return MethodResult(name, _numpy(r.q), time.perf_counter() - start, list(r.history), r.iterations)
+
+
+def latent_encoder(robot, demo, settings: BaselineSettings | None = None, *, model=None, **_) -> MethodResult:
+    """The method: encoder initialisation, then ``settings.iterations`` latent steps.
+
+    Args:
+        robot: a loaded robot.
+        demo: the human demonstration (T frames).
+        settings: :class:`BaselineSettings`.
+        model: the robot's :class:`~nlo_lab.model.RetargetModel` (default: the shipped checkpoint).
+    """
+    s = settings or BaselineSettings()
+    return _latent("latent_encoder", robot, demo, s, model, "encoder", s.iterations)
+
+
+def encoder_only(robot, demo, settings: BaselineSettings | None = None, *, model=None, **_) -> MethodResult:
+    """The encoder's latent decoded, no optimisation (the paper's 'Init'). Args as :func:`latent_encoder`."""
+    s = settings or BaselineSettings()
+    return _latent("encoder_only", robot, demo, s, model, "encoder", 0)
+
+
+def latent_random(robot, demo, settings: BaselineSettings | None = None, *, model=None, **_) -> MethodResult:
+    """Latent optimisation from ``N(0, settings.random_sigma²)``. Args as :func:`latent_encoder`."""
+    s = settings or BaselineSettings()
+    return _latent("latent_random", robot, demo, s, model, "random", s.iterations)
+
+
+def joint_space(robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResult:
+    """Adam on the angles from the robot's neutral pose (``JointOptimizeSettings`` default), same objective, clamped to the limits."""
+    s = settings or BaselineSettings()
+    start = time.perf_counter()
+    targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)
+    r = optimize_joints(robot, targets, JointOptimizeSettings(iterations=s.iterations, patience=s.patience, lr=s.joint_lr))
+    return MethodResult("joint_space", _numpy(r.q), time.perf_counter() - start, list(r.history), r.iterations)
+
+
+# ---------------------------------------------------------------------- inverse kinematics
+def wrist_positions(robot, q: torch.Tensor) -> torch.Tensor:
+    """``q (B, n)`` -> ``(B, 2, 3)`` wrist link positions (left, right) in the robot frame [m]."""
+    poses = robot.forward_kinematics(q)
+    return torch.stack([poses[robot.arm(side).wrist][..., :3, 3] for side in ("left", "right")], dim=-2)
+
+
+def ik_wrists(
+    robot,
+    wrists: torch.Tensor,
+    mask: torch.Tensor | None = None,
+    *,
+    q0: torch.Tensor | None = None,
+    iterations: int = 50,
+    damping: float = 0.05,
+    tolerance: float = 1e-4,
+    max_error: float = 0.1,
+) -> tuple[torch.Tensor, int]:
+    """Damped least squares on the two wrist positions, batched over frames.
+
+    ``dq = Jᵀ (J Jᵀ + λ² I)⁻¹ e`` with ``J (B, 6, n)`` the autograd Jacobian of
+    both wrist positions and ``e`` the position error; after every step the
+    angles are clamped into the limits.
+
+    Args:
+        robot: a loaded robot.
+        wrists: ``(B, 2, 3)`` target wrist positions (left, right) [m].
+        mask: ``(B, 2)`` bool: which targets count (a masked wrist has zero error).
+        q0: ``(B, n)`` or ``(n,)`` start angles (default ``robot.neutral_q``).
+        iterations: maximum steps.
+        damping: λ [m].
+        tolerance: stop when every counted wrist error is below this [m].
+        max_error: the error of a wrist is shortened to at most this per step [m].
+
+    Returns:
+        ``q (B, n)`` inside the limits and the number of steps taken.
+    """
+    lo, hi = robot.lower_limits, robot.upper_limits
+    B = wrists.shape[0]
+    wrists = wrists.to(dtype=lo.dtype, device=lo.device)
+    if mask is None:
+        mask = torch.isfinite(wrists).all(-1)
+    mask = mask.to(device=lo.device)
+    target = torch.where(mask[..., None], torch.nan_to_num(wrists), torch.zeros_like(wrists))
+    q = (robot.neutral_q if q0 is None else q0).to(dtype=lo.dtype, device=lo.device).expand(B, -1).clone()
+    q = torch.maximum(torch.minimum(q, hi), lo)
+    eye = torch.eye(6, dtype=lo.dtype, device=lo.device)
+    steps = 0
+    for _ in range(iterations):
+        x = q.detach().requires_grad_(True)
+        p = wrist_positions(robot, x).reshape(B, 6)  # (B, 6) [m]
+        err = (target.reshape(B, 6) - p.detach()) * mask.repeat_interleave(3, dim=1)  # (B, 6)
+        if float(err.view(B, 2, 3).norm(dim=-1).max()) < tolerance:
+            break
+        # Clamp the error per wrist (Buss's "clamping the target distance"): far targets
+        # otherwise give huge steps that bounce off the limits.
+        e3 = err.view(B, 2, 3)
+        err = (e3 * (max_error / e3.norm(dim=-1, keepdim=True).clamp_min(max_error))).reshape(B, 6)
+        rows = [torch.autograd.grad(p[:, k].sum(), x, retain_graph=k < 5)[0] for k in range(6)]  # frames are independent
+        J = torch.stack(rows, dim=1) * mask.repeat_interleave(3, dim=1)[..., None]  # (B, 6, n)
+        JJt = J @ J.transpose(1, 2) + (damping**2) * eye
+        dq = (J.transpose(1, 2) @ torch.linalg.solve(JJt, err[..., None]))[..., 0]  # (B, n)
+        q = torch.maximum(torch.minimum(q + dq, hi), lo)
+        steps += 1
+    return q.detach(), steps
+
+
+def ik(robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResult:
+    """Inverse kinematics of the wrists only: the human wrists mapped into the robot
+    frame (:func:`nlo_lab.human.map_to_robot`), damped least squares with clamping
+    (:func:`ik_wrists`), every frame from the neutral pose."""
+    from nlo_lab.human import map_to_robot
+
+    s = settings or BaselineSettings()
+    start = time.perf_counter()
+    mapped = map_to_robot(demo, robot)[:, :, 2]  # (T, 2, 3) wrists [m], NaN where masked
+    wrists = torch.as_tensor(mapped, dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)
+    q, steps = ik_wrists(robot, wrists, iterations=s.ik_iterations, damping=s.ik_damping, tolerance=s.ik_tolerance)
+    return MethodResult("ik", _numpy(q), time.perf_counter() - start, [], steps)
+
+
+def nn_supervised(robot, demo, settings: BaselineSettings | None = None, *, network: Optional[SupervisedNet] = None, **_) -> MethodResult:
+    """The paper's 'NN': one forward pass of :func:`supervised_network` per frame.
+
+    Args:
+        network: a trained :class:`SupervisedNet` (default: :func:`supervised_network`
+            with ``settings.supervised``; training time is not part of ``seconds``).
+    """
+    from nlo_lab.human import node_features
+
+    s = settings or BaselineSettings()
+    net = network if network is not None else supervised_network(robot, s.supervised)
+    start = time.perf_counter()
+    x = torch.as_tensor(np.nan_to_num(node_features(demo)), dtype=torch.float32)
+    with torch.no_grad():
+        q = net(x)
+    q = torch.maximum(torch.minimum(q.double(), robot.upper_limits.double().cpu()), robot.lower_limits.double().cpu())  # round-off of float32
+    return MethodResult("nn_supervised", q.numpy(), time.perf_counter() - start)
+
+
+_FUNCTIONS: dict[str, Callable[..., MethodResult]] = {
+    "latent_encoder": latent_encoder,
+    "encoder_only": encoder_only,
+    "latent_random": latent_random,
+    "joint_space": joint_space,
+    "nn_supervised": nn_supervised,
+    "ik": ik,
+}
+
+
+def run_method(name: str, robot, demo, settings: BaselineSettings | None = None, *, model=None, network=None) -> MethodResult:
+    """Run the method ``name`` (one of :data:`METHODS`) on ``demo``.
+
+    Raises:
+        SettingsError: an unknown method name.
+    """
+    if name not in _FUNCTIONS:
+        raise SettingsError(f"unknown method {name!r}; expected one of {', '.join(METHODS)}")
+    return _FUNCTIONS[name](robot, demo, settings, model=model, network=network)
+
+
+def mean_objective(robot, demo, angles, weights: LossWeights | None = None) -> float:
+    """Mean over frames of ``L(D, K(q))`` (no latent term) of ``angles (T, n)``."""
+    targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)
+    q = torch.as_tensor(np.asarray(angles), dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)
+    with torch.no_grad():
+        total, _ = objective(robot, q, targets, weights)
+    return float(total.mean())

@@ -1,0 +1,41 @@
+"""The notebooks' side of nlo_lab: cell helpers, interactive panels, the video view, ``nlo-lab lab``.
+
+* :mod:`~nlo_lab.lab.cells`: :func:`setup`, :func:`budget` and ``show_*`` helpers that keep cells thin.
+* :mod:`~nlo_lab.lab.views`: what the panels share (:class:`View`, :func:`guarded`, :func:`svg_convergence`).
+* :mod:`~nlo_lab.lab.joint_panel`: :class:`JointPanel`, joints on sliders and FK of a link.
+* :mod:`~nlo_lab.lab.retarget_panel`: :class:`RetargetPanel`, the method's controls, live.
+* :mod:`~nlo_lab.lab.video_view`: :class:`VideoView`, a video beside the skeleton and the robot.
+* :mod:`~nlo_lab.lab.launch`: ``nlo-lab lab``: the learner's copy of the notebooks in JupyterLab.
+
+ipywidgets, PIL and JupyterLab are imported only when a panel, a view or the launcher needs them.
+"""
+
+from nlo_lab.lab.cells import (
+    RECORDINGS_DIR,
+    TEST_ENV,
+    TEST_MODE,
+    budget,
+    is_test_mode,
+    joint_table,
+    plot_graph,
+    recording_path,
+    setup,
+    show_human,
+    show_robot,
+    show_view,
+)
+from nlo_lab.lab.joint_panel import JointPanel
+from nlo_lab.lab.launch import bundled_notebooks, copy_notebooks, lab_command
+from nlo_lab.lab.retarget_panel import RetargetPanel
+from nlo_lab.lab.video_view import VideoView, jpeg_bytes, save_upload
+from nlo_lab.lab.views import View, guarded, svg_convergence
+
+__all__ = [
+    # cells
+    "TEST_ENV", "TEST_MODE", "is_test_mode", "budget", "setup", "show_robot", "show_view", "show_human",
+    "joint_table", "plot_graph", "RECORDINGS_DIR", "recording_path",
+    # views, panels, the video view
+    "View", "guarded", "svg_convergence", "JointPanel", "RetargetPanel", "VideoView", "jpeg_bytes", "save_upload",
+    # launch
+    "bundled_notebooks", "copy_notebooks", "lab_command",
+]

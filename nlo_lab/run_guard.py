@@ -1,0 +1,85 @@
+"""How a run of ``nlo-lab`` ends: one error line, one warning channel, signals that clean up.
+
+* :func:`signals_raise`: SIGTERM, SIGHUP and SIGINT raise :class:`~nlo_lab.errors.Interrupted`,
+  so ``finally`` blocks (the temporary output folder of ``retarget --out``) run;
+  :func:`raise_pending_signal` re-raises one that some library's ``except BaseException`` swallowed.
+* :func:`one_warning_channel`: the run's warnings, ours and the libraries', as one line each.
+* :func:`error_line`: the one line on stderr and exit status 2; :func:`os_error_text` names an
+  ``OSError``'s reason and file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import sys
+import threading
+import warnings
+
+from nlo_lab.errors import Interrupted, escape
+
+__all__ = ["signals_raise", "raise_pending_signal", "one_warning_channel", "error_line", "os_error_text"]
+
+_TERMINATING = ("SIGTERM", "SIGHUP", "SIGINT")
+_pending: list[int] = []  # signals received, even those some library's `except BaseException` swallowed
+
+
+def _on_signal(signum, frame):
+    _pending.append(signum)
+    raise Interrupted(signum)
+
+
+def raise_pending_signal() -> None:
+    if _pending:
+        raise Interrupted(_pending[0])
+
+
+@contextlib.contextmanager
+def signals_raise():
+    """SIGTERM, SIGHUP and SIGINT raise :class:`Interrupted` (so ``finally`` blocks clean up)."""
+    if threading.current_thread() is not threading.main_thread():  # handlers only install there
+        yield
+        return
+    previous = {}
+    for name in _TERMINATING:
+        if hasattr(signal, name):
+            sig = getattr(signal, name)
+            previous[sig] = signal.signal(sig, _on_signal)
+    _pending.clear()
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+@contextlib.contextmanager
+def one_warning_channel(quiet: bool):
+    """Collect the run's warnings; print each distinct one as one line when the run succeeds.
+
+    A failed run prints its error line only (the one line the error path promises).
+    Python's default filters apply (deprecations inside libraries are not the user's business).
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.resetwarnings()
+        warnings.simplefilter("ignore" if quiet else "default")
+        for category in (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning):
+            warnings.filterwarnings("ignore", category=category)
+        yield
+    seen = set()
+    for w in caught:
+        line = f"nlo-lab: warning: {escape(w.message)}"
+        if line not in seen:
+            seen.add(line)
+            print(line, file=sys.stderr)
+
+
+def error_line(message) -> int:
+    print(f"nlo-lab: error: {escape(message)}", file=sys.stderr)
+    return 2
+
+
+def os_error_text(exc: OSError) -> str:
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    where = exc.filename if exc.filename is not None else None
+    return f"{reason}: {where}" if where is not None else reason

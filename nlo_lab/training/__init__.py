@@ -1,0 +1,35 @@
+"""Training: the encoder-decoder on the objective (paper Eq. 10), the supervised baseline's
+network, and the Table III ablation.
+
+* :mod:`~nlo_lab.training.data`: the training split as targets; validation held out of it.
+* :mod:`~nlo_lab.training.train`: :func:`train_model` (``nlo-lab train``).
+* :mod:`~nlo_lab.training.supervised`: labels by joint-space optimisation, :class:`SupervisedNet`, the cache.
+* :mod:`~nlo_lab.training.ablation`: :data:`VARIANTS` and :func:`train_variant` (Table III).
+
+Checkpoints (save, load, the shipped ones) belong to the model: :mod:`nlo_lab.model`.
+"""
+
+from nlo_lab.training.ablation import VARIANTS, train_variant
+from nlo_lab.training.data import VALIDATION_EVERY, corpus_targets, demos_targets, train_validation_split
+from nlo_lab.training.supervised import (
+    SupervisedNet,
+    SupervisedSettings,
+    cache_dir,
+    supervised_dataset,
+    supervised_labels,
+    supervised_network,
+    train_supervised_model,
+    train_supervised_net,
+)
+from nlo_lab.training.train import TrainResult, TrainSettings, latent_statistics, new_model, train_model
+
+__all__ = [
+    # train, data
+    "TrainSettings", "TrainResult", "train_model", "new_model", "latent_statistics",
+    "VALIDATION_EVERY", "train_validation_split", "demos_targets", "corpus_targets",
+    # supervised
+    "SupervisedSettings", "SupervisedNet", "supervised_labels", "train_supervised_net", "train_supervised_model",
+    "supervised_dataset", "supervised_network", "cache_dir",
+    # ablation
+    "VARIANTS", "train_variant",
+]
