@@ -22,7 +22,7 @@ import signal
 import sys
 from pathlib import Path
 
-from nlo_lab.errors import Interrupted, NloLabError, escape
+from nlo_lab.errors import Interrupted, NloLabError, SettingsError, escape
 from nlo_lab.paths import BUNDLED_ROBOTS
 from nlo_lab.run_guard import error_line, one_warning_channel, os_error_text, raise_pending_signal, signals_raise
 from nlo_lab.settings import arg_type, check_int, check_positive
@@ -53,15 +53,20 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _ranged_int(lo: int, hi: int):
-    """argparse ``type=``: a whole number in ``[lo, hi]`` (the settings' own check)."""
-    check = arg_type(check_int, minimum=lo, maximum=hi)
+    """argparse ``type=``: a whole number in ``[lo, hi]`` (the settings' rule, :func:`nlo_lab.settings.check_int`)."""
 
     def parse(text: str) -> int:
         if len(text) > 40:  # int() of a huge digit string is slow and its echo floods the line
             raise argparse.ArgumentTypeError(f"must be a whole number in [{lo}, {hi}], got {len(text)} characters")
-        return check(text)
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number in [{lo}, {hi}], got {text!r}") from None
+        try:
+            return check_int("value", value, lo, hi)
+        except SettingsError:
+            raise argparse.ArgumentTypeError(f"must be in [{lo}, {hi}], got {text}") from None
 
-    parse.__name__ = "int"
     return parse
 
 

@@ -44,7 +44,7 @@ ROBOTS_DIR = ASSETS / "robots"
 CHECKPOINTS_DIR = ASSETS / "checkpoints"
 RECORDINGS_DIR = ASSETS / "recordings"
 NOTEBOOKS_DIR = _bundled_folder("notebooks")
-BUNDLED_ROBOTS = ("nao", "pepper", "yumi")  # a spec, a URDF and a checkpoint each ship with the package
+BUNDLED_ROBOTS = ("yumi", "nao", "pepper")  # a spec, a URDF and a checkpoint each ship with the package (the paper's robot first)
 
 
 def is_editable_checkout() -> bool:
