@@ -10,7 +10,7 @@
 # - Read the robot structure graph that the decoder of the method is built on.
 
 # %%
-from nlo_lab.notebook import TEST_MODE, budget, setup
+from nlo_lab.lab import TEST_MODE, budget, setup
 setup()
 
 # %% [markdown]
@@ -27,11 +27,11 @@ for name, robot in robots.items():
     print(f"{name:7s} {robot.n_joints:2d} actuated joints, fingers: {robot.has_fingers}")
 
 # %%
-from nlo_lab.notebook import joint_table
+from nlo_lab.lab import joint_table
 joint_table(robots["nao"])
 
 # %%
-from nlo_lab.notebook import show_robot
+from nlo_lab.lab import show_robot
 yumi = robots["yumi"]
 show_robot(yumi)  # the neutral pose, in a 3-D view of its own: drag to turn, scroll to zoom
 
@@ -42,7 +42,7 @@ show_robot(yumi)  # the neutral pose, in a 3-D view of its own: drag to turn, sc
 # (computed by FK) follow.
 
 # %%
-from nlo_lab.widgets import JointPanel
+from nlo_lab.lab import JointPanel
 JointPanel(robots["nao"])
 
 # %% [markdown]
@@ -147,7 +147,7 @@ print(f"random poses with a penetrating pair: {float((yumi.capsule_distances(yum
 # the joint origin, xyz + rpy). The decoder of the method is a graph network over this graph.
 
 # %%
-from nlo_lab.notebook import plot_graph
+from nlo_lab.lab import plot_graph
 plot_graph(yumi.graph, yumi.joint_names, title="YuMi with two Inspire hands");
 plot_graph(nao.graph, nao.joint_names, title="NAO");
 

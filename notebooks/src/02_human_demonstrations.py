@@ -10,7 +10,7 @@
 # - Read the human skeleton graph and the per-node features the encoder sees.
 
 # %%
-from nlo_lab.notebook import TEST_MODE, budget, setup
+from nlo_lab.lab import TEST_MODE, budget, setup
 setup()
 
 # %% [markdown]
@@ -58,7 +58,7 @@ for ax, name in zip(axes, names):
 axes[0].set_yticklabels(["thumb", "index", "middle", "ring", "pinky"]); fig.tight_layout()
 
 # %%
-from nlo_lab.notebook import show_human
+from nlo_lab.lab import show_human
 show_human(demo)
 
 # %% [markdown]
@@ -70,7 +70,7 @@ show_human(demo)
 
 # %%
 from nlo_lab.human import load_demonstration
-from nlo_lab.notebook import recording_path
+from nlo_lab.lab import recording_path
 real = load_demonstration(recording_path())
 print(real.name, len(real), "frames at", real.fps, "fps")
 print("arm points observed:   ", f"{real.arm_mask.mean():.0%}")
@@ -94,7 +94,7 @@ show_human(real)
 
 # %%
 from nlo_lab.human import NODE_NAMES, node_features, skeleton_graph
-from nlo_lab.notebook import plot_graph
+from nlo_lab.lab import plot_graph
 plot_graph(skeleton_graph(), NODE_NAMES, title="human skeleton graph");
 print("node features of the real recording:", node_features(real).shape)
 

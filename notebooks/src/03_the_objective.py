@@ -10,7 +10,7 @@
 #   local minima that depend on the start, and joint limits that need clamping or a penalty.
 
 # %%
-from nlo_lab.notebook import TEST_MODE, budget, setup
+from nlo_lab.lab import TEST_MODE, budget, setup
 setup()
 
 # %%
@@ -72,7 +72,7 @@ print(f"loss {res.history[0]:.1f} -> {res.history[-1]:.2f} in {res.iterations} s
 plot_convergence({"joint space, from the neutral pose": res.history});
 
 # %%
-from nlo_lab.notebook import show_robot
+from nlo_lab.lab import show_robot
 show_robot(robot, res.q[0])
 
 # %% [markdown]

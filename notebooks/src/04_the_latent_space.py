@@ -10,7 +10,7 @@
 # - Run latent optimisation from random starts and compare it with joint-space optimisation.
 
 # %%
-from nlo_lab.notebook import TEST_MODE, budget, setup
+from nlo_lab.lab import TEST_MODE, budget, setup
 setup()
 
 # %%
@@ -86,7 +86,7 @@ print(f"final loss, joints: {np.mean(final_joints):.2f} ± {np.std(final_joints)
 # The best latent solution, beside the human:
 
 # %%
-from nlo_lab.notebook import show_view
+from nlo_lab.lab import show_view
 best = optimize_latent(model, robot, one, OptimizeSettings(init="random", seed=int(np.argmin(final_latent)), iterations=ITERS))
 show_view(robot, best.q, demo=demo.slice(t, t + 1))
 

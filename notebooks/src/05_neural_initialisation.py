@@ -9,7 +9,7 @@
 # - Use the interactive panel: loss weights, initialisation, budget, robot and frame, re-optimised live.
 
 # %%
-from nlo_lab.notebook import TEST_MODE, budget, setup
+from nlo_lab.lab import TEST_MODE, budget, setup
 setup()
 
 # %%
@@ -67,7 +67,7 @@ for init, r in runs.items():
 # The same panel works headless: `panel.controls["init"].value = "random"` does what the dropdown does.
 
 # %%
-from nlo_lab.widgets import RetargetPanel
+from nlo_lab.lab import RetargetPanel
 panel = RetargetPanel(demo, "yumi", model=model, iterations=ITERS)
 panel
 

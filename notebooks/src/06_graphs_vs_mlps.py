@@ -10,7 +10,7 @@
 # - Compare each one's encoder output ('Init') with latent optimisation on top ('Optim') on unseen motions.
 
 # %%
-from nlo_lab.notebook import TEST_MODE, budget, setup
+from nlo_lab.lab import TEST_MODE, budget, setup
 setup()
 
 # %% [markdown]

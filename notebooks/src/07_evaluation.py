@@ -11,7 +11,7 @@
 # - Know the contract of `nlo-lab evaluate --json`.
 
 # %%
-from nlo_lab.notebook import TEST_MODE, budget, setup
+from nlo_lab.lab import TEST_MODE, budget, setup
 setup()
 
 # %% [markdown]

@@ -11,7 +11,7 @@
 # - Do the same on your own file from the command line: `nlo-lab retarget`.
 
 # %%
-from nlo_lab.notebook import TEST_MODE, budget, setup
+from nlo_lab.lab import TEST_MODE, budget, setup
 setup()
 
 # %% [markdown]
@@ -23,7 +23,7 @@ setup()
 
 # %%
 from nlo_lab.human import load_demonstration
-from nlo_lab.notebook import recording_path
+from nlo_lab.lab import recording_path
 path = recording_path()                    # or: path = "my_signing.pose"
 demo = load_demonstration(path)
 print(f"{path.name}: {len(demo)} frames at {demo.fps} fps")
@@ -44,7 +44,7 @@ for key, value in result.summary.items():
     print(f"{key:22s} {value}")
 
 # %%
-from nlo_lab.notebook import show_view
+from nlo_lab.lab import show_view
 show_view(robot, result.trajectory.angles, demo=demo)
 
 # %%

@@ -10,7 +10,7 @@
 # - Export the robot trajectory, and do the same from the command line: `nlo-lab retarget VIDEO`.
 
 # %%
-from nlo_lab.notebook import TEST_MODE, budget, setup
+from nlo_lab.lab import TEST_MODE, budget, setup
 setup()
 
 # %% [markdown]
@@ -29,8 +29,8 @@ upload
 # %%
 import tempfile
 from pathlib import Path
-from nlo_lab.notebook import recording_path
-from nlo_lab.video_view import save_upload
+from nlo_lab.lab import recording_path
+from nlo_lab.lab import save_upload
 work = Path(tempfile.mkdtemp()) if TEST_MODE else Path("my_video")
 path = save_upload(upload, work) or recording_path("signer_webcam_58f.mp4")
 print(path.name)
@@ -80,7 +80,7 @@ for key in ("frames", "seconds", "frechet_m", "self_collision_frames", "limit_vi
 # is masked: the robot's hand holds its pose instead of following noise.
 
 # %%
-from nlo_lab.video_view import VideoView
+from nlo_lab.lab import VideoView
 view = VideoView(frames, robot, result.trajectory.angles, demo)
 view.frame = len(demo) // 2
 view
