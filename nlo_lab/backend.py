@@ -120,26 +120,22 @@ def reference() -> Iterator[Backend]:
 
 def numpy_objective(frames: int) -> bool:
     """Whether an objective over ``frames`` frames (on the CPU) takes the numpy terms."""
-    b = _current
-    return b.enabled and frames <= b.objective_max_frames
+    return _current.enabled and frames <= _current.objective_max_frames
 
 
 def numpy_decoder(batch: int) -> bool:
     """Whether a frozen decoder at ``batch`` (on the CPU) takes the numpy layers."""
-    b = _current
-    return b.enabled and batch <= b.decoder_max_batch
+    return _current.enabled and batch <= _current.decoder_max_batch
 
 
 def numpy_collision(pairs: int) -> bool:
     """Whether ``pairs`` segment distances (on the CPU) take the numpy arithmetic."""
-    b = _current
-    return b.enabled and pairs <= b.collision_numpy_max_pairs
+    return _current.enabled and pairs <= _current.collision_numpy_max_pairs
 
 
 def fk_pointer_jumping(work: int) -> bool:
     """Whether FK with ``work`` = batch x tree depth composes by pointer jumping."""
-    b = _current
-    return b.enabled and work <= b.fk_jump_max_work
+    return _current.enabled and work <= _current.fk_jump_max_work
 
 
 def analytic_fk_gradient() -> bool:
