@@ -85,12 +85,30 @@ def _check_weights(weights) -> None:
             raise UsageError(f"nlo-lab retarget: --weights: weight {name}={value!r} must be in [{lo:g}, {hi:g}]")
 
 
+class _Names:
+    """The choices of a flag, taken from their home module on first use.
+
+    The homes import torch; a bad flag or ``--help`` must not wait for that (argparse reads
+    choices only to check a given value or to print them).
+    """
+
+    def __init__(self, module: str, name: str):
+        self.module, self.name = module, name
+
+    def _names(self) -> tuple:
+        import importlib
+
+        return tuple(getattr(importlib.import_module(self.module), self.name))
+
+    def __iter__(self):
+        return iter(self._names())
+
+    def __contains__(self, value) -> bool:
+        return value in self._names()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``nlo-lab`` (exposed for the docs and the tests); the only one of nlo_lab."""
-    from nlo_lab.evaluation import METHODS
-    from nlo_lab.model import MODEL_KINDS
-    from nlo_lab.optimize import INITS
-
     parser = _Parser(prog="nlo-lab", description="Kinematic motion retargeting by neural latent optimisation.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
@@ -98,7 +116,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", metavar="INPUT",
                    help="a .pose/.h5/.npz file, a video (.mp4/.mov/.webm/.avi), or demo:NAME for a clip of the embedded corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
-    p.add_argument("--init", default="encoder", choices=INITS, help="initialisation of the latent code (default: encoder)")
+    p.add_argument("--init", default="encoder", choices=_Names("nlo_lab.optimize", "INITS"), metavar="INIT",
+                   help="initialisation of the latent code: %(choices)s (default: encoder)")
     p.add_argument("--iters", type=_ranged_int(*ITERS_RANGE), default=100,
                    help=f"latent optimisation budget, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
     p.add_argument("--weights", default=None,
@@ -122,7 +141,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="wall-clock budget [s]; training stops after the step that exceeds it (default: 500)")
     p.add_argument("--batch-size", type=_ranged_int(*BATCH_RANGE), default=None, help="frames per step (default: 64)")
     p.add_argument("--lr", type=_positive_float, default=None, help="Adam learning rate (default: 0.001)")
-    p.add_argument("--kind", default=None, choices=MODEL_KINDS, help="graph (the paper) or mlp (default: graph)")
+    p.add_argument("--kind", default=None, choices=_Names("nlo_lab.model", "MODEL_KINDS"), metavar="KIND",
+                   help="%(choices)s: graph is the paper's (default: graph)")
     p.add_argument("--latent-per-node", type=_ranged_int(*LATENT_RANGE), default=None,
                    help=f"latent size per robot node, {LATENT_RANGE[0]}..{LATENT_RANGE[1]} (default: 4)")
     p.add_argument("--out", default=None, help="checkpoint path (default: assets/checkpoints/NAME.pt in a checkout, ./NAME.pt in an installed package)")
@@ -139,7 +159,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"evaluate only the first N sequences, {LIMIT_RANGE[0]}..{LIMIT_RANGE[1]}")
     p.add_argument("--iters", type=_ranged_int(*ITERS_RANGE), default=None,
                    help=f"iterations of the latent and joint-space methods, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
-    p.add_argument("--methods", default=None, help="comma-separated subset of " + ",".join(METHODS) + " (default: all)")
+    p.add_argument("--methods", default=None,
+                   help="comma-separated subset of the methods (nlo_lab.evaluation.METHODS; default: all)")
     p.add_argument("--threads", type=_ranged_int(*THREADS_RANGE), default=None,
                    help="torch threads (default: NLO_LAB_THREADS, else 1)")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no warnings")

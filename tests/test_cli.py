@@ -203,3 +203,22 @@ def test_the_command_line_is_the_only_argument_parser():
         if any(isinstance(n, ast.Attribute) and n.attr == "ArgumentParser" for n in ast.walk(tree)):
             users.append(path.name)
     assert users == ["cli.py"]
+
+
+def test_a_bad_flag_or_help_does_not_wait_for_torch():
+    """The flags' choices come from modules that import torch; they are read only when needed."""
+    code = (
+        "import sys, contextlib, io\n"
+        "from nlo_lab.cli import build_parser, main\n"
+        "assert main(['retarget', 'demo:x', '--robot', 'nao', '--iters', 'many']) == 2\n"
+        "assert main(['train', '--robot', 'nao', '--epochs', '0']) == 2\n"
+        "print('torch' in sys.modules)\n"
+        "with contextlib.redirect_stdout(io.StringIO()) as out:\n"
+        "    try:\n"
+        "        build_parser().parse_args(['retarget', '--help'])\n"
+        "    except SystemExit:\n"
+        "        pass\n"
+        "print('encoder, random, train-stats, zeros' in ' '.join(out.getvalue().split()))\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.stdout.split() == ["False", "True"], r.stdout + r.stderr
