@@ -8,8 +8,8 @@ that names what is wrong and where, with names taken from files escaped
 each (``nlo-lab: warning: ...``), silenced by ``--quiet``. SIGTERM, SIGHUP and
 SIGINT end the run with exit 128+signal after the clean-up ran: the outputs of
 ``retarget --out`` appear as a whole set or not at all (:func:`nlo_lab.atomic_files.output_set`).
-:mod:`nlo_lab.run_guard` holds that machinery; this module the parser (the only one of nlo_lab)
-and the commands.
+:mod:`nlo_lab.run_guard` holds that machinery, :mod:`nlo_lab.flag_types` the flags' types; this
+module the parser (the only one of nlo_lab) and the commands.
 """
 
 from __future__ import annotations
@@ -22,10 +22,10 @@ import signal
 import sys
 from pathlib import Path
 
-from nlo_lab.errors import Interrupted, NloLabError, SettingsError, escape
+from nlo_lab.errors import Interrupted, NloLabError, escape
+from nlo_lab.flag_types import LazyChoices, positive_float, ranged_int
 from nlo_lab.paths import BUNDLED_ROBOTS
 from nlo_lab.run_guard import error_line, one_warning_channel, os_error_text, raise_pending_signal, signals_raise
-from nlo_lab.settings import arg_type, check_int, check_positive
 
 __all__ = ["main", "build_parser"]
 
@@ -52,59 +52,12 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: {message}")
 
 
-def _ranged_int(lo: int, hi: int):
-    """argparse ``type=``: a whole number in ``[lo, hi]`` (the settings' rule, :func:`nlo_lab.settings.check_int`)."""
-
-    def parse(text: str) -> int:
-        if len(text) > 40:  # int() of a huge digit string is slow and its echo floods the line
-            raise argparse.ArgumentTypeError(f"must be a whole number in [{lo}, {hi}], got {len(text)} characters")
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number in [{lo}, {hi}], got {text!r}") from None
-        try:
-            return check_int("value", value, lo, hi)
-        except SettingsError:
-            raise argparse.ArgumentTypeError(f"must be in [{lo}, {hi}], got {text}") from None
-
-    return parse
-
-
-def _positive_float(text: str) -> float:
-    """argparse ``type=``: a finite number > 0 (the settings' own check)."""
-    if len(text) > 40:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {len(text)} characters")
-    return arg_type(check_positive, float)(text)
-
-
 def _check_weights(weights) -> None:
     """Each loss weight within :data:`WEIGHT_RANGE` (refused before any work)."""
     lo, hi = WEIGHT_RANGE
     for name, value in weights.as_dict().items():
         if not lo <= value <= hi:  # NaN fails this too
             raise UsageError(f"nlo-lab retarget: --weights: weight {name}={value!r} must be in [{lo:g}, {hi:g}]")
-
-
-class _Names:
-    """The choices of a flag, taken from their home module on first use.
-
-    The homes import torch; a bad flag or ``--help`` must not wait for that (argparse reads
-    choices only to check a given value or to print them).
-    """
-
-    def __init__(self, module: str, name: str):
-        self.module, self.name = module, name
-
-    def _names(self) -> tuple:
-        import importlib
-
-        return tuple(getattr(importlib.import_module(self.module), self.name))
-
-    def __iter__(self):
-        return iter(self._names())
-
-    def __contains__(self, value) -> bool:
-        return value in self._names()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -116,38 +69,38 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", metavar="INPUT",
                    help="a .pose/.h5/.npz file, a video (.mp4/.mov/.webm/.avi), or demo:NAME for a clip of the embedded corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
-    p.add_argument("--init", default="encoder", choices=_Names("nlo_lab.optimize", "INITS"), metavar="INIT",
+    p.add_argument("--init", default="encoder", choices=LazyChoices("nlo_lab.optimize", "INITS"), metavar="INIT",
                    help="initialisation of the latent code: %(choices)s (default: encoder)")
-    p.add_argument("--iters", type=_ranged_int(*ITERS_RANGE), default=100,
+    p.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=100,
                    help=f"latent optimisation budget, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
     p.add_argument("--weights", default=None,
                    help=f"loss weights, each {WEIGHT_RANGE[0]:g}..{WEIGHT_RANGE[1]:g}, "
                         "e.g. ee=1000,ori=100,elbow=100,finger=100,collision=1000")
     p.add_argument("--out", default=None, help="folder for trajectory.npz, trajectory.csv and viewer.html")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    p.add_argument("--seed", type=_ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
+    p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
     p.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal), no warnings")
     p.add_argument("--save-pose", metavar="FILE", default=None,
                    help="video input: also keep MediaPipe Holistic's landmarks as this .pose file")
-    p.add_argument("--threads", type=_ranged_int(*THREADS_RANGE), default=None,
+    p.add_argument("--threads", type=ranged_int(*THREADS_RANGE), default=None,
                    help=f"video input: the most cores the pose estimation may use, {THREADS_RANGE[0]}..{THREADS_RANGE[1]} "
                         "(default: NLO_LAB_THREADS, else every core available; the result is the same for any N)")
 
     p = sub.add_parser("train", help="train the encoder and decoder of a robot on the synthetic corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
-    p.add_argument("--epochs", type=_ranged_int(*EPOCHS_RANGE), default=None,
+    p.add_argument("--epochs", type=ranged_int(*EPOCHS_RANGE), default=None,
                    help=f"passes over the training frames, {EPOCHS_RANGE[0]}..{EPOCHS_RANGE[1]} (default: 30)")
-    p.add_argument("--max-seconds", type=_positive_float, default=None,
+    p.add_argument("--max-seconds", type=positive_float, default=None,
                    help="wall-clock budget [s]; training stops after the step that exceeds it (default: 500)")
-    p.add_argument("--batch-size", type=_ranged_int(*BATCH_RANGE), default=None, help="frames per step (default: 64)")
-    p.add_argument("--lr", type=_positive_float, default=None, help="Adam learning rate (default: 0.001)")
-    p.add_argument("--kind", default=None, choices=_Names("nlo_lab.model", "MODEL_KINDS"), metavar="KIND",
+    p.add_argument("--batch-size", type=ranged_int(*BATCH_RANGE), default=None, help="frames per step (default: 64)")
+    p.add_argument("--lr", type=positive_float, default=None, help="Adam learning rate (default: 0.001)")
+    p.add_argument("--kind", default=None, choices=LazyChoices("nlo_lab.model", "MODEL_KINDS"), metavar="KIND",
                    help="%(choices)s: graph is the paper's (default: graph)")
-    p.add_argument("--latent-per-node", type=_ranged_int(*LATENT_RANGE), default=None,
+    p.add_argument("--latent-per-node", type=ranged_int(*LATENT_RANGE), default=None,
                    help=f"latent size per robot node, {LATENT_RANGE[0]}..{LATENT_RANGE[1]} (default: 4)")
     p.add_argument("--out", default=None, help="checkpoint path (default: assets/checkpoints/NAME.pt in a checkout, ./NAME.pt in an installed package)")
-    p.add_argument("--seed", type=_ranged_int(0, MAX_SEED), default=0)
-    p.add_argument("--threads", type=_ranged_int(*THREADS_RANGE), default=None,
+    p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0)
+    p.add_argument("--threads", type=ranged_int(*THREADS_RANGE), default=None,
                    help="torch threads (default: NLO_LAB_THREADS, else 1)")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no warnings")
 
@@ -155,20 +108,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--robot", required=True)
     p.add_argument("--split", default="test", choices=("train", "test"))
     p.add_argument("--json", action="store_true", help="print the results as one JSON object on the last line")
-    p.add_argument("--limit", type=_ranged_int(*LIMIT_RANGE), default=None,
+    p.add_argument("--limit", type=ranged_int(*LIMIT_RANGE), default=None,
                    help=f"evaluate only the first N sequences, {LIMIT_RANGE[0]}..{LIMIT_RANGE[1]}")
-    p.add_argument("--iters", type=_ranged_int(*ITERS_RANGE), default=None,
+    p.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=None,
                    help=f"iterations of the latent and joint-space methods, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
     p.add_argument("--methods", default=None,
                    help="comma-separated subset of the methods (nlo_lab.evaluation.METHODS; default: all)")
-    p.add_argument("--threads", type=_ranged_int(*THREADS_RANGE), default=None,
+    p.add_argument("--threads", type=ranged_int(*THREADS_RANGE), default=None,
                    help="torch threads (default: NLO_LAB_THREADS, else 1)")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no warnings")
 
     sub.add_parser("demo", help="retarget a clip of the embedded test split to YuMi and print the summary")
 
     p = sub.add_parser("lab", help="copy the notebooks to a folder of yours and open JupyterLab there")
-    p.add_argument("--port", type=_ranged_int(1, 65535), default=8888)
+    p.add_argument("--port", type=ranged_int(1, 65535), default=8888)
     p.add_argument("--dir", default=None, help="your notebook folder (default: $NLO_LAB_NOTEBOOKS or ~/nlo_lab_notebooks)")
     p.add_argument("--copy-only", action="store_true", help="copy the notebooks and print the folder; do not start JupyterLab")
     return parser
