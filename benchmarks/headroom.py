@@ -46,7 +46,7 @@ from nlo_lab.losses import collision_loss, robot_points, targets_from_demonstrat
 from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.optimize import JointOptimizeSettings, optimize_joints  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
-from nlo_lab.train import load_pretrained  # noqa: E402
+from nlo_lab.model import load_pretrained  # noqa: E402
 
 COLUMNS = ("encoder_only", "latent_encoder", "objective optimum", "metric oracle")
 LR = 0.01  # rad per Adam step for both joint-space refinements

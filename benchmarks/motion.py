@@ -35,7 +35,7 @@ from nlo_lab.human.corpus import sign_corpus  # noqa: E402
 from nlo_lab.losses import LossWeights  # noqa: E402
 from nlo_lab.retarget import retarget  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
-from nlo_lab.train import load_pretrained  # noqa: E402
+from nlo_lab.model import load_pretrained  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_POSE = ROOT.parent / "shared" / "data" / "pose"

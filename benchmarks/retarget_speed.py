@@ -26,7 +26,7 @@ from nlo_lab.losses import Targets, targets_from_demonstration
 from nlo_lab.metrics import tracking_errors
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
 from nlo_lab.robot import load_robot
-from nlo_lab.train import load_checkpoint, load_pretrained
+from nlo_lab.model import load_checkpoint, load_pretrained
 
 
 def concat_demos(demos: list[Demonstration], frames: int) -> Demonstration:

@@ -49,7 +49,7 @@ from nlo_lab.losses import targets_from_demonstration  # noqa: E402
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent  # noqa: E402
 from nlo_lab.retarget import retarget  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
-from nlo_lab.train import load_pretrained  # noqa: E402
+from nlo_lab.model import load_pretrained  # noqa: E402
 from nlo_lab.training import TrainSettings, train_model  # noqa: E402
 
 LENGTHS = (30, 50, 100, 170, 250, 350, 500)

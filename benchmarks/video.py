@@ -34,7 +34,7 @@ from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration, video_i
 from nlo_lab.optimize import OptimizeSettings
 from nlo_lab.retarget import retarget
 from nlo_lab.robot import load_robot
-from nlo_lab.train import load_pretrained
+from nlo_lab.model import load_pretrained
 
 SAMPLE = ROOT / "assets" / "recordings" / "signer_webcam_58f.mp4"
 

@@ -57,7 +57,7 @@ class Backend:
             1 frame 0.70 vs 1.18 ms (torch), 32: 2.0 vs 2.3 ms, 64: equal,
             200: 7.7 vs 7.2 ms.
         decoder_max_batch: batch up to which the frozen decoder runs in numpy
-            (:mod:`nlo_lab.fused_decoder`). YuMi, forward + backward: batch 1
+            (:mod:`nlo_lab.model.numpy_backend`). YuMi, forward + backward: batch 1
             266 vs 473 us (torch), 170: 15.4 vs 2.6 ms (numpy's stacked small
             matmuls do not batch).
         collision_numpy_max_pairs: capsule pairs (frames x pairs) up to which the

@@ -241,7 +241,7 @@ def cmd_train(args) -> int:
 
     from nlo_lab.paths import is_editable_checkout
     from nlo_lab.robot import load_robot
-    from nlo_lab.train import checkpoint_path, save_checkpoint
+    from nlo_lab.model import checkpoint_path, save_checkpoint
     from nlo_lab.training import TrainSettings, train_model
 
     flags = {"epochs": args.epochs, "max_seconds": args.max_seconds, "batch_size": args.batch_size, "lr": args.lr,

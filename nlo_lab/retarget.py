@@ -31,7 +31,7 @@ from nlo_lab.optimize import OptimizeResult, OptimizeSettings, initial_latent, o
 from nlo_lab.retime import retime_times
 from nlo_lab.robot import Robot
 from nlo_lab.threads import single_thread
-from nlo_lab.train import load_pretrained
+from nlo_lab.model import load_pretrained
 from nlo_lab.trajectory import RobotTrajectory
 
 __all__ = ["CHUNK_FRAMES", "RetargetResult", "retarget", "summary"]

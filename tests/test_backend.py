@@ -225,13 +225,31 @@ def test_decoder_numpy_layers_equal_torch(robot):
     assert_same(fast, ref)
 
 
-def test_reference_decoder_runs_in_torch(robot, monkeypatch):
-    from nlo_lab import model
+def test_decoder_node_major_layers_equal_the_paper_form(robot):
+    """Above the numpy batch (and while training) the decoder runs folded node-major weights: same map."""
+    dec = _frozen_decoder(robot)
+    z = 2 * torch.randn(12, robot.n_joints, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(9))
+    with backend.use(decoder_max_batch=0):
+        fast = value_and_grad(dec, z)
+    with backend.reference():
+        ref = value_and_grad(dec, z)
+    assert_same(fast, ref)
 
-    monkeypatch.setattr(model, "decode_fused", _raise)
+
+def test_reference_decoder_runs_the_paper_layers(robot, monkeypatch):
+    from nlo_lab.model import decoder
+    from nlo_lab.model.layers import GraphLayer
+
     dec = _frozen_decoder(robot)
     z = torch.zeros(1, robot.n_joints, 3, dtype=torch.float64)
+    calls = []
+    paper_forward = GraphLayer.forward
+    monkeypatch.setattr(GraphLayer, "forward", lambda self, *a: calls.append(self) or paper_forward(self, *a))
+    monkeypatch.setattr(decoder, "decode_numpy", _raise)
+    monkeypatch.setattr(GraphLayer, "forward_node_major", _raise)
     with backend.reference():
         dec(z)
+        dec.preactivation(z)
+    assert calls == list(dec.layers) * 2  # every layer in its paper form, in order
     with pytest.raises(AssertionError, match="fast path"):
         dec(z)

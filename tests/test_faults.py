@@ -320,7 +320,7 @@ def test_robot_spec_with_a_bad_margin(margin, work, capsys):
 
 
 def test_checkpoint_with_numeric_joint_names(tmp_path):
-    from nlo_lab.train import checkpoint_path, load_checkpoint
+    from nlo_lab.model import checkpoint_path, load_checkpoint
 
     ckpt = torch.load(checkpoint_path("nao"), map_location="cpu", weights_only=True)
     ckpt["joint_names"] = 7

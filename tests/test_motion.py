@@ -21,7 +21,7 @@ from nlo_lab.optimize import OptimizeSettings, optimize_latent, sequence_start, 
 from nlo_lab.retarget import retarget
 from nlo_lab.retime import retime_times, segment_durations
 from nlo_lab.robot import load_robot
-from nlo_lab.train import load_pretrained
+from nlo_lab.model import load_pretrained
 from nlo_lab.trajectory import RobotTrajectory
 
 RECORDINGS = ["holistic_both_hands_47f.pose", "holistic_world_97f.pose", "mediapipe_right_hand_170f.pose"]

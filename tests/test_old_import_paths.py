@@ -13,6 +13,7 @@ OLD_TO_NEW = {
     "nlo_lab.video_view": ["nlo_lab.lab"],
     "nlo_lab.baselines": ["nlo_lab.evaluation", "nlo_lab.training"],
     "nlo_lab.evaluate": ["nlo_lab.evaluation"],
+    "nlo_lab.train": ["nlo_lab.training", "nlo_lab.model"],
 }
 
 

@@ -121,23 +121,23 @@ def installed(monkeypatch):
 @pytest.fixture
 def bundled_checkpoints(tmp_path, monkeypatch):
     """An empty checkpoint folder that the package treats as its own assets (robot specs stay the real ones)."""
-    import nlo_lab.train as train
+    import nlo_lab.model.checkpoint as checkpoint
 
     folder = tmp_path / "assets" / "checkpoints"
     folder.mkdir(parents=True)
-    monkeypatch.setattr(train, "CHECKPOINTS_DIR", folder)
+    monkeypatch.setattr(checkpoint, "CHECKPOINTS_DIR", folder)
     real = paths.is_bundled
     monkeypatch.setattr(paths, "is_bundled", lambda p: real(p) or Path(p).resolve().is_relative_to(tmp_path.resolve()))
-    monkeypatch.setattr(train, "is_bundled", paths.is_bundled)
+    monkeypatch.setattr(checkpoint, "is_bundled", paths.is_bundled)
     return folder
 
 
 def test_a_missing_bundled_checkpoint_names_the_file_and_the_repair(bundled_checkpoints, installed, capsys):
-    import nlo_lab.train as train
+    import nlo_lab.model.checkpoint as checkpoint
 
     tmp_path = bundled_checkpoints
     with pytest.raises(CheckpointError) as info:
-        train.load_pretrained("nao")
+        checkpoint.load_pretrained("nao")
     message = str(info.value)
     assert str(tmp_path / "nao.pt") in message and "pip install --force-reinstall --no-deps nlo_lab" in message
     assert main(["retarget", "demo:introduction_06", "--robot", "nao", "--iters", "1"]) == 2
@@ -145,30 +145,30 @@ def test_a_missing_bundled_checkpoint_names_the_file_and_the_repair(bundled_chec
 
 
 def test_a_corrupt_bundled_checkpoint_names_the_file_and_the_repair(bundled_checkpoints, installed):
-    import nlo_lab.train as train
+    import nlo_lab.model.checkpoint as checkpoint
 
     (bundled_checkpoints / "nao.pt").write_bytes(b"not a checkpoint")
     with pytest.raises(CheckpointError, match=r"cannot be read.*pip install --force-reinstall"):
-        train.load_pretrained("nao")
+        checkpoint.load_pretrained("nao")
 
 
 def test_in_a_checkout_the_repair_is_git_checkout_or_retraining(tmp_path, monkeypatch):
-    import nlo_lab.train as train
+    import nlo_lab.model.checkpoint as checkpoint
 
     assert "git checkout -- assets/checkpoints/nao.pt" in paths.repair_hint(paths.CHECKPOINTS_DIR / "nao.pt")
     moved = tmp_path / "nao.pt"
     shutil.copy(paths.CHECKPOINTS_DIR / "nao.pt", moved)
-    monkeypatch.setattr(train, "checkpoint_path", lambda name: paths.CHECKPOINTS_DIR / f"{name}_gone.pt")
+    monkeypatch.setattr(checkpoint, "checkpoint_path", lambda name: paths.CHECKPOINTS_DIR / f"{name}_gone.pt")
     with pytest.raises(CheckpointError, match=r"git checkout -- assets/checkpoints/nao_gone\.pt.*nlo-lab train --robot nao"):
-        train.load_pretrained("nao")
+        checkpoint.load_pretrained("nao")
 
 
 def test_a_checkpoint_outside_the_package_gets_no_repair_hint(tmp_path, monkeypatch):
-    import nlo_lab.train as train
+    import nlo_lab.model.checkpoint as checkpoint
 
-    monkeypatch.setattr(train, "CHECKPOINTS_DIR", tmp_path)
+    monkeypatch.setattr(checkpoint, "CHECKPOINTS_DIR", tmp_path)
     with pytest.raises(CheckpointError) as info:
-        train.load_pretrained("nao")
+        checkpoint.load_pretrained("nao")
     assert "nlo-lab train --robot nao" in str(info.value) and "git checkout" not in str(info.value)
 
 

@@ -30,7 +30,7 @@ import torch
 from nlo_lab.losses import LossWeights, _constants, robot_points, targets_from_demonstration
 from nlo_lab.optimize import OptimizeSettings, optimize_latent
 from nlo_lab.robot import load_robot
-from nlo_lab.train import load_pretrained
+from nlo_lab.model import load_pretrained
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
 WRIST_TOL = 0.05  # fraction of the arm length, median over poses and arms

@@ -5,12 +5,12 @@ from __future__ import annotations
 import pytest
 import torch
 
-import nlo_lab.train as train_mod
+import nlo_lab.model.checkpoint as checkpoint
 import nlo_lab.training.train as training_mod
 from nlo_lab.errors import CheckpointError, SettingsError
 from nlo_lab.losses import targets_from_demonstration
 from nlo_lab.robot import load_robot
-from nlo_lab.train import CHECKPOINT_FORMAT_VERSION, load_checkpoint, load_pretrained, save_checkpoint
+from nlo_lab.model import CHECKPOINT_FORMAT_VERSION, load_checkpoint, load_pretrained, save_checkpoint
 from nlo_lab.training import TrainSettings, new_model, train_model
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
@@ -104,7 +104,7 @@ def test_missing_corrupt_and_foreign_files_are_refused(tmp_path, nao):
 
 
 def test_load_pretrained_without_a_checkpoint_says_how_to_make_one(tmp_path, monkeypatch, nao):
-    monkeypatch.setattr(train_mod, "CHECKPOINTS_DIR", tmp_path)
+    monkeypatch.setattr(checkpoint, "CHECKPOINTS_DIR", tmp_path)
     with pytest.raises(CheckpointError, match="nlo-lab train --robot nao"):
         load_pretrained(nao)
     save_checkpoint(new_model(nao), tmp_path / "nao.pt", nao)

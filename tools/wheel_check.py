@@ -163,7 +163,7 @@ SMOKE = r"""
 import json, sys
 import nlo_lab, nlo_lab.paths as paths
 from nlo_lab.robot import load_robot, known_robots
-from nlo_lab.train import load_pretrained
+from nlo_lab.model import load_pretrained
 assert "site-packages" in nlo_lab.__file__, nlo_lab.__file__
 assert paths.ASSETS.parent == paths.PACKAGE_DIR, paths.ASSETS
 out = {"version": nlo_lab.__version__, "robots": known_robots(), "assets": str(paths.ASSETS)}

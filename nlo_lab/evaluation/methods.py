@@ -33,7 +33,7 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.losses import LossWeights, objective, targets_from_demonstration
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
 from nlo_lab.settings import check_int, check_positive, validate_fields
-from nlo_lab.train import load_pretrained
+from nlo_lab.model import load_pretrained
 from nlo_lab.training import SupervisedNet, SupervisedSettings, supervised_network
 
 __all__ = [

@@ -36,7 +36,7 @@ from nlo_lab.evaluation.methods import LATENT_METHODS, METHODS, BaselineSettings
 from nlo_lab.metrics import limit_violations, max_joint_speed_ratio, self_collision_frames, tracking_errors, velocity_violations
 from nlo_lab.human import sign_corpus
 from nlo_lab.retime import retime_times
-from nlo_lab.train import load_pretrained
+from nlo_lab.model import load_pretrained
 from nlo_lab.training import supervised_network
 
 __all__ = ["SequenceScore", "Evaluation", "check_methods", "evaluate", "evaluate_split"]

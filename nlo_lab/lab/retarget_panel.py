@@ -47,7 +47,7 @@ class RetargetPanel:
         robot: ``"yumi"``, ``"nao"``, ``"pepper"`` (or a loaded ``Robot``).
         model: the model for ``robot``; by default ``model_loader(robot)``.
         model_loader: ``robot -> model`` used on a robot change (default: the shipped checkpoints,
-            ``nlo_lab.train.load_pretrained``).
+            ``nlo_lab.model.load_pretrained``).
         weights: start loss weights (the paper's by default).
         init: start initialisation strategy (one of ``nlo_lab.optimize.INITS``).
         iterations: iteration budget of a cold start (the init/budget controls) and of the sequence button.
@@ -101,7 +101,7 @@ class RetargetPanel:
         if not 0 <= frame < len(demo):
             raise SettingsError(f"frame {frame} is outside 0..{len(demo) - 1}")
         if model_loader is None:
-            from nlo_lab.train import load_pretrained
+            from nlo_lab.model import load_pretrained
 
             model_loader = load_pretrained
         self.demo = demo

@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import torch
 from nlo_lab.robot import load_robot
-from nlo_lab.train import load_pretrained
+from nlo_lab.model import load_pretrained
 robot = load_robot("yumi")
 model = load_pretrained(robot)           # the shipped checkpoint: no training needed
 print("latent of one frame:", model.latent_shape, "(one k-vector per robot-graph node)")

@@ -17,7 +17,7 @@ import numpy as np
 from nlo_lab.human import corpus_clip, corpus_names
 from nlo_lab.losses import targets_from_demonstration
 from nlo_lab.robot import load_robot
-from nlo_lab.train import load_pretrained
+from nlo_lab.model import load_pretrained
 robot = load_robot("yumi")
 model = load_pretrained(robot)
 demo = corpus_clip(corpus_names("test")[0])

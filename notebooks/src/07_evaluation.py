@@ -23,7 +23,7 @@ setup()
 # %%
 from nlo_lab.human import corpus_clip, corpus_names
 from nlo_lab.robot import load_robot
-from nlo_lab.train import load_pretrained
+from nlo_lab.model import load_pretrained
 robot = load_robot("yumi")
 model = load_pretrained(robot)
 names = corpus_names("test")[: budget(6, 2)]

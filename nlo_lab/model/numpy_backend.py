@@ -1,9 +1,9 @@
-"""The frozen graph decoder in numpy, with a hand-written backward to the latent.
+"""The frozen graph decoder in numpy, with a written-out backward to the latent.
 
 Latent optimisation runs the decoder with fixed weights, at batch 1 in the
 live panel. There each of its ~20 torch ops costs microseconds of dispatch plus
 an autograd node in the backward, many times its arithmetic. This module runs
-the same map (:meth:`nlo_lab.model.GraphLayer.forward_node_major`, then the
+the same map (:meth:`nlo_lab.model.layers.GraphLayer.forward_node_major`, then the
 tanh remap) in numpy inside one ``torch.autograd.Function`` whose backward
 returns the gradient with respect to ``z`` only (the weights are frozen).
 
@@ -13,8 +13,10 @@ Per layer, on node-major features ``x (N, B, C)``:
 receiving node); the last layer's ``y`` plus the rest offset goes through tanh. Backward: ``g_m = (A_dstᵀ g_y) * LeakyReLU'(m)``,
 ``g_x = g_y Sᵀ + A_dst (g_m W_selfᵀ) + A_src (g_m W_nbrᵀ)``.
 
-The torch ops stay the reference (training, other devices); the tests compare
-both, values and gradients.
+:class:`~nlo_lab.model.decoder.GraphDecoder` takes this path for frozen weights
+on the CPU at batches up to ``nlo_lab.backend.Backend.decoder_max_batch``; the
+tests compare it with the paper's form (``backend.reference()``), values and
+gradients.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import numpy as np
 import torch
 from torch.autograd.function import once_differentiable
 
-__all__ = ["DecoderPlan", "decode_fused"]
+__all__ = ["DecoderPlan", "decode_numpy"]
 
 
 def _np(t: torch.Tensor | None) -> np.ndarray | None:
@@ -31,7 +33,7 @@ def _np(t: torch.Tensor | None) -> np.ndarray | None:
 
 
 class DecoderPlan:
-    """Numpy copies of a decoder's node-major weights (``GraphDecoder._weights()``).
+    """Numpy copies of a decoder's node-major weights (built by ``GraphDecoder`` from its cached weights).
 
     Args:
         weights: the decoder's weight dict (``layers``, ``mid``, ``half``, ``lower``, ``upper``, ``rest_pre``).
@@ -114,6 +116,6 @@ class _DecodeFn(torch.autograd.Function):
         return torch.from_numpy(np.ascontiguousarray(gz, dtype=ctx.plan.dtype)), None
 
 
-def decode_fused(z: torch.Tensor, plan: DecoderPlan) -> torch.Tensor:
+def decode_numpy(z: torch.Tensor, plan: DecoderPlan) -> torch.Tensor:
     """``q (B, N)`` from ``z (B, N, k)`` on the CPU (in the plan's dtype); differentiable in ``z``."""
     return _DecodeFn.apply(z, plan)

@@ -1,0 +1,39 @@
+"""The networks of neural latent optimisation: graph layer, encoder, decoder, checkpoints.
+
+- :mod:`~nlo_lab.model.layers`: the paper's :class:`GraphLayer` and the limit remap.
+- :mod:`~nlo_lab.model.encoder`: human features -> latent ``z`` (:class:`GraphEncoder`, :class:`MLPEncoder`).
+- :mod:`~nlo_lab.model.decoder`: ``z`` -> joint angles inside the limits (:class:`GraphDecoder`, :class:`MLPDecoder`).
+- :mod:`~nlo_lab.model.numpy_backend`: the frozen graph decoder in numpy, a faster evaluation
+  of the same map for small batches (chosen by :mod:`nlo_lab.backend`).
+- :mod:`~nlo_lab.model.retarget_model`: :class:`RetargetModel` (encoder + decoder), :func:`build_model`.
+- :mod:`~nlo_lab.model.encoder_input`: :class:`EncoderInput`, what the encoder reads of a demonstration.
+- :mod:`~nlo_lab.model.checkpoint`: save, load, and the shipped checkpoints (:func:`load_pretrained`).
+"""
+
+from nlo_lab.model.checkpoint import CHECKPOINT_FORMAT_VERSION, checkpoint_path, load_checkpoint, load_pretrained, save_checkpoint
+from nlo_lab.model.decoder import GraphDecoder, MLPDecoder
+from nlo_lab.model.encoder import GraphEncoder, MLPEncoder
+from nlo_lab.model.encoder_input import EncoderInput, encoder_input
+from nlo_lab.model.layers import LEAKY_SLOPE, GraphLayer, remap_to_limits, rest_preactivation
+from nlo_lab.model.retarget_model import MODEL_KINDS, RetargetModel, build_model
+
+__all__ = [
+    "GraphLayer",
+    "GraphEncoder",
+    "GraphDecoder",
+    "MLPEncoder",
+    "MLPDecoder",
+    "RetargetModel",
+    "remap_to_limits",
+    "rest_preactivation",
+    "LEAKY_SLOPE",
+    "build_model",
+    "MODEL_KINDS",
+    "EncoderInput",
+    "encoder_input",
+    "CHECKPOINT_FORMAT_VERSION",
+    "save_checkpoint",
+    "load_checkpoint",
+    "checkpoint_path",
+    "load_pretrained",
+]

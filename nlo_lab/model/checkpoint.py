@@ -1,0 +1,139 @@
+"""Checkpoints: a trained :class:`~nlo_lab.model.retarget_model.RetargetModel` on disk, and the shipped ones.
+
+A checkpoint is a ``torch.save`` dict of plain data (loaded with
+``weights_only=True``): the format version, the robot's name and joint names,
+the model configuration (:func:`~nlo_lab.model.retarget_model.build_model`'s
+arguments), the float32 state dict, and what training recorded. Loading
+rebuilds the model from the configuration and checks that it was made for this
+robot, so inference needs the model package only, never the trainer.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from nlo_lab.errors import CheckpointError, NloLabError
+from nlo_lab.human.skeleton import skeleton_graph
+from nlo_lab.model.retarget_model import RetargetModel, build_model
+from nlo_lab.robot import load_robot
+from nlo_lab.paths import BUNDLED_ROBOTS, CHECKPOINTS_DIR, is_bundled, is_editable_checkout, repair_hint
+
+__all__ = ["CHECKPOINT_FORMAT_VERSION", "save_checkpoint", "load_checkpoint", "checkpoint_path", "load_pretrained"]
+
+CHECKPOINT_FORMAT_VERSION = 2  # 2: the decoder's rest offset (decoder.rest_pre) is part of the state
+
+
+def _resolve_robot(robot):
+    """A ``Robot`` as given, or loaded by name."""
+    if isinstance(robot, str):
+        return load_robot(robot)
+    return robot
+
+
+def save_checkpoint(model: RetargetModel, path, robot=None, **info: Any) -> Path:
+    """Write ``model`` (float32) with its robot name, format version and settings.
+
+    Args:
+        model: the trained model (``model.train_info`` is recorded when present).
+        path: destination file (``.pt``); parent folders are created.
+        robot: the robot (its joint names are recorded); optional.
+        **info: extra JSON-like entries.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    state = {k: v.detach().to("cpu", torch.float32 if v.is_floating_point() else None) for k, v in model.state_dict().items()}
+    train_info = dict(getattr(model, "train_info", {}))
+    ckpt = {
+        "format_version": CHECKPOINT_FORMAT_VERSION,
+        "robot": model.robot_name,
+        "joint_names": list(robot.joint_names) if robot is not None else None,
+        "model_config": dict(model.config),
+        "state_dict": state,
+        "latent_mean": state["latent_mean"],
+        "latent_std": state["latent_std"],
+        "val_loss": train_info.get("val_loss"),
+        "train_settings": train_info.get("settings"),
+        "weights": train_info.get("weights"),
+        "history": train_info.get("history"),
+        "train_seconds": train_info.get("seconds"),
+        "steps": train_info.get("steps"),
+        "torch_version": str(torch.__version__),
+        **info,
+    }
+    tmp = path.with_name(path.name + ".tmp")
+    torch.save(ckpt, tmp)
+    tmp.replace(path)  # never a half-written checkpoint under the real name
+    return path
+
+
+def load_checkpoint(path, robot) -> RetargetModel:
+    """Load a checkpoint for ``robot`` (a ``Robot`` or a name).
+
+    Raises:
+        CheckpointError: missing or corrupt file, another format version, or a
+            checkpoint made for another robot (the message names both).
+    """
+    path = Path(path)
+    robot = _resolve_robot(robot)
+    if not path.is_file():
+        raise CheckpointError(f"checkpoint {path} not found")
+    try:
+        ckpt = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch raises many types for a damaged file
+        raise CheckpointError(f"checkpoint {path} cannot be read (corrupt or not a checkpoint): {type(exc).__name__}") from None
+    if not isinstance(ckpt, dict) or "format_version" not in ckpt or "robot" not in ckpt:
+        raise CheckpointError(f"checkpoint {path} is not an nlo_lab checkpoint (no format_version/robot)")
+    if ckpt["format_version"] != CHECKPOINT_FORMAT_VERSION:
+        raise CheckpointError(
+            f"checkpoint {path} has format version {ckpt['format_version']!r}, this nlo_lab reads version {CHECKPOINT_FORMAT_VERSION}"
+        )
+    if ckpt["robot"] != robot.name:
+        raise CheckpointError(f"checkpoint {path} was trained for robot {ckpt['robot']!r}, not for {robot.name!r}")
+    names = ckpt.get("joint_names")
+    if names is not None and (not isinstance(names, (list, tuple)) or list(names) != list(robot.joint_names)):
+        raise CheckpointError(f"checkpoint {path} was made for other joints of {robot.name!r} (the robot description changed)")
+    try:
+        cfg = ckpt["model_config"]
+        model = build_model(
+            robot.name,
+            robot.graph,
+            robot.lower_limits,
+            robot.upper_limits,
+            skeleton_graph(),
+            in_features=cfg["in_features"],
+            edge_features=cfg["edge_features"],
+            kind=cfg["kind"],
+            latent_per_node=cfg["latent_per_node"],
+        )
+        model.load_state_dict(ckpt["state_dict"])
+    except (KeyError, RuntimeError, TypeError, NloLabError) as exc:
+        raise CheckpointError(f"checkpoint {path} does not fit the model for {robot.name!r}: {exc}") from None
+    model.train_info = {k: ckpt.get(k) for k in ("val_loss", "train_settings", "weights", "history", "train_seconds", "steps")}
+    return model.to(dtype=robot.lower_limits.dtype).eval()
+
+
+def checkpoint_path(name: str) -> Path:
+    """``assets/checkpoints/{name}.pt``."""
+    return CHECKPOINTS_DIR / f"{name}.pt"
+
+
+def load_pretrained(robot) -> RetargetModel:
+    """The shipped checkpoint of ``robot`` (a ``Robot`` or a name).
+
+    Raises:
+        CheckpointError: no shipped checkpoint for this robot (or a bad one).
+    """
+    robot = _resolve_robot(robot)
+    path = checkpoint_path(robot.name)
+    if not path.is_file() and not (robot.name in BUNDLED_ROBOTS and is_bundled(path)):
+        raise CheckpointError(f"no trained checkpoint for robot {robot.name!r} ({path}); run `nlo-lab train --robot {robot.name}`")
+    try:
+        return load_checkpoint(path, robot)
+    except CheckpointError as exc:
+        if robot.name in BUNDLED_ROBOTS and is_bundled(path) and is_bundled(robot.spec.path):  # a shipped file is missing or damaged
+            retrain = f" (or retrain it: `nlo-lab train --robot {robot.name}`)" if is_editable_checkout() else ""
+            raise CheckpointError(f"{exc}; {repair_hint(path)}{retrain}") from None
+        raise

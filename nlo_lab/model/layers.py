@@ -1,0 +1,219 @@
+"""The paper's graph layer, the limit remap, and the pieces both networks share.
+
+The graph layer (Zhang et al., Sec. "Graph-based Encoder & Decoder")::
+
+    x_i' = x_i + sum_{j in N(i)} LeakyReLU(W_t [x_i, x_j, e_ji] + b_t)
+
+with one weight set ``(W_t, b_t)`` per node type ``t`` (arm, hand) chosen by
+the *receiving* node ``i``. Messages flow along the directed edges,
+source (parent) -> target (child). When the layer changes width the residual
+``x_i`` cannot be added as is, so it goes through a per-node-type linear skip
+(``P_t x_i``, no bias); at equal width the skip is the identity, as in the paper.
+Root nodes have no incoming edge, so their update is the skip alone.
+
+:meth:`GraphLayer.forward` is that equation, written as it reads. The frozen
+decoder evaluates the same map faster (:meth:`GraphLayer.node_major_weights`,
+:meth:`GraphLayer.forward_node_major`, and :mod:`nlo_lab.model.numpy_backend`);
+``nlo_lab.backend.reference()`` makes it run this form.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from torch import nn
+
+from nlo_lab.graph import Graph
+
+__all__ = [
+    "GraphLayer",
+    "GraphBuffers",
+    "mlp",
+    "remap_to_limits",
+    "remap",
+    "rest_preactivation",
+    "LEAKY_SLOPE",
+    "NUM_NODE_TYPES",
+]
+
+NUM_NODE_TYPES = 2  # NODE_ARM, NODE_HAND
+LEAKY_SLOPE = 0.2  # negative slope of the LeakyReLU in the messages
+
+
+def remap_to_limits(a: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+    """Map ``tanh`` outputs ``a`` in [-1, 1] linearly onto ``[lower, upper]``.
+
+    ``lower + (upper - lower)(a + 1)/2``, then clamped so that float rounding
+    can never put an angle one ulp outside its limits (the clamp is inactive
+    otherwise and passes gradients through).
+
+    Args:
+        a: ``(..., n)`` values; ``tanh`` is applied here, so any real input is fine.
+        lower: ``(n,)`` lower limits [rad].
+        upper: ``(n,)`` upper limits [rad].
+
+    Returns:
+        ``(..., n)`` joint angles inside the limits.
+    """
+    return remap(a, (lower + upper) * 0.5, (upper - lower) * 0.5, lower, upper)
+
+
+def remap(a: torch.Tensor, mid: torch.Tensor, half: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+    """:func:`remap_to_limits` with ``mid = (lower + upper)/2``, ``half = (upper - lower)/2`` given."""
+    return torch.clamp(torch.addcmul(mid, half, torch.tanh(a)), min=lower, max=upper)
+
+
+def rest_preactivation(rest: torch.Tensor | None, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
+    """``(n,)`` offset before tanh so that a zero network output decodes to ``rest``.
+
+    ``atanh((rest - mid) / half)``, kept within ``atanh(±0.9)`` so that the start
+    is never in tanh's flat tail; zeros (the limits' midpoint) without ``rest``.
+    """
+    if rest is None:
+        return torch.zeros_like(lower, dtype=torch.float32)
+    u = ((rest.detach().float() - (lower + upper) / 2) / ((upper - lower) / 2).clamp_min(1e-9)).clamp(-0.9, 0.9)
+    return torch.atanh(u)
+
+
+class GraphLayer(nn.Module):
+    """One residual message-passing layer with per-node-type weights.
+
+    The weight of type ``t`` is one matrix ``W_t = [W_self | W_nbr | W_edge]``
+    ``(O, 2 C_in + F)`` over the concatenation ``[x_i, x_j, e_ji]``.
+
+    Args:
+        in_features: node feature width C_in.
+        out_features: node feature width C_out (O).
+        edge_features: edge feature width F.
+    """
+
+    def __init__(self, in_features: int, out_features: int, edge_features: int):
+        super().__init__()
+        self.in_features, self.out_features, self.edge_features = in_features, out_features, edge_features
+        fan_in = 2 * in_features + edge_features
+        bound = 1.0 / math.sqrt(fan_in)  # nn.Linear's default initialisation
+        self.weight = nn.Parameter(torch.empty(NUM_NODE_TYPES, out_features, fan_in).uniform_(-bound, bound))
+        self.bias = nn.Parameter(torch.empty(NUM_NODE_TYPES, out_features).uniform_(-bound, bound))
+        # Linear skip when the width changes (the paper's residual needs equal widths).
+        if in_features == out_features:
+            self.skip = None
+        else:
+            b = 1.0 / math.sqrt(in_features)
+            self.skip = nn.Parameter(torch.empty(NUM_NODE_TYPES, out_features, in_features).uniform_(-b, b))
+
+    def forward(self, x: torch.Tensor, edge_index: torch.Tensor, edge_attr: torch.Tensor, node_type: torch.Tensor) -> torch.Tensor:
+        """``x_i' = P_t x_i + sum_{j -> i} LeakyReLU(W_t [x_i, x_j, e_ji] + b_t)``, ``t`` = type of ``i``.
+
+        Args:
+            x: ``(B, N, C_in)`` node features.
+            edge_index: ``(2, E)`` source j -> target i.
+            edge_attr: ``(E, F)`` static or ``(B, E, F)`` per-sample edge features.
+            node_type: ``(N,)`` :data:`~nlo_lab.graph.NODE_ARM` / :data:`~nlo_lab.graph.NODE_HAND`.
+
+        Returns:
+            ``(B, N, C_out)``.
+        """
+        B, N, _ = x.shape
+        src, dst = edge_index[0], edge_index[1]  # j, i
+        # index_select, not x[:, dst]: its backward sums in a fixed order (reproducible training)
+        t = node_type.index_select(0, dst)  # (E,) the receiving node's type picks the weights
+        e = edge_attr.to(x.dtype).expand(B, -1, -1)  # (B, E, F)
+        h = torch.cat([x.index_select(1, dst), x.index_select(1, src), e], dim=-1)  # (B, E, 2C+F): [x_i, x_j, e_ji]
+        w, b = self.weight.index_select(0, t), self.bias.index_select(0, t)  # (E, O, 2C+F), (E, O): W_t, b_t per edge
+        msg = nn.functional.leaky_relu(torch.einsum("bef,eof->beo", h, w) + b, LEAKY_SLOPE)  # (B, E, O)
+        total = x.new_zeros(B, N, self.out_features).index_add(1, dst, msg)  # sum over j in N(i)
+        residual = x if self.skip is None else torch.einsum("bnc,noc->bno", x, self.skip.index_select(0, node_type))
+        return residual + total
+
+    def node_major_weights(
+        self, edge_index: torch.Tensor, edge_attr: torch.Tensor, node_type: torch.Tensor, fixed: torch.Tensor | None = None
+    ) -> dict[str, torch.Tensor]:
+        """This layer's weights gathered per edge and per node, for :meth:`forward_node_major`.
+
+        Static edge features, the bias and the contribution of constant input
+        features (``fixed``: the last ``D`` input columns, the same for every
+        sample) are folded into one bias per edge and per node: at inference
+        they cost nothing per call.
+
+        Args:
+            edge_index: ``(2, E)`` source -> target.
+            edge_attr: ``(E, F)`` static edge features.
+            node_type: ``(N,)``.
+            fixed: ``(N, D)`` constant last input columns, or None.
+
+        Returns:
+            ``src, dst (E,)``, ``self (E, C', O)``, ``nbr (E, C', O)``, ``bias (E, 1, O)``,
+            ``skip (N, C', O)`` or None (identity), ``skip_bias (N, 1, O)`` or None;
+            ``C' = C_in - D``.
+        """
+        src, dst = edge_index[0], edge_index[1]
+        C, D = self.in_features, 0 if fixed is None else fixed.shape[-1]
+        t_edge = node_type[dst]  # weights of the receiving node's type
+        w_self, w_nbr, w_edge = self.weight.index_select(0, t_edge).split([C, C, self.edge_features], dim=-1)  # (E, O, .)
+        bias = torch.einsum("ef,eof->eo", edge_attr.to(w_edge.dtype), w_edge) + self.bias.index_select(0, t_edge)  # (E, O)
+        skip = None if self.skip is None else self.skip.index_select(0, node_type)  # (N, O, C)
+        skip_bias = None
+        if fixed is not None:
+            fixed = fixed.to(w_self.dtype)
+            bias = bias + torch.einsum("ed,eod->eo", fixed[dst], w_self[..., C - D :]) + torch.einsum("ed,eod->eo", fixed[src], w_nbr[..., C - D :])
+            if skip is None:  # identity on the variable columns only
+                skip = torch.eye(self.out_features, C, dtype=w_self.dtype, device=w_self.device).expand(len(node_type), -1, -1)
+            skip_bias = torch.einsum("nd,nod->no", fixed, skip[..., C - D :])[:, None]
+            skip = skip[..., : C - D]
+        return {
+            "src": src,
+            "dst": dst,
+            "self": w_self[..., : C - D].mT,
+            "nbr": w_nbr[..., : C - D].mT,
+            "bias": bias[:, None],
+            "skip": None if skip is None else skip.mT,
+            "skip_bias": skip_bias,
+        }
+
+    @staticmethod
+    def forward_node_major(x: torch.Tensor, w: dict[str, torch.Tensor]) -> torch.Tensor:
+        """The layer on node-major features: ``x (N, B, C')`` -> ``(N, B, O)``.
+
+        Same map as :meth:`forward` (with ``w`` from :meth:`node_major_weights`)
+        in a handful of batched matmuls over edges and nodes, which at small
+        batch is what matters (per-op overhead).
+        """
+        msg = torch.baddbmm(w["bias"], x.index_select(0, w["dst"]), w["self"])  # (E, B, O)
+        msg = torch.baddbmm(msg, x.index_select(0, w["src"]), w["nbr"])
+        msg = nn.functional.leaky_relu(msg, LEAKY_SLOPE)
+        if w["skip"] is None:
+            res = x
+        elif w["skip_bias"] is None:
+            res = torch.bmm(x, w["skip"])
+        else:
+            res = torch.baddbmm(w["skip_bias"], x, w["skip"])
+        return res.index_add(0, w["dst"], msg)  # + sum over incoming edges
+
+
+class GraphBuffers(nn.Module):
+    """A graph's tensors as (non-persistent) buffers, so that ``.to()`` moves them.
+
+    Attributes:
+        node_names: one name per node.
+        edge_index: ``(2, E)`` long, source -> target.
+        edge_attr: ``(E, F)`` float32 static edge features.
+        node_type: ``(N,)`` long.
+    """
+
+    def __init__(self, graph: Graph):
+        super().__init__()
+        self.node_names = tuple(graph.node_names)
+        self.register_buffer("edge_index", graph.edge_index.long().clone(), persistent=False)
+        self.register_buffer("edge_attr", graph.edge_attr.float().clone(), persistent=False)
+        self.register_buffer("node_type", graph.node_type.long().clone(), persistent=False)
+
+
+def mlp(dims: tuple[int, ...]) -> nn.Sequential:
+    """Linear layers ``dims[0] -> ... -> dims[-1]`` with a LeakyReLU between them (not after the last)."""
+    mods: list[nn.Module] = []
+    for i, (a, b) in enumerate(zip(dims[:-1], dims[1:])):
+        mods.append(nn.Linear(a, b))
+        if i < len(dims) - 2:
+            mods.append(nn.LeakyReLU(LEAKY_SLOPE))
+    return nn.Sequential(*mods)
