@@ -266,3 +266,39 @@ def test_notebook_05_panel_in_jupyterlab(lab_page):
         assert move["bytes"] < MOVE_BYTES, move
     assert _changed(before, after) > 0.002, "the frame slider did not change the picture"
     _check_clean(page)
+
+
+BUSY_SECONDS = 40  # the cell after the view keeps the kernel busy this long
+
+
+def test_a_view_inside_a_container_draws_while_the_kernel_is_busy(lab_page):
+    """A scene widget shown inside a plain VBox (never displayed itself), the next cell busy: the view draws
+    the robot from its saved scene while the kernel still runs that cell, and goes live when it answers."""
+    import re
+    import time
+
+    import nbformat
+
+    page, tmp = lab_page
+    cells = [
+        "import ipywidgets\nfrom nlo_lab.notebook import show_robot\nipywidgets.VBox([show_robot('yumi')])",
+        f"import time\ntime.sleep({BUSY_SECONDS})",
+    ]
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
+    nbformat.write(nb, tmp / "notebooks" / "busy.ipynb")
+    page.open_notebook("busy.ipynb")
+    page.page.locator(".lm-MenuBar-itemLabel", has_text=re.compile(r"^Run$")).click()
+    page.page.locator(".lm-Menu-itemLabel", has_text=re.compile(r"^Run All Cells$")).click()
+    start, drawn_while_busy = time.monotonic(), None
+    while time.monotonic() - start < BUSY_SECONDS - 5 and drawn_while_busy is None:
+        page.page.wait_for_timeout(1000)
+        if page.canvas(0).count() == 0:
+            continue
+        colours = _robot_colours(page.canvas_image(0, tmp / "busy.png"))
+        if colours["arm"] > 0.01 and colours["hand"] > 0.002:
+            drawn_while_busy = page.kernel_status()
+    assert drawn_while_busy == "busy", f"the view did not draw YuMi while the kernel was busy ({drawn_while_busy})"
+    page.wait_kernel_idle(timeout=BUSY_SECONDS + 60)
+    page.wait_views(1, timeout=30)  # answered: no message over the view once the kernel is free
+    _check_clean(page)

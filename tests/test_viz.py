@@ -417,6 +417,65 @@ def test_scene_widget_gives_a_new_view_the_whole_scene():
     assert content["type"] == "scene" and content["view"] == "b" and data == widget.snapshot()
 
 
+def test_a_view_that_repeats_ready_gets_the_scene_once():
+    from nlo_lab.viz import SceneWidget
+
+    robot = load_robot("nao")
+    widget = SceneWidget()
+    sent = _Sent(widget)
+    RetargetScene(widget.vis, robot, sweep(robot, 3))
+    # a view asks again until answered; the repeats that waited behind a busy kernel arrive after the answer
+    for _ in range(3):
+        widget._on_page_message(widget, {"type": "ready", "view": "v", "version": -1}, [])
+    kinds = [content["type"] for content, _ in sent.messages[-3:]]
+    assert kinds == ["scene", "current", "current"], kinds
+    assert all(content["version"] == widget._version for content, _ in sent.messages[-3:])
+    # another view of the same widget gets the scene too
+    widget._on_page_message(widget, {"type": "ready", "view": "w", "version": -1}, [])
+    assert sent.messages[-1][0]["type"] == "scene"
+
+
+def test_a_widget_inside_a_container_keeps_its_scene_after_every_cell():
+    import ipywidgets
+
+    from nlo_lab.viz import SceneWidget
+    from nlo_lab.viz.widget import sync_all
+
+    robot = load_robot("nao")
+    inner, shown = SceneWidget(), SceneWidget()
+    box = ipywidgets.VBox([inner])  # displaying the box never calls the inner widget's _repr_mimebundle_
+    box._repr_mimebundle_()
+    RetargetScene(inner.vis, robot, sweep(robot, 3))
+    RetargetScene(shown.vis, robot, sweep(robot, 3))
+    shown._repr_mimebundle_()
+    version = shown._scene_version
+    assert inner._scene == b"", "nothing stored yet: a view of the box would have nothing to draw"
+    sync_all()  # what IPython runs after every cell (post_run_cell)
+    assert inner._scene == inner.snapshot() and inner._scene_version == inner._version > 0
+    assert shown._scene_version == version, "an unchanged scene is not stored again"
+    inner.vis["robot"].set_transform(np.eye(4))
+    sync_all()
+    assert inner._scene_version == inner._version and inner._scene == inner.snapshot()
+    inner.close()
+    sync_all()  # a closed widget is skipped
+
+
+def test_scene_widgets_sync_after_every_cell_of_an_ipython_kernel():
+    from IPython.core.interactiveshell import InteractiveShell
+
+    from nlo_lab.viz import SceneWidget
+    from nlo_lab.viz.widget import sync_all
+
+    shell = InteractiveShell.instance()
+    try:
+        SceneWidget()
+        assert sync_all in shell.events.callbacks["post_run_cell"]
+        SceneWidget()
+        assert shell.events.callbacks["post_run_cell"].count(sync_all) == 1, "registered once per kernel"
+    finally:
+        InteractiveShell.clear_instance()
+
+
 def test_the_bundle_travels_once_per_kernel():
     from meshcat.servers.zmqserver import VIEWER_ROOT
 

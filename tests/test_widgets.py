@@ -116,7 +116,8 @@ def _paths(data: bytes) -> list[str]:
 
 def test_play_shows_frames_without_reoptimising(demo):
     p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2, view=None)
-    assert p.play.interval <= 66, "Play must ask for at least 15 frames/s"
+    times = p.play_times()
+    assert p.play.interval == round(1000 * times[-1] / (len(times) - 1)), "Play ticks at the clip's own (retimed) rate"
     before, last = p.angles.copy(), p.last
     p.play.playing = True
     p.play.value = 3
@@ -138,7 +139,21 @@ def test_play_runs_in_the_page_as_an_animation(demo):
     assert len(sent) == 1 and p.frame == 3
     p.play.playing = False
     assert sent[-1][0] == "set_animation" and sent[-1].count("set_transform") >= len(p.scene.robot_scene.links)
-    assert p.play.interval <= 66
+    # One time base: Play's slider ticks T - 1 times, interval ms apart, while the page's animation runs from
+    # its first key to its last. With a jump the retiming slows down (not the recording's 1/fps), both
+    # still last the clip's duration on the trajectory's time base.
+    p.angles[len(p.angles) // 2:] += 0.5
+    p.scene.angles[:] = p.angles
+    p.play.playing = True
+    sent.clear()
+    widget.send = lambda content, buffers=None: sent.append(_unpack_all(buffers[0]))
+    p.play.playing = False
+    p.play.playing = True
+    (anim,) = [c for c in sent[-1] if c["type"] == "set_animation"]
+    duration = max(key["time"] / a["clip"]["fps"] for a in anim["animations"] for track in a["clip"]["tracks"] for key in track["keys"])
+    T = len(p.angles)
+    assert duration == pytest.approx(p.play_times()[-1]) and duration > (T - 1) / demo.fps + 0.02, "the jump is slowed"
+    assert abs(p.play.interval * (T - 1) / 1000 - duration) <= 0.0005 * (T - 1), (p.play.interval, duration)
 
 
 def _unpack_all(data) -> list[dict]:

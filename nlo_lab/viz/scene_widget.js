@@ -81,7 +81,7 @@ async function render({ model, el }) {
   viewer.set_3d_pane_size = (w, h) => setSize(w ?? pane.clientWidth, h ?? pane.clientHeight);
   STATS.views += 1;
 
-  let version = -1, updated = false, alive = true;
+  let version = -1, updated = false, alive = true, answered = false, waiting, retry;
   const run = (buffer) => {
     const n = applyCommands(viewer, buffer);
     STATS.commands += n;
@@ -89,15 +89,27 @@ async function render({ model, el }) {
     updated = true;
     return n;
   };
-  try {
-    const scene = model.get("_scene");
-    if (scene && scene.byteLength) {
-      run(scene);
-      version = model.get("_scene_version");
+  // The scene kept in the widget's state: drawn at start, and again whenever the kernel stores a newer one
+  // (after the cell that showed this view, even while the kernel is busy with the next cells).
+  const drawSaved = () => {
+    try {
+      const scene = model.get("_scene");
+      const saved = model.get("_scene_version");
+      if (scene && scene.byteLength && saved > version) {
+        run(scene);
+        version = saved;
+      }
+    } catch (err) {
+      setStatus(`The saved scene could not be drawn: ${err.message || err}`);
     }
-  } catch (err) {
-    setStatus(`The saved scene could not be drawn: ${err.message || err}`);
-  }
+  };
+  drawSaved();
+  const onSaved = () => {  // a kernel stored it just now: it is alive (busy, maybe), not gone
+    clearTimeout(waiting);
+    setStatus("");
+    drawSaved();
+  };
+  model.on("change:_scene_version", onSaved);
 
   const onMessage = (msg, buffers) => {
     if (!msg || !alive) return;
@@ -107,10 +119,12 @@ async function render({ model, el }) {
         keep(STATS.arrivals, performance.now());
         run(buffers[0]);
         version = msg.version;
-      } else if ((msg.type === "scene" || msg.type === "current") && msg.view === id) {
-        if (msg.type === "scene") run(buffers[0]);
+      } else if ((msg.type === "scene" || msg.type === "current") && msg.view === id && !answered) {
+        if (msg.type === "scene" && msg.version > version) run(buffers[0]);  // not again what the view has
         version = Math.max(version, msg.version);
+        answered = true;
         clearTimeout(waiting);
+        clearTimeout(retry);
         setStatus("");
       }
     } catch (err) {
@@ -118,16 +132,27 @@ async function render({ model, el }) {
     }
   };
   model.on("msg:custom", onMessage);
-  // Ask the kernel for whatever changed since the saved scene. No answer: no kernel behind this page.
-  const waiting = setTimeout(() => setStatus(
-    version >= 0 ? "No kernel answers: this is the scene as it was saved. Run the cell to make it live again."
-                 : "No kernel answers and no saved scene: run the cell to draw it."), 8000);
-  try {
-    model.send({ type: "ready", view: id, version });
-  } catch (err) {
-    clearTimeout(waiting);
-    setStatus(`The kernel is not connected (${err.message || err}): run the cell again.`);
-  }
+  // Ask the kernel for whatever changed since the saved scene, and ask again (1, 2, 4 ... 30 s apart) until it
+  // answers: a kernel busy with the next cells answers late, a message lost on the way is sent again.
+  // No answer after 8 s: say so over the view (the saved scene, if any, stays drawn).
+  waiting = setTimeout(() => setStatus(
+    version >= 0 ? "No kernel answers (busy, or gone): this is the scene as it was saved. It turns live when the " +
+                   "kernel answers; if it never does, run the cell again."
+                 : "No kernel answers (busy, or gone) and no saved scene: run the cell to draw it."), 8000);
+  let pause = 1000;
+  const ask = () => {
+    if (!alive || answered) return;
+    try {
+      model.send({ type: "ready", view: id, version });
+    } catch (err) {
+      clearTimeout(waiting);
+      setStatus(`The kernel is not connected (${err.message || err}): run the cell again.`);
+      return;
+    }
+    retry = setTimeout(ask, pause);
+    pause = Math.min(2 * pause, 30000);
+  };
+  ask();
 
   const loop = () => {
     if (!alive) return;
@@ -154,6 +179,8 @@ async function render({ model, el }) {
   return () => {
     alive = false;
     clearTimeout(waiting);
+    clearTimeout(retry);
+    model.off("change:_scene_version", onSaved);
     resize.disconnect();
     model.off("msg:custom", onMessage);
     model.off("change:message", show);

@@ -14,8 +14,11 @@ Notebook 7, VS Code, Binder, JupyterHub, a remote server).
   once per page: every view refers to one :class:`MeshcatBundle` widget per kernel
   and the page evaluates it once.
 * A view that is (re-)displayed, or a page that is reloaded, asks for the whole
-  current scene; the last displayed scene is also kept in the widget's state
-  (``_scene``), so a notebook saved with widget state shows it without a kernel.
+  current scene ("ready", repeated until the kernel answers: a kernel busy with the
+  next cells answers late, never not). The scene is also kept in the widget's state
+  (``_scene``): at display, and after every cell that changed it, whatever contains
+  the widget (a panel, a ``VBox``), so a view draws it even while the kernel is busy,
+  and a notebook saved with widget state shows it without a kernel.
 * The camera is the learner's: updates carry transforms, never the camera, unless
   a scene is rebuilt.
 """
@@ -24,6 +27,7 @@ from __future__ import annotations
 
 import contextlib
 import struct
+import weakref
 from pathlib import Path
 from typing import Iterator
 
@@ -51,6 +55,33 @@ class MeshcatBundle(ipywidgets.Widget):
 
 
 _BUNDLE: list[MeshcatBundle] = []
+_LIVE: "weakref.WeakSet[SceneWidget]" = weakref.WeakSet()  # every scene widget of this kernel
+_HOOKED: list[object] = []  # the IPython shell whose post_run_cell syncs them (once per kernel)
+
+
+def sync_all(*_args) -> None:
+    """Store the current scene of every open :class:`SceneWidget` that changed since its last sync.
+
+    Runs after every cell (an IPython ``post_run_cell`` hook): a widget shown inside a
+    container (a panel, a ``VBox``) was never displayed itself, yet its views need the
+    saved scene while the kernel is busy with the next cell and cannot answer them.
+    """
+    for widget in list(_LIVE):
+        if widget.comm is not None:
+            widget.sync()
+
+
+def _hook_cells() -> None:
+    """Register :func:`sync_all` after every cell of the running IPython kernel (nothing outside IPython)."""
+    try:
+        from IPython import get_ipython
+    except ImportError:
+        return
+    shell = get_ipython()
+    if shell is None or any(s is shell for s in _HOOKED):
+        return
+    shell.events.register("post_run_cell", sync_all)
+    _HOOKED.append(shell)
 
 
 def meshcat_bundle() -> MeshcatBundle:
@@ -113,7 +144,10 @@ class SceneWidget(anywidget.AnyWidget):
         self._held_depth = 0
         self.messages_sent = 0
         self.bytes_sent = 0
+        self._answered: set[str] = set()  # views sent the whole scene (their later "ready" repeats were sent before it)
         self.on_msg(self._on_page_message)
+        _LIVE.add(self)
+        _hook_cells()
 
     # ---------------------------------------------------------------- kernel -> page
     def _forward(self, payload: bytes) -> None:
@@ -174,11 +208,14 @@ class SceneWidget(anywidget.AnyWidget):
     def _on_page_message(self, _widget, content, buffers) -> None:
         if not isinstance(content, dict) or content.get("type") != "ready":
             return
-        view = content.get("view")
-        if content.get("version") == self._version:
+        view = str(content.get("view"))
+        # A view repeats "ready" until answered: the repeats that waited behind a busy kernel were sent before
+        # the answer, and the commands after it keep that view current: a short answer is enough.
+        if content.get("version") == self._version or view in self._answered:
             self.send({"type": "current", "view": view, "version": self._version})
         else:
             self.send({"type": "scene", "view": view, "version": self._version}, buffers=[self.snapshot()])
+            self._answered.add(view)
 
     def show_message(self, text: str) -> None:
         """Show ``text`` over the view (empty: none)."""
