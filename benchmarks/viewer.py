@@ -10,11 +10,14 @@ the embedded corpus (full budgets, not test mode) and a ``JointPanel`` on YuMi. 
   re-optimisation time of the frame (the panel's status line, ``last_seconds``);
 * RetargetPanel, the frame slider moved one step: bytes per move;
 * JointPanel, a joint slider moved one step: bytes per move;
-* Play on the 100-frame clip: it plays as a meshcat animation in the page (keys at the clip's
-  rate, played once); frames the view drew per second while the animation plays (from 0.3 s after
-  it arrived to 0.5 s before its end, at most 4 s), and the updates the kernel sent meanwhile;
-* the same scene in a bare meshcat page (``export_html``) in the same browser, canvas of the same
-  size: frames drawn per second, the browser's own limit for this scene (software WebGL here).
+* Play on the 100-frame clip: it plays as a meshcat animation in the page (keys on the clip's
+  time base, played once); frames the view drew per second while the animation plays (from 0.3 s after
+  it arrived to 0.5 s before its end, at most 4 s), and the updates the kernel sent meanwhile; for the
+  live view's light tessellation (``SceneWidget(detail="light")``, the default) and meshcat's full one
+  (``"full"``, a second panel), alternately ``--rounds`` times each;
+* the same scene in a bare meshcat page (meshcat's own page, as ``export_html`` writes it) in the same
+  browser, canvas of the same size, light and full: frames drawn per second, the browser's own limit
+  for this scene (software WebGL here).
 
 The load average is printed beside the frame rates: on a shared machine they follow it.
 
@@ -22,7 +25,7 @@ Targets (issue 13): <= 50 kB per RetargetPanel move, >= 15 frames/s, <= 50 ms me
 Before (the static page re-sent per update): 0.96 MB per JointPanel move, 1.17 MB per RetargetPanel
 move, about 2 frames/s.
 
-Run: ``.venv/bin/python benchmarks/viewer.py [--moves 15] [--clip NAME]`` (about 2 minutes).
+Run: ``.venv/bin/python benchmarks/viewer.py [--moves 15] [--rounds 2] [--clip NAME]`` (about 3 minutes).
 """
 
 from __future__ import annotations
@@ -75,18 +78,23 @@ BARE_DRAWS = """async () => {
 }"""
 
 
-def bare_page_fps(browser, tmp: Path, clip: str, frames: int, size: list[int]) -> float:
+def bare_page_fps(browser, tmp: Path, clip: str, frames: int, size: list[int], detail: str) -> float:
     """Frames/s of the same scene (robot, hands, human, lights) in a bare meshcat page outside Jupyter, same browser."""
     import numpy as np
 
     from nlo_lab.human import corpus_clip
-    from nlo_lab.robot import load_robot
-    from nlo_lab.viz.export import export_html
+    from nlo_lab.robots import load_robot
+    from nlo_lab.viz import RetargetScene, recording_visualizer
+    from nlo_lab.viz.export import scene_html
 
     robot = load_robot("yumi")
     lo, hi = np.asarray(robot.lower_limits, dtype=float), np.asarray(robot.upper_limits, dtype=float)
     angles = np.linspace(0.3 * lo, 0.3 * hi, frames)  # any motion: the cost of a draw does not depend on the pose
-    path = export_html(tmp / "bare.html", robot, angles, demo=corpus_clip(clip).slice(0, frames))
+    vis = recording_visualizer()
+    vis.window.detail = detail  # what export_html draws ("full"), or the live view's "light"
+    RetargetScene(vis, robot, angles, demo=corpus_clip(clip).slice(0, frames)).animate(play=True)
+    path = tmp / f"bare-{detail}.html"
+    path.write_text(scene_html(vis.window.tree), encoding="utf-8")
     page = browser.new_page(viewport={"width": size[0], "height": size[1]})
     page.goto(path.as_uri())
     page.wait_for_function("() => typeof viewer !== 'undefined' && viewer.animator.actions.length > 0", timeout=60000)
@@ -95,11 +103,40 @@ def bare_page_fps(browser, tmp: Path, clip: str, frames: int, size: list[int]) -
     return fps
 
 
+def play_fps(page: LabPage, cell: int, duration: float) -> tuple[float, float]:
+    """Press Play of the panel in ``cell`` from frame 0: (frames the view drew per second while the page's animation
+    played, kernel updates received per second meanwhile)."""
+    frame_slider = page.slider_handles(cell).nth(6)
+    frame_slider.focus()
+    frame_slider.press("Home")
+    page.wait_kernel_idle(settle=0.5)
+    play = page.cells().nth(cell).locator(".widget-play button").first
+    play.scroll_into_view_if_needed()
+    before = len(page.view_stats()["arrivals"])
+    play.click()
+    deadline = time.monotonic() + 60
+    while len(page.view_stats()["arrivals"]) == before and time.monotonic() < deadline:
+        time.sleep(0.05)
+    arrived = page.view_stats()["arrivals"][-1]
+    # The recorded duration: the retimed animation lasts at least this long, so the window lies inside it.
+    t0, t1 = arrived + 300, arrived + 1000 * min(4.0, duration - 0.5)
+    page.page.wait_for_timeout(max(0, t1 - page.page.evaluate("() => performance.now()")) + 200)
+    stats = page.view_stats()
+    frames = [t for t in stats["draws"] if t0 <= t <= t1]  # the animation redraws every frame it advances
+    arrivals = [t for t in stats["arrivals"] if t0 <= t <= t1]
+    deadline = time.monotonic() + 120  # let Play reach the last frame (it then stops) before the next measurement
+    while frame_slider.get_attribute("aria-valuenow") != frame_slider.get_attribute("aria-valuemax") and time.monotonic() < deadline:
+        time.sleep(0.2)
+    page.wait_kernel_idle(settle=1.0)
+    return len(frames) / ((t1 - t0) / 1000), len(arrivals) / ((t1 - t0) / 1000)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--moves", type=int, default=15, help="slider moves per measurement")
     parser.add_argument("--clip", default="hospital_02", help="corpus clip (its first --frames frames)")
     parser.add_argument("--frames", type=int, default=100)
+    parser.add_argument("--rounds", type=int, default=2, help="Play measurements per detail (alternating light, full)")
     args = parser.parse_args(argv)
     missing = browser_missing()
     if missing:
@@ -142,32 +179,20 @@ def main(argv: list[str] | None = None) -> int:
             for i in range(args.moves):
                 results["joint_bytes"].append(page.move_slider(joint, key="ArrowRight" if i % 2 == 0 else "ArrowLeft", settle=0.3)["bytes"])
             print("playing", file=sys.stderr, flush=True)
-            # Play from frame 0. The page animates the clip once, at the clip's rate (meshcat's clock),
+            # Play from frame 0. The page animates the clip once, on its time base (meshcat's clock),
             # redrawing every animation frame it shows: count the draws between the animation's arrival
             # and its end (not after it, when nothing moves and nothing is drawn).
-            frame_slider.focus()
-            frame_slider.press("Home")
-            page.wait_kernel_idle(settle=0.5)
-            play = page.cells().nth(panel_cell).locator(".widget-play button").first
-            play.scroll_into_view_if_needed()
-            before = len(page.view_stats()["arrivals"])
-            play.click()
-            deadline = time.monotonic() + 60
-            while len(page.view_stats()["arrivals"]) == before and time.monotonic() < deadline:
-                time.sleep(0.05)
-            arrived = page.view_stats()["arrivals"][-1]
-            t0, t1 = arrived + 300, arrived + 1000 * min(4.0, duration - 0.5)
-            page.page.wait_for_timeout(max(0, t1 - page.page.evaluate("() => performance.now()")) + 200)
-            stats = page.view_stats()
-            frames = [t for t in stats["draws"] if t0 <= t <= t1]  # the animation redraws every frame it advances
-            arrivals = [t for t in stats["arrivals"] if t0 <= t <= t1]
-            fps = len(frames) / ((t1 - t0) / 1000)
-            updates_per_s = len(arrivals) / ((t1 - t0) / 1000)
-            render_ms = statistics.median(stats["renderMs"][-200:])
-            load_play = os.getloadavg()[0]
+            full_cell = 4
+            plays: dict[str, list[tuple[float, float, float]]] = {"light": [], "full": []}
+            for _ in range(args.rounds):
+                for detail, cell in (("light", panel_cell), ("full", full_cell)):
+                    fps, updates = play_fps(page, cell, duration)
+                    plays[detail].append((fps, updates, os.getloadavg()[0]))
+            render_ms = statistics.median(page.view_stats()["renderMs"][-200:])
             size = page.page.evaluate("() => { const c = document.querySelector('.nlo-lab-view canvas'); return [c.width, c.height]; }")
-            bare_fps = bare_page_fps(browser, tmp, args.clip, args.frames, size)
-            load_bare = os.getloadavg()[0]
+            bare = {}
+            for detail in ("light", "full"):
+                bare[detail] = (bare_page_fps(browser, tmp, args.clip, args.frames, size, detail), os.getloadavg()[0])
             browser.close()
 
     med = statistics.median
@@ -183,10 +208,19 @@ def main(argv: list[str] | None = None) -> int:
     for name, values, target in rows:
         if values:
             print(f"{name:52s} {med(values):10.1f} {max(values):10.1f}  {target}")
-    print(f"{'Play on the clip, frames drawn per second':52s} {fps:10.1f} {'':>10s}  >= 15   (load average {load_play:.1f})")
-    print(f"{'same scene, bare meshcat page, frames drawn per second':52s} {bare_fps:10.1f} {'':>10s}  (load average {load_bare:.1f}; "
-          f"export_html in the same browser, canvas {size[0]}x{size[1]}: the browser's own limit)")
-    print(f"{'Play on the clip, kernel updates received per second':52s} {updates_per_s:10.1f}")
+    for detail in ("light", "full"):
+        fps = [f for f, _, _ in plays[detail]]
+        loads = ", ".join(f"{load:.1f}" for _, _, load in plays[detail])
+        print(f"{'Play on the clip, frames drawn per second, ' + detail:52s} {med(fps):10.1f} {max(fps):10.1f}  "
+              f"{'>= 15' if detail == 'light' else '':5s}  (runs {', '.join(f'{f:.1f}' for f in fps)}; load average {loads})")
+    ratio = med([f for f, _, _ in plays["light"]]) / max(med([f for f, _, _ in plays["full"]]), 1e-9)
+    print(f"{'Play, light over full':52s} {ratio:10.2f}")
+    for detail in ("light", "full"):
+        fps, load = bare[detail]
+        print(f"{'same scene, bare meshcat page, frames/s, ' + detail:52s} {fps:10.1f} {'':>10s}         (load average {load:.1f}; "
+              f"canvas {size[0]}x{size[1]}: the browser's own limit)")
+    updates = [u for detail in plays for _, u, _ in plays[detail]]
+    print(f"{'Play on the clip, kernel updates received per second':52s} {max(updates):10.1f}  (max over the runs)")
     print(f"{'one draw of the view in the browser [ms]':52s} {render_ms:10.1f}")
     return 0
 

@@ -152,6 +152,41 @@ def test_chromium_draws_the_exported_robot_and_frames_it(tmp_path):
     assert _robot_span(shots["far"]) < 0.3, f"the far camera's robot spans {_robot_span(shots['far']):.0%}: the framing check cannot fail"
 
 
+def test_the_light_view_looks_like_the_full_one(tmp_path):
+    """The live view's light tessellation against meshcat's own, same scene and camera: the same robot and
+    human, a thin seam of pixels along the curved outlines. A coarse control (4 x 3 spheres, 4-sided
+    cylinders) must differ clearly, or the check could not fail."""
+    from nlo_lab.viz.tracks import SEGMENTS
+
+    yumi = load_robot("yumi")
+    lo, hi = yumi.lower_limits.double().numpy(), yumi.upper_limits.double().numpy()
+    q = lo + (hi - lo) * (0.5 + 0.2 * np.sin(np.linspace(0, np.pi, 4)))[:, None]
+    pages = []
+    for detail, segments in (("full", SEGMENTS["full"]), ("light", SEGMENTS["light"]), ("coarse", (4, 3, 4))):
+        vis = recording_visualizer()
+        vis.window.detail = "light"
+        old, SEGMENTS["light"] = SEGMENTS["light"], segments
+        try:
+            RetargetScene(vis, yumi, q, demo=_sign_demo(4))
+        finally:
+            SEGMENTS["light"] = old
+        page = tmp_path / f"{detail}.html"
+        page.write_text(scene_html(vis.window.tree), encoding="utf-8")
+        pages.append(page)
+    shots = _shoot_all(pages, tmp_path, parallel=3)
+    import matplotlib.image as mimage
+
+    img = {k: mimage.imread(str(v))[..., :3].astype(np.float64) for k, v in shots.items()}
+    for key in ("arm", "hand", "torso"):
+        full, light = (_hue_fraction(shots[d], GROUP_COLOURS[key]) for d in ("full", "light"))
+        assert abs(light - full) <= 0.1 * full, f"{key}: {light:.4%} of the light picture, {full:.4%} of the full one"
+    changed = _changed(img["full"], img["light"])
+    coarse = _changed(img["full"], img["coarse"])
+    print(f"pixels that differ visibly from the full tessellation: light {changed:.3%}, coarse {coarse:.3%}")
+    assert changed < 0.01, f"{changed:.2%} of the pixels differ between the light and the full view"
+    assert coarse > 2 * changed, f"the coarse control differs by only {coarse:.2%}: the check could not fail"
+
+
 # ------------------------------------------------------------------ the notebooks in JupyterLab
 ROOT = Path(__file__).resolve().parents[1]
 MOVE_BYTES = 50_000  # the issue's bound for one RetargetPanel move on YuMi with hands [bytes]

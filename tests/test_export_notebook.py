@@ -1,22 +1,35 @@
-"""An exported notebook carries its 3-D scene: ``jupyter nbconvert --to html --execute`` saves the widget state.
+"""An exported notebook shows its 3-D scene: ``jupyter nbconvert --to html --execute`` saves the widget state.
 
 The page's widget state holds meshcat's bundle once (the :class:`MeshcatBundle` model), and each
 view's whole scene (``_scene``, meshcat's commands) with the output that displays it. Opening
-the page needs the widget manager for HTML pages (@jupyter-widgets/html-manager) and anywidget's
-front end, which nbconvert's template loads from a public CDN: that part cannot be checked here,
-where no CDN is reachable.
+the page needs require.js, the widget manager for HTML pages (@jupyter-widgets/html-manager) and
+anywidget's front end, which nbconvert's template loads from public CDNs. No CDN is reachable
+here: chromium (Playwright) gets them from the npm packages ``make export-js`` installs into the
+user cache (tools/export_js.py), every other address is refused, and the 3-D canvas must show
+the robot. Skipped, with the reason, without chromium or without those packages (no npm or no
+registry). A reader online loads the same addresses from the CDNs.
 """
 
 from __future__ import annotations
 
 import base64
 import json
+import mimetypes
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import nbformat
+import numpy as np
+import pytest
 import umsgpack
+
+from lab_browser import CHROMIUM, CHROMIUM_ARGS, browser_missing, hue_mask
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
+import export_js  # noqa: E402
 
 
 def _unpack(data: bytes) -> list[dict]:
@@ -28,17 +41,23 @@ def _unpack(data: bytes) -> list[dict]:
     return out
 
 
-def test_exported_notebook_holds_the_scene(tmp_path):
-    from meshcat.servers.zmqserver import VIEWER_ROOT
-    from pathlib import Path
-
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory) -> Path:
+    """``view.html``: a notebook showing NAO, executed and exported with its widget state."""
+    tmp = tmp_path_factory.mktemp("export")
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("from nlo_lab.lab import show_robot\nshow_robot('nao')")])
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
-    nbformat.write(nb, tmp_path / "view.ipynb")
+    nbformat.write(nb, tmp / "view.ipynb")
     run = subprocess.run([sys.executable, "-m", "jupyter", "nbconvert", "--to", "html", "--execute", "view.ipynb"],
-                         cwd=tmp_path, capture_output=True, text=True, timeout=300)
+                         cwd=tmp, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-3000:]
-    page = (tmp_path / "view.html").read_text(encoding="utf-8")
+    return tmp / "view.html"
+
+
+def test_exported_notebook_holds_the_scene(exported):
+    from meshcat.servers.zmqserver import VIEWER_ROOT
+
+    page = exported.read_text(encoding="utf-8")
     state = json.loads(re.search(r'<script type="application/vnd.jupyter.widget-state\+json">(.*?)</script>', page, re.S).group(1))["state"]
     scenes = {k: v for k, v in state.items() if v["model_module"] == "anywidget"}
     bundles = {k: v for k, v in state.items() if "code" in v["state"]}
@@ -53,3 +72,54 @@ def test_exported_notebook_holds_the_scene(tmp_path):
     assert commands[0]["type"] == "delete" and "/meshcat/robot/Head" in paths  # NAO, drawn from scratch
     assert scene["state"]["_scene_version"] > 0
     assert f'"model_id": "{scene_id}"' in page  # the cell's output displays that view
+
+
+def test_exported_notebook_shows_the_robot_in_chromium(exported, tmp_path):
+    if browser_missing():
+        pytest.skip(browser_missing())
+    if export_js.missing():
+        pytest.skip(export_js.missing())
+    from playwright.sync_api import sync_playwright
+
+    from nlo_lab.viz import GROUP_COLOURS
+
+    served, refused = [], []
+
+    def answer(route):
+        url = route.request.url
+        if url.startswith(("file:", "data:", "blob:")):
+            return route.continue_()
+        local = export_js.local_file(url)
+        if local is None:
+            refused.append(url)
+            return route.abort()
+        served.append(url)
+        kind = mimetypes.guess_type(local.name)[0] or "application/octet-stream"
+        route.fulfill(status=200, body=local.read_bytes(), headers={"Content-Type": kind, "Access-Control-Allow-Origin": "*"})
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1000, "height": 800})
+            errors = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.route("**/*", answer)
+            page.goto(exported.as_uri())
+            canvas = page.locator(".nlo-lab-view canvas").first
+            try:
+                canvas.wait_for(timeout=90_000)
+            except Exception:
+                raise AssertionError(f"no 3-D view in the exported page; served {served}, refused {refused}, errors {errors}")
+            page.wait_for_function("() => (globalThis.__nloLabView || {}).commands > 0", timeout=30_000)
+            canvas.scroll_into_view_if_needed()
+            page.wait_for_timeout(500)
+            canvas.screenshot(path=str(tmp_path / "export.png"))
+        finally:
+            browser.close()
+    import matplotlib.image as mimage
+
+    img = mimage.imread(str(tmp_path / "export.png"))[..., :3].astype(np.float64)
+    colours = {key: float(hue_mask(img, colour).mean()) for key, colour in GROUP_COLOURS.items()}
+    assert colours["arm"] > 0.002 and colours["torso"] > 0.002, colours  # NAO: arms and torso drawn
+    assert any("html-manager" in u for u in served) and any("/anywidget@" in u for u in served), served
+    assert errors == [], errors

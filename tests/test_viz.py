@@ -476,6 +476,53 @@ def test_scene_widgets_sync_after_every_cell_of_an_ipython_kernel():
         InteractiveShell.clear_instance()
 
 
+def _triangles(geometry: dict) -> int:
+    """Triangles three.js makes of a meshcat primitive (a box: 12)."""
+    if geometry["type"] == "SphereGeometry":
+        return 2 * geometry["widthSegments"] * (geometry["heightSegments"] - 1)
+    if geometry["type"] == "CylinderGeometry":
+        return 4 * geometry["radialSegments"]  # side (2 per segment) and two caps
+    return 12
+
+
+def test_the_light_detail_draws_the_same_scene_with_fewer_triangles():
+    from nlo_lab.viz import SceneWidget
+    from nlo_lab.viz.tracks import SEGMENTS
+
+    robot = load_robot("yumi")
+    demo = synthetic_demo(T=6)
+    scenes = {}
+    for detail in ("full", "light"):
+        widget = SceneWidget(detail=detail)
+        RetargetScene(widget.vis, robot, sweep(robot, 6), demo=demo)
+        scenes[detail] = _unpack(widget.snapshot())
+    full, light = scenes["full"], scenes["light"]
+    assert [c["path"] for c in full] == [c["path"] for c in light], "the same nodes"
+    geometry = {"full": [], "light": []}
+    for a, b in zip(full, light):
+        if a["type"] != "set_object" or "geometries" not in a["object"]:
+            assert a == b, "transforms, properties and animations are the same"
+            continue
+        ga, gb = a["object"]["geometries"][0], b["object"]["geometries"][0]
+        shape = {k: v for k, v in ga.items() if "Segments" not in k and k != "uuid"}
+        assert shape == {k: v for k, v in gb.items() if "Segments" not in k and k != "uuid"}, "sizes are the same"
+        assert a["object"]["materials"][0]["color"] == b["object"]["materials"][0]["color"]
+        geometry["full"].append(_triangles(ga))
+        geometry["light"].append(_triangles(gb))
+    assert sum(geometry["full"]) > 40_000  # YuMi with its hands and the human: meshcat's own tessellation
+    assert sum(geometry["light"]) < sum(geometry["full"]) / 4, (sum(geometry["light"]), sum(geometry["full"]))
+    assert SEGMENTS["full"] == (20, 20, 50)  # meshcat's own (meshcat.geometry.Sphere, Cylinder)
+    assert SceneWidget().detail == SceneWidget.default_detail == "light"  # the live view's default
+    with pytest.raises(NloLabError, match="detail"):
+        SceneWidget(detail="coarse")
+    # the static page keeps meshcat's tessellation
+    vis = recording_visualizer()
+    RetargetScene(vis, robot, sweep(robot, 6), demo=demo)
+    static = [_triangles(c["object"]["geometries"][0]) for c in commands_of(vis.static_html())
+              if c["type"] == "set_object" and "geometries" in c["object"]]
+    assert static == geometry["full"]
+
+
 def test_the_bundle_travels_once_per_kernel():
     from meshcat.servers.zmqserver import VIEWER_ROOT
 

@@ -21,7 +21,7 @@ import meshcat.geometry as g
 from meshcat.animation import Animation
 
 from nlo_lab.errors import NloLabError
-from nlo_lab.viz.tracks import add_pose_tracks, add_visible_track, material, translation
+from nlo_lab.viz.tracks import add_pose_tracks, add_visible_track, cylinder, detail_of, material, sphere, translation
 
 __all__ = ["HUMAN_COLOURS", "HumanScene", "arm_factors"]
 
@@ -230,16 +230,17 @@ class HumanScene:
         """Create spheres, bones, torso and head (sized by :attr:`scale`), then show frame 0."""
         root = self.vis[self.path]
         s = self.scale
+        detail = detail_of(self.vis)  # the live view draws lighter spheres and cylinders
         for name in self._points():
             finger = "_f" in name
-            root["points"][name].set_object(g.Sphere(s * _SIZES["finger" if finger else "joint"]), material(HUMAN_COLOURS["finger" if finger else "joint"]))
+            root["points"][name].set_object(sphere(s * _SIZES["finger" if finger else "joint"], detail), material(HUMAN_COLOURS["finger" if finger else "joint"]))
         for name in self._bones():
             finger = "palm" in name or "finger" in name
             radius = s * _SIZES["finger_bone" if finger else "bone"]
-            root["bones"][name].set_object(g.Cylinder(1.0, radius), material(HUMAN_COLOURS["bone"]))
+            root["bones"][name].set_object(cylinder(1.0, radius, detail), material(HUMAN_COLOURS["bone"]))
         if self.body:
             root["body"]["torso"].set_object(g.Box([1.0, 1.0, 1.0]), material(HUMAN_COLOURS["torso"], opacity=0.55))
-            root["body"]["head"].set_object(g.Sphere(_HEAD_RADIUS * self.arm_length), material(HUMAN_COLOURS["head"]))
+            root["body"]["head"].set_object(sphere(_HEAD_RADIUS * self.arm_length, detail), material(HUMAN_COLOURS["head"]))
         self._shown = {}
         self.set_frame(0)
         return self

@@ -25,7 +25,7 @@ from meshcat.animation import Animation
 from nlo_lab.errors import NloLabError, RobotDescriptionError
 from nlo_lab.viz.camera import CameraView, frame_points, style_viewer
 from nlo_lab.viz.human_scene import HUMAN_COLOURS, HumanScene
-from nlo_lab.viz.tracks import Y_TO_Z, add_pose_tracks, material, matrix_to_quaternion, translation
+from nlo_lab.viz.tracks import Y_TO_Z, add_pose_tracks, cylinder, detail_of, material, matrix_to_quaternion, sphere, translation
 
 __all__ = [
     "GROUP_COLOURS",
@@ -210,6 +210,7 @@ class RobotScene:
     def draw(self) -> "RobotScene":
         """Create every primitive under ``path/link/i`` (coloured by link group)."""
         root = self.vis[self.path]
+        detail = detail_of(self.vis)  # the live view draws lighter spheres and cylinders
         for i, v in enumerate(self.visuals):
             node = root[v.link][f"v{i}"]
             colour = GROUP_COLOURS[self.groups.get(v.link, "torso")]
@@ -218,10 +219,10 @@ class RobotScene:
                 node.set_transform(v.T_link_visual)
             elif v.kind == "cylinder":
                 radius, length = v.size
-                node.set_object(g.Cylinder(length, radius), material(colour, self.opacity))
+                node.set_object(cylinder(length, radius, detail), material(colour, self.opacity))
                 node.set_transform(v.T_link_visual @ Y_TO_Z)
             else:
-                node.set_object(g.Sphere(v.size[0]), material(colour, self.opacity))
+                node.set_object(sphere(v.size[0], detail), material(colour, self.opacity))
                 node.set_transform(v.T_link_visual)
         return self
 

@@ -80,6 +80,7 @@ async function render({ model, el }) {
   const setSize = viewer.set_3d_pane_size.bind(viewer);
   viewer.set_3d_pane_size = (w, h) => setSize(w ?? pane.clientWidth, h ?? pane.clientHeight);
   STATS.views += 1;
+  setStatus("");  // the viewer runs; a missing answer from the kernel is said below, after 8 s
 
   let version = -1, updated = false, alive = true, answered = false, waiting, retry;
   const run = (buffer) => {

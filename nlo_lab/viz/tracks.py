@@ -12,7 +12,7 @@ from meshcat.animation import Animation, AnimationClip, AnimationTrack
 from nlo_lab.rotations import matrix_to_quat as matrix_to_quaternion  # (x, y, z, w), three.js's order
 
 __all__ = ["matrix_to_quaternion", "add_track", "add_pose_tracks", "add_visible_track", "set_key_times", "material",
-           "translation", "Y_TO_Z"]
+           "translation", "Y_TO_Z", "DETAILS", "SEGMENTS", "detail_of", "sphere", "cylinder"]
 
 Y_TO_Z = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])  # R_x(+90°): meshcat Y -> URDF Z
 
@@ -56,6 +56,47 @@ def set_key_times(anim: Animation, times) -> None:
             if len(track.frames) != len(t):
                 raise ValueError(f"times has {len(t)} entries for a track of {len(track.frames)} keys")
             track.frames = (t * clip.fps).tolist()
+
+
+# How finely spheres and cylinders are tessellated in the page: (sphere width, sphere height, cylinder radial)
+# segments. "full" is meshcat's own (20, 20, 50): about 760 triangles per sphere, 200 per cylinder.
+# "light" draws the same primitives with about 5x fewer triangles, for the live view: a browser drawing
+# WebGL in software (no GPU) spends its frame on them. Only the picture changes: sizes, poses,
+# collision capsules and FK are the same.
+DETAILS = ("full", "light")
+SEGMENTS = {"full": (20, 20, 50), "light": (12, 8, 12)}
+
+
+class _Sphere(g.Sphere):
+    """meshcat's Sphere with a chosen tessellation (meshcat's own is fixed at 20 x 20 segments)."""
+
+    def __init__(self, radius: float, width_segments: int, height_segments: int):
+        super().__init__(radius)
+        self.segments = (int(width_segments), int(height_segments))
+
+    def lower(self, object_data):
+        data = super().lower(object_data)
+        data["widthSegments"], data["heightSegments"] = self.segments
+        return data
+
+
+def detail_of(vis) -> str:
+    """The tessellation a Visualizer's window asks for (``window.detail``); ``"full"`` if it says nothing."""
+    detail = getattr(getattr(vis, "window", None), "detail", "full")
+    return detail if detail in DETAILS else "full"
+
+
+def sphere(radius: float, detail: str = "full") -> g.Sphere:
+    """A sphere of ``radius`` [m] at ``detail`` (see :data:`SEGMENTS`)."""
+    width, height, _ = SEGMENTS[detail]
+    return g.Sphere(radius) if detail == "full" else _Sphere(radius, width, height)
+
+
+def cylinder(length: float, radius: float, detail: str = "full") -> g.Cylinder:
+    """A cylinder along Y of ``length`` and ``radius`` [m] at ``detail`` (see :data:`SEGMENTS`)."""
+    shape = g.Cylinder(length, radius)
+    shape.radialSegments = SEGMENTS[detail][2]
+    return shape
 
 
 def material(colour: int, opacity: float = 1.0) -> g.MeshLambertMaterial:

@@ -36,7 +36,9 @@ import ipywidgets
 import traitlets
 from meshcat import Visualizer
 
+from nlo_lab.errors import NloLabError
 from nlo_lab.viz.export import RecordingWindow, scene_commands, viewer_js
+from nlo_lab.viz.tracks import DETAILS
 
 __all__ = ["SceneWidget", "WidgetWindow", "MeshcatBundle", "meshcat_bundle", "pack_commands"]
 
@@ -99,6 +101,11 @@ class WidgetWindow(RecordingWindow):
         self.widget = widget
         self.force = False  # send unchanged transforms too (see SceneWidget.resend)
 
+    @property
+    def detail(self) -> str:
+        """The tessellation the scenes draw into this window with (the widget's ``detail``)."""
+        return self.widget.detail
+
     def send(self, command) -> None:
         before = self._transform_of(command)
         super().send(command)  # the tree: the whole scene for a view that (re)connects
@@ -121,6 +128,9 @@ class SceneWidget(anywidget.AnyWidget):
     Args:
         height: view height [px].
         message: text shown over the view (an error or a hint); empty for none.
+        detail: ``"light"`` (spheres and cylinders with about 5x fewer triangles: a browser without a GPU
+            draws the scene faster) or ``"full"`` (meshcat's own tessellation, as in ``viewer.html``);
+            None: :attr:`default_detail`. It applies to scenes drawn after it is set.
 
     Attributes:
         vis: the meshcat ``Visualizer`` drawing into this scene.
@@ -134,10 +144,15 @@ class SceneWidget(anywidget.AnyWidget):
     _scene_version = traitlets.Int(0).tag(sync=True)
     height = traitlets.Int(400).tag(sync=True)
     message = traitlets.Unicode("").tag(sync=True)
+    detail = traitlets.Enum(DETAILS, default_value="light").tag(sync=True)
+    default_detail = "light"  # of every new view (the panels' and show_*'s too): set to "full" for meshcat's own
 
-    def __init__(self, height: int = 400, message: str = "", **kwargs) -> None:
+    def __init__(self, height: int = 400, message: str = "", detail: str | None = None, **kwargs) -> None:
         kwargs.setdefault("layout", ipywidgets.Layout(width="100%"))
-        super().__init__(_bundle=meshcat_bundle(), height=int(height), message=message, **kwargs)
+        detail = type(self).default_detail if detail is None else detail
+        if detail not in DETAILS:
+            raise NloLabError(f"detail must be one of {DETAILS}, got {detail!r}")
+        super().__init__(_bundle=meshcat_bundle(), height=int(height), message=message, detail=detail, **kwargs)
         self.vis = Visualizer(window=WidgetWindow(self))
         self._version = 0  # commands issued so far; the page's views count the same way
         self._held: list[bytes] | None = None
