@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test lab bench clean browser lint wheel-check
+.PHONY: setup demo test lab bench clean browser lint wheel-check export-js
 
 setup: $(STAMP)
 
@@ -22,7 +22,7 @@ demo: setup
 
 # Tests and every notebook (nbval runs each cell, fails on any error). Test mode
 # shortens the notebooks' loops; tests/test_browser.py runs 01 and 05 in JupyterLab + chromium.
-test: setup browser lint wheel-check
+test: setup browser export-js lint wheel-check
 	NLO_LAB_TEST_MODE=1 $(PY) -m pytest -q -p no:cacheprovider tests notebooks \
 		--nbval-lax --nbval-current-env --nbval-cell-timeout=300
 
@@ -44,6 +44,11 @@ browser:
 	@command -v chromium >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1 && \
 		apt-get update -qq >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null 2>&1; } || \
 		echo "note: chromium is not installed and could not be; the browser test will be skipped"
+
+# The CDN files an exported notebook loads (html-manager, anywidget, require.js), installed with npm
+# into the user cache for tests/test_export_notebook.py; a note (and a skipped test) without npm or registry.
+export-js: setup
+	$(PY) tools/export_js.py
 
 lab: setup
 	$(VENV)/bin/nlo-lab lab

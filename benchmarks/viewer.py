@@ -53,6 +53,8 @@ def notebook(clip: str, frames: int) -> dict:
         f"from nlo_lab.human import corpus_clip\ndemo = corpus_clip({clip!r}).slice(0, {frames})\nprint(len(demo), 'frames')",
         "from nlo_lab.lab import RetargetPanel\npanel = RetargetPanel(demo, 'yumi')\npanel",
         "from nlo_lab.robot import load_robot\nfrom nlo_lab.lab import JointPanel\njoints = JointPanel(load_robot('yumi'))\njoints",
+        "from nlo_lab.viz import SceneWidget\nSceneWidget.default_detail = 'full'  # meshcat's own tessellation\n"
+        "full = RetargetPanel(demo, 'yumi')\nfull",
     ]
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
@@ -106,7 +108,7 @@ def bare_page_fps(browser, tmp: Path, clip: str, frames: int, size: list[int], d
 def play_fps(page: LabPage, cell: int, duration: float) -> tuple[float, float]:
     """Press Play of the panel in ``cell`` from frame 0: (frames the view drew per second while the page's animation
     played, kernel updates received per second meanwhile)."""
-    frame_slider = page.slider_handles(cell).nth(6)
+    frame_slider = page.slider_handle(cell, "frame")
     frame_slider.focus()
     frame_slider.press("Home")
     page.wait_kernel_idle(settle=0.5)
@@ -158,11 +160,11 @@ def main(argv: list[str] | None = None) -> int:
             page = LabPage(browser, lab, width=1280, height=900)
             page.open_notebook("bench.ipynb")
             page.run_all()
-            page.wait_views(2)
+            page.wait_views(3)
             print("notebook ran; moving sliders", file=sys.stderr, flush=True)
             panel_cell, joint_cell = 2, 3
             handles = page.slider_handles(panel_cell)
-            weight, frame_slider = handles.nth(0), handles.nth(6)
+            weight, frame_slider = handles.nth(0), page.slider_handle(panel_cell, "frame")
             results: dict[str, list[float]] = {k: [] for k in ("weight_bytes", "weight_seconds", "reopt_ms", "frame_bytes", "joint_bytes")}
             for i in range(args.moves):
                 # PageUp/PageDown: five steps of the log slider (one step often leaves the optimum where it was: nothing to send)

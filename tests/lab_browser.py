@@ -252,6 +252,12 @@ class LabPage:
         """The slider handles (noUiSlider) in the output of the ``cell_index``-th code cell."""
         return self.cells().nth(cell_index).locator(".noUi-handle")
 
+    def slider_handle(self, cell_index: int, label: str):
+        """The handle of the slider described ``label`` (its ``description``) in the ``cell_index``-th code cell."""
+        label_re = re.compile(rf"^\s*{re.escape(label)}\s*$")
+        slider = self.cells().nth(cell_index).locator(".widget-slider", has=self.page.locator(".widget-label", has_text=label_re))
+        return slider.locator(".noUi-handle").first
+
     def move_slider(self, handle, key: str = "ArrowRight", settle: float = 0.5, timeout: float = 60.0) -> dict:
         """Press ``key`` on a slider handle; wait until the kernel is idle and the page has received nothing for ``settle`` s.
 

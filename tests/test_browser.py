@@ -294,7 +294,7 @@ def test_notebook_05_panel_in_jupyterlab(lab_page):
     assert colours["arm"] > 0.005 and colours["hand"] > 0.001, colours
     handles = page.slider_handles(panel_cell)
     weight = page.move_slider(handles.first, key="ArrowRight")  # the ee weight: re-optimise this frame
-    frame = page.move_slider(handles.nth(6), key="End")  # the frame slider: the last frame
+    frame = page.move_slider(page.slider_handle(panel_cell, "frame"), key="End")  # the last frame
     after = page.canvas_image(0, tmp / "05-after.png")
     for move in (weight, frame):
         assert move["messages"] == 1, move
