@@ -116,10 +116,10 @@ def _paths(data: bytes) -> list[str]:
 
 def test_play_shows_frames_without_reoptimising(demo):
     p = RetargetPanel(demo, "nao", model_loader=_loader, iterations=3, frame_iterations=2, view=None)
-    times = p.play_times()
-    assert p.play.interval == round(1000 * times[-1] / (len(times) - 1)), "Play ticks at the clip's own (retimed) rate"
     before, last = p.angles.copy(), p.last
     p.play.playing = True
+    times = p.play_times()
+    assert p.play.interval == round(1000 * times[-1] / (len(times) - 1)), "Play ticks at the clip's own (retimed) rate"
     p.play.value = 3
     assert p.frame == 3 and p.last is last and np.array_equal(p.angles, before)
     p.play.playing = False

@@ -12,7 +12,7 @@ from meshcat.animation import Animation, AnimationClip, AnimationTrack
 from nlo_lab.rotations import matrix_to_quat as matrix_to_quaternion  # (x, y, z, w), three.js's order
 
 __all__ = ["matrix_to_quaternion", "add_track", "add_pose_tracks", "add_visible_track", "set_key_times", "material",
-           "translation", "Y_TO_Z", "DETAILS", "SEGMENTS", "detail_of", "sphere", "cylinder"]
+           "translation", "Y_TO_Z", "tick_ms", "DETAILS", "SEGMENTS", "detail_of", "sphere", "cylinder"]
 
 Y_TO_Z = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])  # R_x(+90°): meshcat Y -> URDF Z
 
@@ -56,6 +56,12 @@ def set_key_times(anim: Animation, times) -> None:
             if len(track.frames) != len(t):
                 raise ValueError(f"times has {len(t)} entries for a track of {len(track.frames)} keys")
             track.frames = (t * clip.fps).tolist()
+
+
+def tick_ms(times) -> int:
+    """The mean frame period [ms] of ``(T,)`` key times [s]: a Play widget ticking at it ends with the animation."""
+    t = np.asarray(times, dtype=np.float64)
+    return max(1, round(1000 * float(t[-1] - t[0]) / max(len(t) - 1, 1)))
 
 
 # How finely spheres and cylinders are tessellated in the page: (sphere width, sphere height, cylinder radial)
