@@ -316,7 +316,7 @@ def test_a_view_inside_a_container_draws_while_the_kernel_is_busy(lab_page):
 
     page, tmp = lab_page
     cells = [
-        "import ipywidgets\nfrom nlo_lab.notebook import show_robot\nipywidgets.VBox([show_robot('yumi')])",
+        "import ipywidgets\nfrom nlo_lab.lab import show_robot\nipywidgets.VBox([show_robot('yumi')])",
         f"import time\ntime.sleep({BUSY_SECONDS})",
     ]
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])

@@ -63,8 +63,8 @@ class RetargetPanel:
             the clip as optimised so far becomes a meshcat animation (no kernel round trip per frame) on
             the time base the robot would play it: the recording's rate, slowed where a joint would
             exceed its velocity limit (:meth:`play_times`, as ``retarget`` retimes); stopping shows the
-            slider's frame again. Without one, frames are shown as
-            optimised (no re-optimisation) at ``1000 / play.interval`` frames/s.
+            slider's frame again. Play ticks at that time base's mean frame period (the slider ends with the
+            animation); without a view it shows the frames as optimised (no re-optimisation) at that rate.
         button: re-optimises the whole sequence.
         plot: ``HTML`` widget with the convergence plot (SVG; ``plot_data`` holds its curves).
         angles: ``(T, n)`` current joint angles of every frame [rad].
@@ -231,16 +231,18 @@ class RetargetPanel:
 
     def _playing_changed(self, change) -> None:
         """Play starts: the clip plays as a meshcat animation in the page. Play stops: back to the slider's frame."""
-        if self.scene is None or self._view.widget is None:
-            return
         from meshcat.animation import Animation
 
+        from nlo_lab.viz.tracks import set_key_times, tick_ms
+
+        times = self.play_times()  # what the robot would play, not the recording's rate
+        self.play.interval = tick_ms(times)  # one time base: the slider ends with the page's animation
+        if self.scene is None or self._view.widget is None:
+            return
         with self._view.hold():
             if change["new"]:
-                from nlo_lab.viz.tracks import set_key_times
-
                 anim = self.scene.animation()
-                set_key_times(anim, self.play_times())  # what the robot would play, not the recording's rate
+                set_key_times(anim, times)
                 self._view.vis.set_animation(anim, play=True, repetitions=0)
             else:
                 self._view.vis.set_animation(Animation(), play=False)  # stops the page's animation
