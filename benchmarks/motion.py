@@ -32,7 +32,7 @@ from results_doc import stamp, update_section  # noqa: E402
 
 from nlo_lab.human import load_demonstration  # noqa: E402
 from nlo_lab.human.corpus import sign_corpus  # noqa: E402
-from nlo_lab.losses import LossWeights  # noqa: E402
+from nlo_lab.objective import LossWeights  # noqa: E402
 from nlo_lab.retarget import retarget  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402

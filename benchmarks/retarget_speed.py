@@ -22,7 +22,7 @@ import torch
 
 from nlo_lab.human.corpus import sign_corpus
 from nlo_lab.human.demonstration import Demonstration
-from nlo_lab.losses import Targets, targets_from_demonstration
+from nlo_lab.objective import Targets, targets_from_demonstration
 from nlo_lab.metrics import tracking_errors
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
 from nlo_lab.robot import load_robot
@@ -40,21 +40,20 @@ def concat_demos(demos: list[Demonstration], frames: int) -> Demonstration:
 
 def profile_iteration(model, robot, targets: Targets, reps: int = 20) -> dict[str, float]:
     """Median wall time [ms] of each stage of one latent-optimisation iteration (the optimiser's own path)."""
-    from nlo_lab.losses import Objective
+    from nlo_lab.objective import Objective
     from nlo_lab.optimize import _Adam
 
     z = model.encode(targets.node_features, targets.edge_features).detach().requires_grad_(True)
     for p in model.parameters():
         p.requires_grad_(False)
     loss_fn = Objective(robot, targets)
-    c = loss_fn._c
     adam = _Adam(z, 0.01)
     parts: dict[str, list[float]] = {k: [] for k in ("decoder", "fk points", "loss terms", "backward", "adam")}
     for _ in range(reps):
         t0 = time.perf_counter()
         q = model.decode(z)
         t1 = time.perf_counter()
-        robot.tree.map_points(q, c.point_body, c.point_vectors)  # FK + every needed point (timed alone)
+        loss_fn.plan.map(q)  # FK + every point the terms need (timed alone)
         t2 = time.perf_counter()
         total, _ = loss_fn(q)  # FK points again + the terms; the FK time is subtracted below
         loss = torch.add(total, z.pow(2).flatten(1).sum(1))

@@ -45,7 +45,7 @@ from nlo_lab.evaluation import mean_objective  # noqa: E402
 from nlo_lab.errors import CheckpointError  # noqa: E402
 from nlo_lab.human import Demonstration  # noqa: E402
 from nlo_lab.human.corpus import sign_corpus  # noqa: E402
-from nlo_lab.losses import targets_from_demonstration  # noqa: E402
+from nlo_lab.objective import targets_from_demonstration  # noqa: E402
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent  # noqa: E402
 from nlo_lab.retarget import retarget  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402

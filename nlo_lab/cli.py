@@ -195,7 +195,7 @@ def _print_summary(summary: dict) -> None:
 
 def cmd_retarget(args) -> int:
     from nlo_lab.atomic_files import check_output_place
-    from nlo_lab.losses import LossWeights
+    from nlo_lab.objective import LossWeights
     from nlo_lab.optimize import OptimizeSettings
     from nlo_lab.retarget import retarget
     from nlo_lab.robot import load_robot

@@ -14,7 +14,7 @@ kept per frame (each frame keeps the ``z`` of its own lowest loss), so the
 result is never worse than the start for any frame.
 
 Temporal coherence. With ``weights.smooth > 0`` and a frame rate in the targets, the
-objective also holds :func:`nlo_lab.losses.smoothness_loss` over consecutive frames, so
+objective also holds :func:`nlo_lab.objective.smoothness_loss` over consecutive frames, so
 frames are no longer independent: the best point is then tracked for the whole sequence
 (the iteration with the lowest mean), not per frame, which could stitch together frames
 from different iterations. And the start is warm along the sequence
@@ -48,7 +48,7 @@ from typing import Callable, Optional
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import COLLISION_FORMS, TERMS, LossWeights, Objective, Targets, smoothness_loss, step_cost
+from nlo_lab.objective import COLLISION_FORMS, TERMS, LossWeights, Objective, Targets, smoothness_loss, step_cost
 
 __all__ = [
     "INITS",
@@ -104,7 +104,7 @@ class OptimizeSettings:
         warm_window: how many neighbours on each side a frame may borrow its start
             latent from in :func:`sequence_start` (0 = its own only).
         seed: seed of the random initialisations.
-        collision_form: ``"hinge"`` or ``"paper"`` (see :func:`nlo_lab.losses.collision_loss`).
+        collision_form: ``"hinge"`` or ``"paper"`` (see :func:`nlo_lab.objective.collision_loss`).
     """
 
     init: str = "encoder"

@@ -18,7 +18,7 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.human import Demonstration
-from nlo_lab.losses import LossWeights, Targets, targets_from_demonstration
+from nlo_lab.objective import LossWeights, Targets, targets_from_demonstration
 from nlo_lab.metrics import (
     limit_violations,
     max_joint_speed_ratio,

@@ -6,7 +6,7 @@ import numpy as np
 import torch
 
 from nlo_lab.human.demonstration import FINGERS, SIDES, Demonstration
-from nlo_lab.losses import robot_points
+from nlo_lab.objective import robot_points
 
 
 def random_feasible_pose(robot, n: int, seed: int, margin: float = 0.15, tries: int = 50) -> torch.Tensor:

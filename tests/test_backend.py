@@ -154,7 +154,7 @@ def test_reference_collision_runs_in_torch(robot, monkeypatch):
 # ----------------------------------------------------------------- objective
 def _objective_case(robot, frames=4):
     """Targets the robot meets at one pose, and other (random, some colliding) poses to score."""
-    from nlo_lab.losses import targets_from_demonstration
+    from nlo_lab.objective import targets_from_demonstration
     from robot_targets import demonstration_from_robot
 
     t = targets_from_demonstration(demonstration_from_robot(robot, random_q(robot, frames, seed=9)), dtype=torch.float64)
@@ -162,7 +162,7 @@ def _objective_case(robot, frames=4):
 
 
 def test_objective_numpy_terms_equal_torch_ops(robot):
-    from nlo_lab.losses import Objective
+    from nlo_lab.objective import Objective
 
     t, q = _objective_case(robot)
     for form in ("hinge", "paper"):
@@ -172,20 +172,28 @@ def test_objective_numpy_terms_equal_torch_ops(robot):
         assert_same(fast, ref, atol=1e-9)
 
 
-def test_reference_objective_runs_the_torch_ops(robot, monkeypatch):
-    from nlo_lab import losses
+def test_reference_objective_runs_the_term_functions(robot, monkeypatch):
+    """Under reference() every term function of nlo_lab.objective.terms runs, and the numpy terms do not."""
+    from nlo_lab.objective import total as module
+    from nlo_lab.objective import terms
 
-    monkeypatch.setattr(losses, "point_terms", _raise)
+    names = ("end_effector_loss", "orientation_loss", "elbow_loss", "finger_loss", "collision_loss", "capsule_distances")
+    calls = []
+    for name in names:
+        fn = getattr(terms, name)
+        monkeypatch.setattr(module, name, lambda *a, _fn=fn, **k: calls.append(_fn.__name__) or _fn(*a, **k))
+    monkeypatch.setattr(module, "point_terms", _raise)
     t, q = _objective_case(robot)
     with backend.reference():
-        losses.Objective(robot, t)(q)
+        module.Objective(robot, t)(q)
+    assert sorted(calls) == sorted(names)
     with pytest.raises(AssertionError, match="fast path"):
-        losses.Objective(robot, t)(q)
+        module.Objective(robot, t)(q)
 
 
 def test_objective_culling_far_pairs_equals_every_pair(robot):
     """The torch path (many frames) measures only the pairs that may be near; the reference measures all."""
-    from nlo_lab.losses import Objective
+    from nlo_lab.objective import Objective
 
     t, q = _objective_case(robot, frames=48)
     for form in ("hinge", "paper"):
@@ -197,14 +205,14 @@ def test_objective_culling_far_pairs_equals_every_pair(robot):
 
 
 def test_reference_objective_measures_every_pair(robot, monkeypatch):
-    from nlo_lab import losses
+    from nlo_lab.objective import total as module
 
-    monkeypatch.setattr(losses, "near_pair_distances", _raise)
+    monkeypatch.setattr(module, "near_pair_distances", _raise)
     t, q = _objective_case(robot)
     with backend.reference():
-        losses.Objective(robot, t)(q)
+        module.Objective(robot, t)(q)
     with pytest.raises(AssertionError, match="fast path"):
-        losses.Objective(robot, t, fused=False)(q)
+        module.Objective(robot, t, fused=False)(q)
 
 
 # ----------------------------------------------------------------- decoder

@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import targets_from_demonstration
+from nlo_lab.objective import targets_from_demonstration
 from nlo_lab.metrics import limit_violations
 from nlo_lab.robot import load_robot
 from nlo_lab.evaluation import METHODS, BaselineSettings, ik_wrists, run_method, wrist_positions

@@ -11,7 +11,7 @@ import nlo_lab.evaluation.scores as scores
 from nlo_lab.cli import main as cli_main
 from nlo_lab.evaluation import JSON_KEYS, METHODS, BaselineSettings, Evaluation, SequenceScore, evaluate, format_table, to_json
 from nlo_lab.training import SupervisedSettings, new_model, train_supervised_net
-from nlo_lab.losses import targets_from_demonstration
+from nlo_lab.objective import targets_from_demonstration
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
 FAST = BaselineSettings(iterations=2, ik_iterations=3)

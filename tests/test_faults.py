@@ -391,7 +391,7 @@ def test_the_largest_weights_in_range_still_give_a_finite_result(work, demo_npz,
 
 
 def test_a_nan_loss_is_an_error_not_an_output():
-    from nlo_lab.losses import LossWeights
+    from nlo_lab.objective import LossWeights
     from nlo_lab.optimize import OptimizeSettings
 
     with pytest.raises(Exception, match="NaN"):  # the command line's range check keeps such weights out

@@ -209,16 +209,16 @@ def test_link_subsets_and_mapped_points_equal_full_fk(name, robot64):
 @pytest.mark.parametrize("name", ROBOTS)
 def test_mapped_points_closed_form_gradient_equals_autograd(name, robot64):
     """map_points' written-out gradient (axis x lever arm, mimic joints included) = autograd through the FK."""
-    from nlo_lab.losses import _constants
+    from nlo_lab.objective import point_plan
 
     robot = robot64(name)
-    c = _constants(robot, torch.float64, "cpu")
+    c = point_plan(robot, torch.float64, "cpu")
     q = random_q(robot, 5, seed=12).requires_grad_(True)
-    w = torch.randn(5, len(c.point_body), 3, generator=torch.Generator().manual_seed(2), dtype=torch.float64)
-    fast = robot.tree.map_points(q, c.point_body, c.point_vectors)
-    ref = robot.tree.map_points(q, c.point_body, c.point_vectors, analytic=False)
+    w = torch.randn(5, len(c.body), 3, generator=torch.Generator().manual_seed(2), dtype=torch.float64)
+    fast = robot.tree.map_points(q, c.body, c.vectors)
+    ref = robot.tree.map_points(q, c.body, c.vectors, analytic=False)
     torch.testing.assert_close(fast, ref, atol=1e-14, rtol=0)
     (g_fast,) = torch.autograd.grad((fast * w).sum(), q)
     (g_ref,) = torch.autograd.grad((ref * w).sum(), q)
     torch.testing.assert_close(g_fast, g_ref, atol=1e-12, rtol=1e-12)
-    assert torch.autograd.gradcheck(lambda x: robot.tree.map_points(x, c.point_body, c.point_vectors), (q[:2].detach().requires_grad_(True),))
+    assert torch.autograd.gradcheck(lambda x: robot.tree.map_points(x, c.body, c.vectors), (q[:2].detach().requires_grad_(True),))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import umsgpack
 
-from nlo_lab.losses import LossWeights
+from nlo_lab.objective import LossWeights
 from nlo_lab.metrics import frechet_distance, frechet_distance_reference
 from nlo_lab.optimize import OptimizeSettings
 from nlo_lab.retarget import retarget
@@ -117,7 +117,7 @@ def test_anchor_enters_the_smoothness_term():
     """optimize_latent(anchor=q) charges frame 0 its step from q: far from the anchor costs more."""
     import torch
 
-    from nlo_lab.losses import smoothness_loss, targets_from_demonstration
+    from nlo_lab.objective import smoothness_loss, targets_from_demonstration
     from nlo_lab.optimize import _smoothness
 
     robot = load_robot("nao")

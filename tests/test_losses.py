@@ -10,11 +10,11 @@ import pytest
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import (
+from nlo_lab.objective import (
     TERMS,
     LossWeights,
     Targets,
-    _constants,
+    point_plan,
     collision_loss,
     latent_loss,
     objective,
@@ -34,7 +34,7 @@ def robot(request):
 def exact_targets(robot, q) -> Targets:
     """Targets the robot meets exactly at q, with the robot's own arm lengths."""
     t = targets_from_demonstration(demonstration_from_robot(robot, q), dtype=torch.float64)
-    c = _constants(robot, torch.float64, q.device)
+    c = point_plan(robot, torch.float64, q.device)
     T = len(t)
     return dataclasses.replace(t, arm_length=c.arm_length.expand(T, 2).clone(), fore_length=c.fore_length.expand(T, 2).clone())
 
@@ -204,10 +204,10 @@ def test_fast_objective_equals_the_term_functions(robot):
 
 
 @pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
-def test_fused_numpy_terms_equal_the_torch_ops(robot, dtype):
+def test_numpy_terms_equal_the_term_functions(robot, dtype):
     """Objective's numpy path (hand-written backward) = its torch-ops path, values and gradients."""
     from nlo_lab.human.corpus import sign_corpus
-    from nlo_lab.losses import Objective
+    from nlo_lab.objective import Objective
 
     r = robot.to(dtype=dtype)
     t = targets_from_demonstration(sign_corpus("test")[1], dtype=dtype)  # every frame: some random pose brings capsules close
@@ -224,8 +224,8 @@ def test_fused_numpy_terms_equal_the_torch_ops(robot, dtype):
     assert float(ref_terms[:, 4].detach().max()) > 0, "random poses should include a close capsule pair"
 
 
-def test_fused_objective_passes_gradcheck():
-    from nlo_lab.losses import Objective
+def test_numpy_objective_passes_gradcheck():
+    from nlo_lab.objective import Objective
 
     robot = load_robot("yumi").to(dtype=torch.float64)
     q = random_feasible_pose(robot, 2, seed=11)
@@ -242,7 +242,7 @@ def test_culling_far_capsule_pairs_changes_nothing(robot, dtype):
     pairs never exceeds the true surface distance."""
     from nlo_lab.robot.collision import segment_distance_ends
     from nlo_lab.human.corpus import sign_corpus
-    from nlo_lab.losses import Objective, near_pair_distances
+    from nlo_lab.objective import Objective, near_pair_distances
 
     r = robot.to(dtype=dtype)
     t = targets_from_demonstration(sign_corpus("test")[1], dtype=dtype)
@@ -256,8 +256,8 @@ def test_culling_far_capsule_pairs_changes_nothing(robot, dtype):
             out[cull] = (terms.detach(), grad)
         torch.testing.assert_close(out[True][0], out[False][0], atol=1e-12, rtol=1e-12 if dtype == torch.float64 else 1e-6)  # summation order only
         torch.testing.assert_close(out[True][1], out[False][1], atol=1e-12 if dtype == torch.float64 else 1e-5, rtol=1e-6)
-    c = _constants(r, dtype, q.device)
-    pts = r.tree.map_points(q.detach(), c.point_body, c.point_vectors)
+    c = point_plan(r, dtype, q.device)
+    pts = c.map(q.detach())
     ends = pts.index_select(1, c.pair_points).view(len(t), -1, 4, 3)
     exact = segment_distance_ends(ends) - c.pair_radii
     culled = near_pair_distances(ends, c.pair_radii, c.margins)

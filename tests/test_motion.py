@@ -15,7 +15,7 @@ import torch
 from nlo_lab.cli import main
 from nlo_lab.human import corpus_clip, load_demonstration
 from nlo_lab.human.conditioning import condition_demonstration, savgol
-from nlo_lab.losses import LossWeights, smoothness_loss, targets_from_demonstration
+from nlo_lab.objective import LossWeights, smoothness_loss, targets_from_demonstration
 from nlo_lab.metrics import joint_speed_ratios, max_joint_step, max_joint_speed_ratio, velocity_violations
 from nlo_lab.optimize import OptimizeSettings, optimize_latent, sequence_start, initial_latent
 from nlo_lab.retarget import retarget
@@ -162,7 +162,7 @@ def test_smoothness_loss_is_the_speed_in_units_of_the_limit():
     expect = torch.tensor([0.0, (0.1 * 10 / 2) ** 2 + (0.1 * 10 / cap) ** 2, (0.2 * 10 / cap) ** 2], dtype=torch.float64)
     torch.testing.assert_close(got, expect)
     # a jump beyond SMOOTH_MAX_STEP costs more than its speed alone
-    from nlo_lab.losses import SMOOTH_MAX_STEP
+    from nlo_lab.objective import SMOOTH_MAX_STEP
 
     big = torch.tensor([[0.0, 0.0], [SMOOTH_MAX_STEP + 0.1, 0.0]], dtype=torch.float64)
     assert float(smoothness_loss(big, 10.0, limits)[1]) > ((SMOOTH_MAX_STEP + 0.1) * 10 / 2) ** 2

@@ -14,6 +14,7 @@ OLD_TO_NEW = {
     "nlo_lab.baselines": ["nlo_lab.evaluation", "nlo_lab.training"],
     "nlo_lab.evaluate": ["nlo_lab.evaluation"],
     "nlo_lab.train": ["nlo_lab.training", "nlo_lab.model"],
+    "nlo_lab.losses": ["nlo_lab.objective"],
 }
 
 

@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import LossWeights, latent_loss, objective, targets_from_demonstration
+from nlo_lab.objective import LossWeights, latent_loss, objective, targets_from_demonstration
 from nlo_lab.optimize import (
     JointOptimizeSettings,
     OptimizeSettings,

@@ -27,7 +27,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from nlo_lab.losses import LossWeights, _constants, robot_points, targets_from_demonstration
+from nlo_lab.objective import LossWeights, point_plan, robot_points, targets_from_demonstration
 from nlo_lab.optimize import OptimizeSettings, optimize_latent
 from nlo_lab.robot import load_robot
 from nlo_lab.model import load_pretrained
@@ -56,7 +56,7 @@ def test_round_trip_recovers_wrist_and_elbow(name):
     with torch.no_grad():
         w0, e0 = _relative(robot, q)
         w1, e1 = _relative(robot, result.q)
-    length = _constants(robot, q.dtype, q.device).arm_length  # (2,)
+    length = point_plan(robot, q.dtype, q.device).arm_length  # (2,)
     wrist_err = ((w1 - w0).norm(dim=-1) / length).median().item()
     elbow_err = ((e1 - e0).norm(dim=-1) / length).median().item()
     assert wrist_err <= WRIST_TOL, f"{name}: median wrist error {wrist_err:.3f} of the arm length"

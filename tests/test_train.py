@@ -8,7 +8,7 @@ import torch
 import nlo_lab.model.checkpoint as checkpoint
 import nlo_lab.training.train as training_mod
 from nlo_lab.errors import CheckpointError, SettingsError
-from nlo_lab.losses import targets_from_demonstration
+from nlo_lab.objective import targets_from_demonstration
 from nlo_lab.robot import load_robot
 from nlo_lab.model import CHECKPOINT_FORMAT_VERSION, load_checkpoint, load_pretrained, save_checkpoint
 from nlo_lab.training import TrainSettings, new_model, train_model

@@ -30,7 +30,7 @@ import numpy as np
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import LossWeights, objective, targets_from_demonstration
+from nlo_lab.objective import LossWeights, objective, targets_from_demonstration
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
 from nlo_lab.settings import check_int, check_positive, validate_fields
 from nlo_lab.model import load_pretrained

@@ -31,7 +31,7 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.lab.views import View, guarded, svg_convergence
-from nlo_lab.losses import TERMS, LossWeights, Targets, targets_from_demonstration
+from nlo_lab.objective import TERMS, LossWeights, Targets, targets_from_demonstration
 from nlo_lab.optimize import INITS, OptimizeResult, OptimizeSettings, initial_latent, optimize_latent
 from nlo_lab.paths import BUNDLED_ROBOTS
 from nlo_lab.threads import single_thread

@@ -12,7 +12,7 @@ import time
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import Targets
+from nlo_lab.objective import Targets
 from nlo_lab.training.supervised import train_supervised_model
 from nlo_lab.training.train import TrainSettings, new_model, train_model
 

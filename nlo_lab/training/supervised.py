@@ -25,7 +25,7 @@ import torch
 from torch import nn
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import Targets
+from nlo_lab.objective import Targets
 from nlo_lab.optimize import JointOptimizeSettings, optimize_joints
 from nlo_lab.settings import check_int, check_positive
 from nlo_lab.training.data import corpus_targets

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.losses import COLLISION_FORMS, LossWeights, Targets, latent_loss, objective
+from nlo_lab.objective import COLLISION_FORMS, LossWeights, Targets, latent_loss, objective
 from nlo_lab.model import MODEL_KINDS, RetargetModel, build_model
 from nlo_lab.settings import check_choice, check_int, check_positive
 from nlo_lab.training.data import demos_targets, train_validation_split
@@ -45,7 +45,7 @@ class TrainSettings:
         max_seconds: wall-clock budget [s]; training stops after the step that exceeds it.
         val_every: steps between validations (and at the end of every epoch).
         val_frames: at most this many evenly spaced test frames are validated.
-        collision_form: see :func:`nlo_lab.losses.collision_loss`.
+        collision_form: see :func:`nlo_lab.objective.collision_loss`.
         progress: show a tqdm progress bar.
     """
 

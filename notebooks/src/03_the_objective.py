@@ -5,6 +5,7 @@
 #
 # - Know the five terms of the retargeting objective `L(D, K(q))`: end effector, wrist orientation,
 #   elbow→wrist direction, finger directions, self-collision, and what each one measures.
+# - Read each term's equation next to the code that computes it.
 # - See how the loss weights trade the terms against each other.
 # - Optimise the joint angles of one frame directly (the joint-space baseline) and see how it fails:
 #   local minima that depend on the start, and joint limits that need clamping or a penalty.
@@ -17,7 +18,7 @@ setup()
 import matplotlib.pyplot as plt
 import torch
 from nlo_lab.human import corpus_clip, corpus_names
-from nlo_lab.losses import LossWeights, objective, targets_from_demonstration
+from nlo_lab.objective import LossWeights, objective, targets_from_demonstration
 from nlo_lab.robot import load_robot
 robot = load_robot("yumi")
 demo = corpus_clip(corpus_names("test")[0])
@@ -41,10 +42,38 @@ plot_loss_terms(terms, ax=axes[0], title="unweighted terms")
 plot_loss_terms(terms, ax=axes[1], weights=LossWeights().as_dict(), title=f"weighted (total {float(total):.1f})");
 
 # %% [markdown]
+# ## Each term as code
+#
+# Every term is one small function in `nlo_lab.objective.terms`: its docstring holds the paper's equation
+# (a hat marks the human side), its body computes it, and `needs` names the robot points it reads. These
+# functions are what `objective` runs; the robot's points come from one forward-kinematics call.
+
+# %%
+import inspect
+from IPython.display import Markdown, display
+from nlo_lab.objective import terms as term_functions
+for fn in (term_functions.end_effector_loss, term_functions.orientation_loss, term_functions.elbow_loss,
+           term_functions.finger_loss, term_functions.collision_loss):
+    display(Markdown(f"**`{fn.__name__}`** reads the robot's {', '.join(fn.needs)}\n```python\n{inspect.getsource(fn)}```"))
+
+# %% [markdown]
+# `Objective` assembles them: `terms @ weights`, one weight per term. For a few frames the same terms run
+# in numpy with a written-out gradient, which is faster at batch 1; `backend.reference()` switches every
+# such fast path off, and the numbers stay the same:
+
+# %%
+from nlo_lab import backend
+from nlo_lab.objective import Objective
+print(inspect.getsource(Objective.terms))
+with backend.reference():
+    reference_total, _ = objective(robot, q0, one)
+print(f"fast path {float(total):.6f}, reference {float(reference_total):.6f}")
+
+# %% [markdown]
 # ## Weight sliders
 #
-# Move a weight and watch the share of each term in the total change (the pose is fixed here; in notebook 05
-# the sliders re-optimise the pose).
+# Move a weight: the sliders build `LossWeights` and call `objective` again; watch the total and the share of
+# each term change (the pose is fixed here; in notebook 05 the sliders re-optimise the pose).
 
 # %%
 from ipywidgets import FloatLogSlider, interact
@@ -52,9 +81,8 @@ sliders = {n: FloatLogSlider(value=getattr(LossWeights(), n), base=10, min=-1, m
 
 @interact(**sliders)
 def shares(**w):
-    weighted = {n: float(w[n] * terms[n]) for n in terms}
-    total = sum(weighted.values())
-    print("  ".join(f"{n} {v / total:5.1%}" for n, v in weighted.items()))
+    total, unweighted = objective(robot, q0, one, LossWeights(**w))
+    print(f"total {float(total):.1f}:  " + "  ".join(f"{n} {float(w[n] * v) / float(total):5.1%}" for n, v in unweighted.items()))
 
 # %% [markdown]
 # ## Joint-space optimisation of one frame

@@ -49,7 +49,7 @@ print(f"angles outside the limits: {int(((q < lo) | (q > hi)).sum())} of {q.nume
 
 # %%
 from nlo_lab.human import corpus_clip, corpus_names
-from nlo_lab.losses import targets_from_demonstration
+from nlo_lab.objective import targets_from_demonstration
 demo = corpus_clip(corpus_names("test")[1])
 targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
 t = len(demo) // 2

@@ -15,7 +15,7 @@ setup()
 # %%
 import numpy as np
 from nlo_lab.human import corpus_clip, corpus_names
-from nlo_lab.losses import targets_from_demonstration
+from nlo_lab.objective import targets_from_demonstration
 from nlo_lab.robot import load_robot
 from nlo_lab.model import load_pretrained
 robot = load_robot("yumi")

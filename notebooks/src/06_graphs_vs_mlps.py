@@ -31,6 +31,37 @@ for kind in ("graph", "mlp"):
     print(f"{kind:6s} encoder {n_enc:7d} parameters, decoder {n_dec:6d}, latent {m.latent_shape}")
 
 # %% [markdown]
+# ## The graph layer: equation and code
+#
+# One layer of the paper's encoder and decoder (Sec. "Graph-based Encoder & Decoder"), for node `i` of type
+# `t` (arm or hand) with incoming edges from its neighbours `j`:
+#
+# $$x_i' = P_t\,x_i + \sum_{j \in N(i)} \mathrm{LeakyReLU}\big(W_t\,[x_i, x_j, e_{ji}] + b_t\big)$$
+#
+# `P_t` is the identity when the width does not change (the paper's residual), a learnt linear map when it
+# does. This is the code that computes it:
+
+# %%
+import inspect
+from nlo_lab.model import GraphLayer
+print(inspect.getsource(GraphLayer.forward))
+
+# %% [markdown]
+# The frozen decoder, called every iteration of latent optimisation, runs the same map with its weights
+# gathered per edge and its constant inputs folded in (and, for a few frames, in numpy). `backend.reference()`
+# makes it run the layers above one by one; the angles agree to rounding:
+
+# %%
+import torch
+from nlo_lab import backend
+graph_model = new_model(robot, TrainSettings(kind="graph")).requires_grad_(False)
+z = torch.randn(4, *graph_model.latent_shape)
+fast = graph_model.decode(z)
+with backend.reference():
+    paper = graph_model.decode(z)
+print(f"largest difference {float((fast - paper).abs().max()):.1e} rad")
+
+# %% [markdown]
 # ## Training data and labels
 #
 # FK training needs only the human frames: the loss is the objective `L(D, K(f_psi(f_phi(D))))`.

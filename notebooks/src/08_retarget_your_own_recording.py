@@ -103,7 +103,7 @@ for name in budget(("yumi", "nao", "pepper"), ("nao",)):
 # to the forearm): `demo.meta["conditioning"]`. Compare `smooth=0` (the paper) with the default:
 
 # %%
-from nlo_lab.losses import LossWeights
+from nlo_lab.objective import LossWeights
 from nlo_lab.viz.speed import plot_joint_speeds
 ITERS = budget(100, 10)
 rough = retarget(demo, robot, weights=LossWeights(smooth=0), settings=OptimizeSettings(iterations=ITERS))

@@ -1,7 +1,7 @@
-"""The objective's terms from the mapped robot points, with a hand-written backward.
+"""The objective's terms in numpy, with a written-out backward: a faster evaluation for small batches.
 
-:class:`nlo_lab.losses.Objective` turns the robot's FK points into the five
-unweighted terms with some twenty tensor ops. At batch 1 (the live panel, a
+:class:`nlo_lab.objective.Objective` turns the robot's mapped points into the five
+unweighted terms (:mod:`nlo_lab.objective.terms`) with some forty tensor ops. At batch 1 (the live panel, a
 slider move re-optimises one frame) each torch op costs several microseconds of
 dispatch and as much again in autograd's backward, far more than its
 arithmetic. This module does the same arithmetic in numpy inside one
@@ -17,9 +17,12 @@ arithmetic. This module does the same arithmetic in numpy inside one
 * the gradient reaches the points as ``Rᵀ g_v + S g_ends`` (``S`` scatters the
   capsule end points back onto the points).
 
-Torch's own ops remain the reference (``Objective(..., fused=False)``); the
-tests compare both, values and gradients, on every robot. First derivatives
-only (no double backward).
+Every term is linear in the points up to the finger normalisation and the
+squares, so the point plan becomes a few constant matrices (:meth:`PointTerms.build`).
+``Objective`` takes this path on the CPU for at most
+``nlo_lab.backend.Backend.objective_max_frames`` frames; ``nlo_lab.backend.reference()``
+turns it off. The tests compare both, values and gradients, on every robot.
+First derivatives only (no double backward).
 """
 
 from __future__ import annotations
@@ -28,11 +31,12 @@ import numpy as np
 import torch
 from torch.autograd.function import once_differentiable
 
+from nlo_lab.objective.points import PointPlan
+from nlo_lab.objective.targets import Targets
+from nlo_lab.objective.terms import UNIT_EPS, unit
 from nlo_lab.robot.collision import segment_closest_points
 
 __all__ = ["PointTerms", "point_terms"]
-
-_UNIT_EPS = 1e-9  # [m^2] keeps unit vectors of zero-length fingers finite (losses uses it too)
 
 
 class PointTerms:
@@ -47,7 +51,7 @@ class PointTerms:
         pair_points: ``(4P,)`` point index of the ends a0, a1, b0, b1 of each pair.
         pair_radii: ``(P,)`` summed capsule radii [m].
         margins: ``(P,)`` d_min per pair [m].
-        form: ``"hinge"`` or ``"paper"`` (see :func:`nlo_lab.losses.collision_loss`).
+        form: ``"hinge"`` or ``"paper"`` (see :func:`nlo_lab.objective.terms.collision_loss`).
     """
 
     def __init__(self, rows, finger_row, row_term, goal, mask, pair_points, pair_radii, margins, form: str):
@@ -66,6 +70,54 @@ class PointTerms:
         scatter[self.pair_points, np.arange(n_ends)] = 1.0
         self.scatter = scatter.astype(self.rows.dtype)
 
+    @classmethod
+    def build(cls, plan: PointPlan, targets: Targets, form: str) -> "PointTerms":
+        """The terms of :mod:`nlo_lab.objective.terms` as rows over ``plan``'s points, for ``targets``.
+
+        Residual rows (each a fixed combination of points, minus the human side):
+        ee ``(w - s)/l`` (2), ori the columns of ``R_wrist R_align`` (6), elbow
+        ``(w - e)/l_fore`` (2), finger ``tip - base`` (K, normalised).
+        """
+        t, K = targets, plan.vectors.shape[0]
+        rows, goals, masks, term, finger = [], [], [], [], []
+
+        def row(entries, term_index: int, is_finger: bool = False) -> None:
+            r = np.zeros(K)
+            for k, v in entries:
+                r[k] += v
+            rows.append(r)
+            term.append(term_index)
+            finger.append(is_finger)
+
+        at = {name: range(*rows_.indices(K)) for name, rows_ in plan.rows.items()}
+        l_arm, l_fore = plan.arm_length.tolist(), plan.fore_length.tolist()
+        for s in range(2):
+            row([(at["wrist"][s], 1.0 / l_arm[s]), (at["shoulder"][s], -1.0 / l_arm[s])], 0)
+        for k in at["wrist_axes"]:  # side-major: the three columns of each side
+            row([(k, 1.0)], 1)
+        for s in range(2):
+            row([(at["wrist"][s], 1.0 / l_fore[s]), (at["elbow"][s], -1.0 / l_fore[s])], 2)
+        for base, tip in zip(at["finger_base"], at["finger_tip"]):
+            row([(tip, 1.0), (base, -1.0)], 3, is_finger=True)
+        am = t.arm_mask
+        with torch.no_grad():
+            goals = [
+                (t.wrist - t.shoulder) / t.arm_length[..., None],  # (T, 2, 3)
+                t.wrist_rotation.mT.reshape(-1, 6, 3),  # (T, 6, 3): columns of R̂, side-major
+                (t.wrist - t.elbow) / t.fore_length[..., None],
+            ]
+            masks = [am[..., 0] & am[..., 2], t.wrist_mask.repeat_interleave(3, dim=1), am[..., 1] & am[..., 2]]
+            if len(plan.finger_side):
+                sel = (slice(None), plan.finger_side, plan.finger_index)
+                goals.append(unit(t.finger_tip[sel] - t.finger_base[sel]))  # (T, K_f, 3)
+                masks.append(t.finger_mask[sel])
+            goal, mask = torch.cat(goals, 1), torch.cat(masks, 1)
+        return cls(
+            torch.as_tensor(np.array(rows), dtype=plan.vectors.dtype).numpy(), np.array(finger), np.array(term),
+            goal.cpu().numpy(), mask.cpu().numpy(), plan.pair_points.cpu().numpy(), plan.pair_radii.cpu().numpy(),
+            plan.margins.cpu().numpy(), form,
+        )
+
     def forward(self, P: np.ndarray):
         """Terms ``(B, 5)`` and what the backward needs, for points ``P (B, K, 3)`` (B = T)."""
         goal, mask = self.goal, self.mask
@@ -74,7 +126,7 @@ class PointTerms:
         norm = unit = None
         if f.size:
             vf = v[:, f]
-            norm = np.sqrt((vf * vf).sum(-1, keepdims=True) + _UNIT_EPS)  # (B, F, 1)
+            norm = np.sqrt((vf * vf).sum(-1, keepdims=True) + UNIT_EPS)  # (B, F, 1)
             unit = vf / norm
             v[:, f] = unit
         r = np.where(mask, v - goal, 0.0).astype(P.dtype, copy=False)  # (B, V, 3), 0 where masked

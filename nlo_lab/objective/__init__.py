@@ -1,0 +1,59 @@
+"""The retargeting objective ``L(D, K(q))``: what the optimiser minimises, term by term.
+
+- :mod:`~nlo_lab.objective.weights`: :class:`LossWeights`, ``TERMS``, the smoothness constants.
+- :mod:`~nlo_lab.objective.targets`: :class:`Targets`, the demonstration as the terms compare it.
+- :mod:`~nlo_lab.objective.points`: :class:`PointPlan`, the robot points and frames the terms need, one FK.
+- :mod:`~nlo_lab.objective.terms`: one function per term, each with the paper's equation.
+- :mod:`~nlo_lab.objective.total`: :class:`Objective` weights and sums the terms; :func:`objective`.
+- :mod:`~nlo_lab.objective.numpy_backend`, :mod:`~nlo_lab.objective.near_pairs`: faster
+  evaluations of the same terms, chosen by :mod:`nlo_lab.backend` (off under ``backend.reference()``).
+"""
+
+from nlo_lab.objective.near_pairs import CULL_SLACK, near_pair_distances
+from nlo_lab.objective.total import Objective, objective
+from nlo_lab.objective.points import PointPlan, RobotPoints, point_plan, robot_points
+from nlo_lab.objective.targets import Targets, targets_from_demonstration
+from nlo_lab.objective.terms import (
+    UNIT_EPS,
+    capsule_distances,
+    collision_loss,
+    elbow_loss,
+    end_effector_loss,
+    finger_loss,
+    latent_loss,
+    orientation_loss,
+    smoothness_loss,
+    smoothness_scale,
+    step_cost,
+)
+from nlo_lab.objective.weights import COLLISION_FORMS, SMOOTH_MAX_STEP, SMOOTH_SPEED_CAP, SMOOTH_STEP_WIDTH, TERMS, LossWeights
+
+__all__ = [
+    "LossWeights",
+    "TERMS",
+    "COLLISION_FORMS",
+    "SMOOTH_SPEED_CAP",
+    "SMOOTH_MAX_STEP",
+    "SMOOTH_STEP_WIDTH",
+    "Targets",
+    "targets_from_demonstration",
+    "PointPlan",
+    "RobotPoints",
+    "point_plan",
+    "robot_points",
+    "end_effector_loss",
+    "orientation_loss",
+    "elbow_loss",
+    "finger_loss",
+    "collision_loss",
+    "capsule_distances",
+    "latent_loss",
+    "smoothness_loss",
+    "smoothness_scale",
+    "step_cost",
+    "UNIT_EPS",
+    "near_pair_distances",
+    "CULL_SLACK",
+    "Objective",
+    "objective",
+]

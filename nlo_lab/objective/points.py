@@ -1,0 +1,164 @@
+"""The robot side of the objective: every point and direction the terms read, mapped by one FK.
+
+Each term compares quantities of the robot with the same quantities of the
+demonstration. On the robot they are fixed vectors in link frames:
+
+* ``shoulder``: a point fixed to the body (the root link), where the shoulder link
+  sits at the reference pose (``robot.shoulder_position``), which is also where the
+  metric places the human shoulder. (YuMi's shoulder link sits off joint 1's axis and
+  swings by up to 6 cm; measuring from it, the optimum put the wrist that far from
+  where the metric scores it.)
+* ``elbow``, ``wrist``: the origins of the spec's elbow and wrist links.
+* ``wrist_axes``: the three columns of the spec's ``wrist_alignment`` as directions
+  in the wrist link (robot wrist link -> human wrist convention); mapped to the
+  world they are the columns of ``R_wrist R_align``.
+* ``finger_base``, ``finger_tip``: origins of the links of the fingers the robot has.
+* ``capsule_ends``: the two axis end points of every capsule of every collision pair.
+
+:class:`PointPlan` lists them once (``Robot.point_map``); a call maps all of them
+with one ``Robot.map_points`` and splits the result into :class:`RobotPoints`.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass, fields
+
+import numpy as np
+import torch
+
+from nlo_lab.human.demonstration import FINGERS, SIDES
+
+__all__ = ["RobotPoints", "PointPlan", "point_plan", "robot_points"]
+
+
+@dataclass(frozen=True)
+class RobotPoints:
+    """The robot quantities the terms compare, for B configurations, in the robot frame.
+
+    Attributes:
+        shoulder, elbow, wrist: ``(B, 2, 3)`` per side (left, right) [m].
+        wrist_rotation: ``(B, 2, 3, 3)`` ``R_wrist R_align`` (human wrist convention).
+        finger_base, finger_tip: ``(B, K, 3)`` the robot's K fingers [m] (K = 0 without hands).
+        capsule_ends: ``(B, P, 4, 3)`` axis end points a0, a1, b0, b1 of each collision pair [m].
+    """
+
+    shoulder: torch.Tensor
+    elbow: torch.Tensor
+    wrist: torch.Tensor
+    wrist_rotation: torch.Tensor
+    finger_base: torch.Tensor
+    finger_tip: torch.Tensor
+    capsule_ends: torch.Tensor
+
+
+class PointPlan:
+    """Every point and direction of :class:`RobotPoints` as a fixed vector in a link frame.
+
+    Args:
+        robot: a loaded :class:`nlo_lab.robot.Robot` (only its public interface is used).
+        dtype, device: of the tensors below (the targets').
+
+    Attributes:
+        links: ``k`` link names; ``link_vectors``: ``(k, 4)`` homogeneous vectors in them
+            (points ``w = 1`` [m], directions ``w = 0``).
+        rows: ``{role: slice}`` of each :class:`RobotPoints` field's vectors (capsule ends:
+            one pair of end points per capsule; ``pair_points`` picks them per pair).
+        pair_points: ``(4P,)`` long, the vectors a0, a1, b0, b1 of each collision pair.
+        arm_length, fore_length: ``(2,)`` the robot's zero-pose upper + fore arm and forearm [m].
+        finger_side, finger_index: ``(K,)`` long, the side and the finger (thumb..pinky) of each robot finger.
+        pair_radii, margins: ``(P,)`` summed capsule radii and d_min of each pair [m].
+    """
+
+    def __init__(self, robot, dtype: torch.dtype, device=None):
+        self.robot = robot
+        arms = [robot.arm(s) for s in SIDES]
+        entries: list[tuple[str, tuple[float, ...]]] = []
+        self.rows: dict[str, slice] = {}
+
+        def group(role: str, items) -> None:
+            start = len(entries)
+            entries.extend(items)
+            self.rows[role] = slice(start, len(entries))
+
+        origin = (0.0, 0.0, 0.0, 1.0)
+        group("shoulder", [(robot.root_link, (*robot.shoulder_position(s).double().tolist(), 1.0)) for s in SIDES])
+        group("elbow", [(arm.elbow, origin) for arm in arms])
+        group("wrist", [(arm.wrist, origin) for arm in arms])
+        align = [np.asarray(arm.wrist_alignment, dtype=np.float64) for arm in arms]
+        group("wrist_axes", [(arm.wrist, (*a[:, j], 0.0)) for arm, a in zip(arms, align) for j in range(3)])
+        fingers = [(s, f, *arm.fingers[name]) for s, arm in enumerate(arms) if robot.has_fingers and arm.fingers
+                   for f, name in enumerate(FINGERS) if name in arm.fingers]  # (side, finger, base link, tip link)
+        group("finger_base", [(base, origin) for *_, base, _ in fingers])
+        group("finger_tip", [(tip, origin) for *_, tip in fingers])
+        capsules = robot.spec.capsules
+        group("capsule_ends", [(cap.link, (*map(float, end), 1.0)) for cap in capsules for end in (cap.p0, cap.p1)])
+
+        self.links = [link for link, _ in entries]
+        self.link_vectors = np.array([v for _, v in entries], dtype=np.float64).reshape(-1, 4)
+        body, vectors = robot.point_map(self.links, self.link_vectors)
+        self.body = torch.as_tensor(body, dtype=torch.long, device=device)  # (k,)
+        self.vectors = torch.as_tensor(vectors, dtype=dtype, device=device)  # (k, 4) in body frames
+        ends = self.rows["capsule_ends"].start + 2 * robot.pair_capsules[:, :, None] + np.arange(2)  # (P, 2, 2)
+        self.pair_points = torch.as_tensor(ends.reshape(-1), dtype=torch.long, device=device)  # (4P,)
+        lengths = [robot.zero_pose_lengths(s) for s in SIDES]
+        self.arm_length = torch.tensor([float(u) + float(f) for u, f in lengths], dtype=dtype, device=device)
+        self.fore_length = torch.tensor([float(f) for _, f in lengths], dtype=dtype, device=device)
+        self.finger_side = torch.tensor([s for s, *_ in fingers], dtype=torch.long, device=device)
+        self.finger_index = torch.tensor([f for _, f, *_ in fingers], dtype=torch.long, device=device)
+        self.pair_radii = robot.pair_radii.to(device=device, dtype=dtype)
+        self.margins = torch.as_tensor(robot.collision_margins).to(device=device, dtype=dtype)
+
+    def map(self, q: torch.Tensor) -> torch.Tensor:
+        """``q (B, n)`` -> every vector in the world, ``(B, k, 3)`` (one FK)."""
+        return self.robot.map_points(q, self.body, self.vectors)
+
+    def map_poses(self, poses: dict) -> torch.Tensor:
+        """The same from given link poses (``robot.forward_kinematics(q)``): ``(B, k, 3)``."""
+        vec = torch.as_tensor(self.link_vectors, dtype=self.vectors.dtype, device=self.vectors.device)
+        return torch.stack([poses[link][..., :3, :] @ v for link, v in zip(self.links, vec)], dim=1)
+
+    def split(self, points: torch.Tensor) -> RobotPoints:
+        """Mapped vectors ``(B, k, 3)`` -> :class:`RobotPoints`."""
+        B = points.shape[0]
+        role = {name: points[:, rows] for name, rows in self.rows.items()}
+        return RobotPoints(
+            shoulder=role["shoulder"],
+            elbow=role["elbow"],
+            wrist=role["wrist"],
+            wrist_rotation=role["wrist_axes"].view(B, 2, 3, 3).transpose(-1, -2),  # axes become columns
+            finger_base=role["finger_base"],
+            finger_tip=role["finger_tip"],
+            capsule_ends=points.index_select(1, self.pair_points).view(B, -1, 4, 3),
+        )
+
+    def __call__(self, q: torch.Tensor) -> RobotPoints:
+        """``q (B, n)`` -> :class:`RobotPoints`."""
+        return self.split(self.map(q))
+
+
+_PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # robot -> {(dtype, device): PointPlan}
+
+
+def point_plan(robot, dtype: torch.dtype, device=None) -> PointPlan:
+    """The :class:`PointPlan` of ``robot`` in ``dtype`` on ``device``, built once (about 8 ms, mostly the
+    spec's wrist alignments) and kept as long as the robot object lives."""
+    plans = _PLANS.setdefault(robot, {})
+    key = (dtype, str(torch.device(device) if device is not None else torch.device("cpu")))
+    if key not in plans:
+        plans[key] = PointPlan(robot, dtype, device)
+    return plans[key]
+
+
+def robot_points(robot, poses: dict) -> dict[str, torch.Tensor]:
+    """The robot's :class:`RobotPoints` from FK poses (``robot.forward_kinematics(q)``), as a dict.
+
+    Returns:
+        ``shoulder`` (the fixed reference point), ``elbow``, ``wrist`` ``(B, 2, 3)``, ``wrist_rotation``
+        ``(B, 2, 3, 3)`` (aligned to the human wrist convention), ``finger_base``, ``finger_tip``
+        ``(B, K, 3)`` for the robot's K fingers (K = 0 without hands), ``capsule_ends`` ``(B, P, 4, 3)``.
+    """
+    some = next(iter(poses.values()))
+    plan = point_plan(robot, some.dtype, some.device)
+    points = plan.split(plan.map_poses(poses))
+    return {f.name: getattr(points, f.name) for f in fields(points)}

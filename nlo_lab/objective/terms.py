@@ -1,0 +1,207 @@
+"""The objective's terms, each as the paper writes it (Zhang et al., Sec. "Problem Statement").
+
+Every term is returned per sample, shape ``(B,)``, summed over arms / fingers /
+collision pairs. Robot quantities come from :class:`~nlo_lab.objective.points.RobotPoints`
+(a term's ``needs`` names the fields it reads), human ones from
+:class:`~nlo_lab.objective.targets.Targets`; a hat marks the human side.
+Positions are in metres in the robot / body frame; every term is unitless.
+
+These functions are what :class:`~nlo_lab.objective.total.Objective` runs
+(always under ``nlo_lab.backend.reference()``); for small CPU batches the same
+terms run in numpy with a written-out gradient (:mod:`nlo_lab.objective.numpy_backend`).
+
+Temporal coherence is not in the paper (it has "no mechanism to ensure smoothness"):
+:func:`smoothness_loss` couples consecutive frames and is added by the optimisers,
+which see the whole sequence; it is not one of the per-frame ``TERMS``.
+"""
+
+from __future__ import annotations
+
+import torch
+
+from nlo_lab.errors import SettingsError
+from nlo_lab.objective.weights import COLLISION_FORMS, SMOOTH_MAX_STEP, SMOOTH_SPEED_CAP, SMOOTH_STEP_WIDTH
+from nlo_lab.robot.collision import segment_distance_ends
+
+__all__ = [
+    "end_effector_loss",
+    "orientation_loss",
+    "elbow_loss",
+    "finger_loss",
+    "collision_loss",
+    "capsule_distances",
+    "latent_loss",
+    "smoothness_loss",
+    "smoothness_scale",
+    "step_cost",
+    "unit",
+    "masked_sum",
+    "UNIT_EPS",
+]
+
+UNIT_EPS = 1e-9  # [m^2] keeps the unit vector of a zero-length finger finite
+
+
+def needs(*fields: str):
+    """Mark a term with the :class:`~nlo_lab.objective.points.RobotPoints` fields it reads."""
+
+    def mark(fn):
+        fn.needs = fields
+        return fn
+
+    return mark
+
+
+def masked_sum(values: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Sum over the dims after the first of ``values`` where ``mask``, exactly 0 (and no gradient) elsewhere."""
+    return torch.where(mask, values, torch.zeros_like(values)).flatten(1).sum(1)
+
+
+def unit(v: torch.Tensor, eps: float = UNIT_EPS) -> torch.Tensor:
+    """``v / sqrt(|v|² + eps)``: the direction of ``v (..., 3)``, finite at 0."""
+    return v / v.pow(2).sum(-1, keepdim=True).add(eps).sqrt()
+
+
+@needs("shoulder", "wrist")
+def end_effector_loss(shoulder, wrist, arm_length, t_shoulder, t_wrist, t_arm_length, mask) -> torch.Tensor:
+    """``L_ee = sum_side ||(p_w - p_s)/l - (p̂_w - p̂_s)/l̂||²``.
+
+    The wrist relative to the shoulder, in units of the arm's length: the robot's
+    zero-pose upper + fore arm ``l``, the demonstrator's ``l̂`` (median over the sequence).
+
+    Args:
+        shoulder, wrist: ``(B, 2, 3)`` robot [m]; arm_length: ``(2,)`` or ``(B, 2)`` [m].
+        t_shoulder, t_wrist: ``(B, 2, 3)`` human [m]; t_arm_length: ``(B, 2)`` [m].
+        mask: ``(B, 2)`` both shoulder and wrist observed.
+
+    Returns:
+        ``(B,)``.
+    """
+    p = (wrist - shoulder) / arm_length[..., None]
+    p_hat = (t_wrist - t_shoulder) / t_arm_length[..., None]
+    return masked_sum((p - p_hat).pow(2).sum(-1), mask)
+
+
+@needs("wrist_rotation")
+def orientation_loss(rotation, t_rotation, mask) -> torch.Tensor:
+    """``L_ori = sum_side ||R_wrist R_align - R̂||_F²``.
+
+    Args:
+        rotation: ``(B, 2, 3, 3)`` robot wrist rotation, already aligned to the human
+            wrist convention (``R_align``: the spec's ``wrist_alignment``).
+        t_rotation: ``(B, 2, 3, 3)`` human ``R_body_wrist``.
+        mask: ``(B, 2)`` wrist orientation observed.
+
+    Returns:
+        ``(B,)``.
+    """
+    return masked_sum((rotation - t_rotation).pow(2).sum((-1, -2)), mask)
+
+
+@needs("elbow", "wrist")
+def elbow_loss(elbow, wrist, fore_length, t_elbow, t_wrist, t_fore_length, mask) -> torch.Tensor:
+    """``L_elbow = sum_side ||(p_w - p_e)/l_fore - (p̂_w - p̂_e)/l̂_fore||²``.
+
+    The forearm in units of its length. Shapes as :func:`end_effector_loss` (mask:
+    elbow and wrist observed).
+    """
+    v = (wrist - elbow) / fore_length[..., None]
+    v_hat = (t_wrist - t_elbow) / t_fore_length[..., None]
+    return masked_sum((v - v_hat).pow(2).sum(-1), mask)
+
+
+@needs("finger_base", "finger_tip")
+def finger_loss(base, tip, t_base, t_tip, mask) -> torch.Tensor:
+    """``L_finger = sum_finger ||u - û||²`` with ``u`` the unit base -> tip direction.
+
+    A direction, not a position: robot and human fingers differ in length.
+
+    Args:
+        base, tip: ``(B, K, 3)`` robot [m]; t_base, t_tip: ``(B, K, 3)`` the matching
+            human fingers [m]; mask: ``(B, K)``. K = 0 (no hands) gives zeros.
+
+    Returns:
+        ``(B,)``.
+    """
+    if base.shape[1] == 0:
+        return base.new_zeros(base.shape[0])
+    return masked_sum((unit(tip - base) - unit(t_tip - t_base)).pow(2).sum(-1), mask)
+
+
+@needs("capsule_ends")
+def collision_loss(distances: torch.Tensor, margins: torch.Tensor, form: str = "hinge") -> torch.Tensor:
+    """Self-collision over the capsule pairs closer than their margin ``d_min``.
+
+    ``"hinge"`` (default): ``L_col = sum_pairs ((d_min - d)/d_min)²`` for ``d < d_min``.
+    ``"paper"``: ``L_col = sum_pairs exp(-d²) [d < d_min]``. The paper's form jumps at
+    ``d_min``, has almost no gradient near contact (``-2d e^{-d²}`` -> 0) and, with a
+    surface distance (< 0 inside), pushes penetrating capsules *deeper*; the squared
+    hinge is zero above ``d_min``, continuous with its gradient, and always pushes
+    the capsules apart.
+
+    Args:
+        distances: ``(B, P)`` capsule surface distances [m] (< 0 = penetration), see
+            :func:`capsule_distances`.
+        margins: ``(P,)`` d_min per pair [m].
+        form: ``"hinge"`` or ``"paper"``.
+
+    Returns:
+        ``(B,)``, exactly 0 when every pair is at least ``d_min`` apart.
+    """
+    if form not in COLLISION_FORMS:
+        raise SettingsError(f"unknown collision form {form!r}; expected one of {COLLISION_FORMS}")
+    if distances.shape[-1] == 0:
+        return distances.new_zeros(distances.shape[0])
+    if form == "paper":
+        return masked_sum(torch.exp(-distances.pow(2)), distances < margins)
+    # clamp: exactly 0 (and no gradient) at and above d_min
+    return ((margins - distances) / margins).clamp_min(0.0).pow(2).sum(-1)
+
+
+def capsule_distances(ends: torch.Tensor, radii: torch.Tensor) -> torch.Tensor:
+    """``d = dist(segment a, segment b) - r_a - r_b`` per pair: ``ends (B, P, 4, 3)`` [m] -> ``(B, P)`` [m]."""
+    return segment_distance_ends(ends) - radii
+
+
+def latent_loss(z: torch.Tensor, sigma: float = 1.0) -> torch.Tensor:
+    """``L_z = ||z||²/σ²`` per sample: ``z (B, ...)`` -> ``(B,)`` (the paper's latent prior, σ = 1)."""
+    return z.pow(2).flatten(1).sum(1) / (sigma * sigma)
+
+
+def smoothness_scale(velocity_limits: torch.Tensor) -> torch.Tensor:
+    """``(n,)`` the speed unit ``s_j`` of each joint in :func:`smoothness_loss` [rad/s]: its velocity
+    limit, at most ``SMOOTH_SPEED_CAP`` (unlimited joints count at the cap)."""
+    return velocity_limits.clamp(max=SMOOTH_SPEED_CAP)
+
+
+def smoothness_loss(q: torch.Tensor, fps: float, velocity_limits: torch.Tensor) -> torch.Tensor:
+    """``L_smooth,t = step_cost(q_t - q_{t-1})``: joint speed between consecutive frames, in units of each joint's limit.
+
+    It removes jitter and branch flips (a jump between two arm configurations costs
+    the square of its speed), and it weighs a joint by how slow the robot is there,
+    so the motion the robot cannot follow is what it trades against tracking.
+
+    Args:
+        q: ``(T, n)`` joint angles of consecutive frames [rad].
+        fps: frame rate [1/s].
+        velocity_limits: ``(n,)`` [rad/s] (see :func:`smoothness_scale`).
+
+    Returns:
+        ``(T,)``: frame 0 holds 0.
+    """
+    if q.shape[0] == 0:
+        return q.new_zeros(0)
+    return torch.cat([q.new_zeros(1), step_cost(q[1:] - q[:-1], fps, velocity_limits)])
+
+
+def step_cost(step: torch.Tensor, fps: float, velocity_limits: torch.Tensor) -> torch.Tensor:
+    """``sum_j (Δq_j fps / s_j)² + sum_j ((|Δq_j| - MAX_STEP)_+ / STEP_WIDTH)²``: ``step (..., n)`` [rad] -> ``(...)``.
+
+    ``s`` = :func:`smoothness_scale`. The second sum covers the joints that move more than
+    ``SMOOTH_MAX_STEP`` in one frame: a fast joint (NAO's wrist, 24.6 rad/s) may follow
+    a fast human rotation within its speed limit, but not by jumping half a radian
+    between two samples (the robot's controller would see a step, not a motion).
+    """
+    speed = step * (fps / smoothness_scale(velocity_limits).to(step.dtype))
+    jump = (step.abs() - SMOOTH_MAX_STEP).clamp_min(0.0) / SMOOTH_STEP_WIDTH
+    return speed.pow(2).sum(-1) + jump.pow(2).sum(-1)

@@ -1,0 +1,122 @@
+"""The retargeting objective ``L(D, K(q))``: the terms of :mod:`nlo_lab.objective.terms`, weighted and summed.
+
+``L = w_ee L_ee + w_ori L_ori + w_elbow L_elbow + w_finger L_finger + w_col L_col``
+per frame (the paper's Eq. 5-9; the latent term ``||z||²/σ²`` and the smoothness term
+are added where ``z`` and the whole sequence live: optimisation and training).
+"""
+
+from __future__ import annotations
+
+import torch
+
+from nlo_lab import backend
+from nlo_lab.errors import SettingsError
+from nlo_lab.objective.near_pairs import near_pair_distances
+from nlo_lab.objective.numpy_backend import PointTerms, point_terms
+from nlo_lab.objective.points import RobotPoints, point_plan
+from nlo_lab.objective.targets import Targets
+from nlo_lab.objective.terms import (
+    capsule_distances,
+    collision_loss,
+    elbow_loss,
+    end_effector_loss,
+    finger_loss,
+    orientation_loss,
+)
+from nlo_lab.objective.weights import COLLISION_FORMS, TERMS, LossWeights
+from nlo_lab.settings import check_choice
+
+__all__ = ["Objective", "objective"]
+
+
+class Objective:
+    """The objective for one robot, one set of targets (T frames) and weights: ``q (T, n)`` -> ``(T,)``.
+
+    What does not depend on ``q`` is prepared once: the robot's point plan
+    (:func:`~nlo_lab.objective.points.point_plan`, kept per robot) and the targets' masks. A call
+    maps every point the terms need with one FK, then evaluates the terms
+    (:meth:`terms`). Fast paths, chosen by :mod:`nlo_lab.backend` (all off under
+    ``backend.reference()``, same numbers): the terms in numpy with a written-out
+    gradient for few frames on the CPU (:mod:`~nlo_lab.objective.numpy_backend`),
+    and exact capsule distances only for the pairs that may be near
+    (:mod:`~nlo_lab.objective.near_pairs`).
+
+    Args:
+        robot: a loaded :class:`nlo_lab.robot.Robot`.
+        targets: :class:`~nlo_lab.objective.targets.Targets` (T frames); their dtype and device are used.
+        weights: :class:`~nlo_lab.objective.weights.LossWeights` (defaults: the paper's).
+        collision_form: ``"hinge"`` or ``"paper"`` (see :func:`~nlo_lab.objective.terms.collision_loss`).
+        fused: the numpy terms: None = as the backend decides, True/False = always / never.
+        cull: measure only the capsule pairs that may be near: None = as the backend decides.
+    """
+
+    def __init__(self, robot, targets: Targets, weights: LossWeights | None = None, collision_form: str = "hinge",
+                 fused: bool | None = None, cull: bool | None = None):
+        check_choice("collision form", collision_form, COLLISION_FORMS)
+        weights = weights or LossWeights()
+        t = self.targets = targets
+        self.robot, self.n_frames, self.collision_form = robot, len(targets), collision_form
+        self.cull = backend.cull_far_pairs() if cull is None else cull
+        device = t.shoulder.device
+        self.plan = point_plan(robot, t.dtype, device)
+        self.weights = torch.tensor([getattr(weights, n) for n in TERMS], dtype=t.dtype, device=device)  # (5,)
+        am = t.arm_mask
+        self.ee_mask, self.elbow_mask = am[..., 0] & am[..., 2], am[..., 1] & am[..., 2]  # (T, 2): both points observed
+        fingers = (slice(None), self.plan.finger_side, self.plan.finger_index)  # the human fingers the robot has
+        self.finger_base, self.finger_tip, self.finger_mask = t.finger_base[fingers], t.finger_tip[fingers], t.finger_mask[fingers]
+        if fused is None:
+            fused = device.type == "cpu" and backend.numpy_objective(len(targets))
+        self.numpy_terms = PointTerms.build(self.plan, targets, collision_form) if fused else None
+
+    def __call__(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``q (T, n)`` -> ``total (T,)`` and the unweighted terms ``(T, 5)`` in ``TERMS`` order."""
+        if q.shape[0] != self.n_frames:
+            raise SettingsError(f"q has {q.shape[0]} frames but the targets have {self.n_frames}")
+        points = self.plan.map(q)  # (T, k, 3): every point the terms need, one FK
+        if self.numpy_terms is not None:
+            terms = point_terms(points, self.numpy_terms)
+        else:
+            terms = self.terms(self.plan.split(points))
+        return terms @ self.weights, terms
+
+    def terms(self, p: RobotPoints) -> torch.Tensor:
+        """The unweighted terms ``(T, 5)`` (``TERMS`` order) of the robot quantities ``p``, term by term."""
+        t, plan = self.targets, self.plan
+        if self.cull:
+            distances = near_pair_distances(p.capsule_ends, plan.pair_radii, plan.margins)
+        else:
+            distances = capsule_distances(p.capsule_ends, plan.pair_radii)
+        return torch.stack([
+            end_effector_loss(p.shoulder, p.wrist, plan.arm_length, t.shoulder, t.wrist, t.arm_length, self.ee_mask),
+            orientation_loss(p.wrist_rotation, t.wrist_rotation, t.wrist_mask),
+            elbow_loss(p.elbow, p.wrist, plan.fore_length, t.elbow, t.wrist, t.fore_length, self.elbow_mask),
+            finger_loss(p.finger_base, p.finger_tip, self.finger_base, self.finger_tip, self.finger_mask),
+            collision_loss(distances, plan.margins, self.collision_form),
+        ], dim=1)  # fmt: skip
+
+
+def objective(robot, q: torch.Tensor, targets: Targets, weights: LossWeights | None = None, *,
+              poses: dict | None = None, collision_form: str = "hinge") -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+    """The weighted objective ``L(D, K(q))`` per sample (without the latent term).
+
+    Args:
+        robot: a loaded :class:`nlo_lab.robot.Robot`.
+        q: ``(B, n)`` joint angles [rad].
+        targets: :class:`~nlo_lab.objective.targets.Targets` with ``B`` frames.
+        weights: :class:`~nlo_lab.objective.weights.LossWeights` (defaults of the paper).
+        poses: FK of ``q`` (``robot.forward_kinematics(q)``) if already computed: the terms
+            are then evaluated on the points those poses give.
+        collision_form: see :func:`~nlo_lab.objective.terms.collision_loss`.
+
+    Returns:
+        ``total (B,)`` and the unweighted terms ``{"ee","ori","elbow","finger","collision"}``, each ``(B,)``.
+    """
+    if len(targets) != q.shape[0]:
+        raise SettingsError(f"q has {q.shape[0]} frames but the targets have {len(targets)}")
+    if poses is None:
+        total, terms = Objective(robot, targets, weights, collision_form)(q)
+    else:
+        loss = Objective(robot, targets, weights, collision_form, fused=False)
+        terms = loss.terms(loss.plan.split(loss.plan.map_poses(poses)))
+        total = terms @ loss.weights
+    return total, dict(zip(TERMS, terms.unbind(1)))

@@ -1,0 +1,85 @@
+"""The weights of the objective's terms, and the constants of the smoothness term."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, fields
+
+from nlo_lab.errors import SettingsError
+from nlo_lab.settings import check_nonnegative, validate_fields
+
+__all__ = [
+    "LossWeights",
+    "TERMS",
+    "COLLISION_FORMS",
+    "SMOOTH_SPEED_CAP",
+    "SMOOTH_MAX_STEP",
+    "SMOOTH_STEP_WIDTH",
+]
+
+TERMS = ("ee", "ori", "elbow", "finger", "collision")  # the per-frame terms, in the order Objective returns them
+COLLISION_FORMS = ("hinge", "paper")  # see nlo_lab.objective.terms.collision_loss
+# A joint faster than this [rad/s] is smoothed as if its limit were this: NAO's wrist
+# (24.6 rad/s) could otherwise jump 0.85 rad between two frames at little cost, though
+# a jump is jitter whatever the motor (measured: docs/RESULTS.md, "Robot-ready motion").
+SMOOTH_SPEED_CAP = math.pi
+SMOOTH_MAX_STEP = 0.35  # [rad] a joint step beyond this between two frames costs steeply ...
+SMOOTH_STEP_WIDTH = 0.02  # [rad] ... (one more width: one more unit, squared)
+
+
+@dataclass(frozen=True)
+class LossWeights:
+    """Weights of the objective's terms (defaults: the paper's).
+
+    Attributes:
+        ee: end-effector position term.
+        ori: wrist orientation term.
+        elbow: elbow -> wrist direction term.
+        finger: finger base -> tip direction term.
+        collision: self-collision term.
+        latent: weight of ``||z||²`` (``1/σ²``, σ = 1 in the paper).
+        smooth: weight of the joint-speed term over consecutive frames
+            (:func:`~nlo_lab.objective.terms.smoothness_loss`; not in the paper; 0 = frames independent).
+    """
+
+    ee: float = 1000.0
+    ori: float = 100.0
+    elbow: float = 100.0
+    finger: float = 100.0
+    collision: float = 1000.0
+    latent: float = 1.0
+    smooth: float = 10.0
+
+    def __post_init__(self) -> None:
+        validate_fields(self, check_nonnegative, prefix="loss weight ")
+
+    @classmethod
+    def from_string(cls, text: str) -> "LossWeights":
+        """Parse ``"ee=1000,ori=100"``; unnamed weights keep their defaults.
+
+        Raises:
+            SettingsError: naming the bad key or value.
+        """
+        names = {f.name for f in fields(cls)}
+        values: dict[str, float] = {}
+        for item in (part.strip() for part in text.split(",")):
+            if not item:
+                continue
+            key, sep, raw = item.partition("=")
+            key = key.strip()
+            if not sep:
+                raise SettingsError(f"weight {item!r} is not KEY=VALUE (keys: {', '.join(sorted(names))})")
+            if key not in names:
+                raise SettingsError(f"unknown weight {key!r}; expected one of {', '.join(sorted(names))}")
+            if key in values:
+                raise SettingsError(f"weight {key!r} given twice")
+            try:
+                values[key] = float(raw)
+            except ValueError:
+                raise SettingsError(f"weight {key}={raw.strip()!r} is not a number") from None
+        return cls(**values)
+
+    def as_dict(self) -> dict[str, float]:
+        """``{name: weight}``."""
+        return dataclasses.asdict(self)
