@@ -18,22 +18,12 @@ from nlo_lab.model.layers import LEAKY_SLOPE, GraphLayer, remap_to_limits, rest_
 from nlo_lab.model.retarget_model import MODEL_KINDS, RetargetModel, build_model
 
 __all__ = [
-    "GraphLayer",
-    "GraphEncoder",
-    "GraphDecoder",
-    "MLPEncoder",
-    "MLPDecoder",
-    "RetargetModel",
-    "remap_to_limits",
-    "rest_preactivation",
-    "LEAKY_SLOPE",
-    "build_model",
-    "MODEL_KINDS",
-    "EncoderInput",
-    "encoder_input",
-    "CHECKPOINT_FORMAT_VERSION",
-    "save_checkpoint",
-    "load_checkpoint",
-    "checkpoint_path",
-    "load_pretrained",
-]
+    # layers, encoder, decoder, the model
+    "GraphLayer", "remap_to_limits", "rest_preactivation", "LEAKY_SLOPE",
+    "GraphEncoder", "MLPEncoder", "GraphDecoder", "MLPDecoder",
+    "RetargetModel", "build_model", "MODEL_KINDS",
+    # the encoder's input
+    "EncoderInput", "encoder_input",
+    # checkpoints
+    "CHECKPOINT_FORMAT_VERSION", "save_checkpoint", "load_checkpoint", "checkpoint_path", "load_pretrained",
+]  # fmt: skip
