@@ -1,0 +1,100 @@
+"""Dependencies run one way along the data's path: the stages downstream of inference
+(training, evaluation, the notebooks' side, the command line) are never imported by what
+comes before them, not even inside a function. Read from the source with ast."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parent.parent / "nlo_lab"
+
+# stage -> the nlo_lab modules (prefixes) that belong to it, in the data's order; the old
+# import paths (aliases) belong to the stage they re-export
+STAGES = {
+    "training": ("nlo_lab.training", "nlo_lab.train"),
+    "evaluation": ("nlo_lab.evaluation", "nlo_lab.baselines", "nlo_lab.evaluate"),
+    "lab": ("nlo_lab.lab", "nlo_lab.notebook", "nlo_lab.widgets", "nlo_lab.video_view"),
+    "cli": ("nlo_lab.cli", "nlo_lab.run_guard", "nlo_lab.flag_types"),
+}
+ORDER = list(STAGES)
+# still to fix (issue 18, work package B: the model loads without the training stage); entries only go
+PENDING = {("nlo_lab.retarget", "nlo_lab.train"), ("nlo_lab.retarget", "nlo_lab.train.load_pretrained")}
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _stage(module: str) -> int:
+    """Index in ORDER, or -1 for everything upstream (robot, human, objective, model, inference, viz ...)."""
+    for i, stage in enumerate(ORDER):
+        if any(module == p or module.startswith(p + ".") for p in STAGES[stage]):
+            return i
+    return -1
+
+
+def _is_main_block(node: ast.stmt) -> bool:
+    return isinstance(node, ast.If) and isinstance(node.test, ast.Compare) and getattr(node.test.left, "id", None) == "__name__"
+
+
+def _imports(path: Path) -> set[str]:
+    module = _module_name(path)
+    package = module.split(".") if path.name == "__init__.py" else module.split(".")[:-1]
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    # a module's `if __name__ == "__main__":` block is a program that runs it, not a dependency
+    main_blocks = {id(n) for block in tree.body if _is_main_block(block) for n in ast.walk(block)}
+    found = set()
+    for node in ast.walk(tree):
+        if id(node) in main_blocks:
+            continue
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                base = ".".join(package[: len(package) - node.level + 1] + ([base] if base else []))
+            found |= {base} | {f"{base}.{a.name}" for a in node.names}
+    return {m for m in found if m.startswith("nlo_lab")}
+
+
+def backward_imports() -> list[tuple[str, str]]:
+    """``(importer, imported)`` where the imported module belongs to a later stage than the importer."""
+    out = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        importer = _module_name(path)
+        if importer.endswith("__main__"):
+            continue
+        for imported in sorted(_imports(path)):
+            if _stage(imported) > _stage(importer):
+                out.append((importer, imported))
+    return out
+
+
+def test_nothing_imports_a_later_stage():
+    new = sorted(set(backward_imports()) - PENDING)
+    assert not new, "imports against the data's path (move the code or the import):\n" + "\n".join(map(str, new))
+
+
+def test_the_check_sees_an_import_inside_a_function(tmp_path, monkeypatch):
+    fake = tmp_path / "nlo_lab"
+    (fake / "model").mkdir(parents=True)
+    (fake / "model" / "checkpoint.py").write_text("def f():\n    from nlo_lab.training import train_model\n", encoding="utf-8")
+    (fake / "lab").mkdir()
+    (fake / "lab" / "cells.py").write_text("from ..evaluation import evaluate\nimport nlo_lab.cli\n", encoding="utf-8")
+    (fake / "training").mkdir()
+    (fake / "training" / "run.py").write_text("if __name__ == '__main__':\n    from nlo_lab.cli import main\n", encoding="utf-8")
+    monkeypatch.setattr(__import__(__name__), "PACKAGE", fake)
+    assert backward_imports() == [
+        ("nlo_lab.lab.cells", "nlo_lab.cli"),
+        ("nlo_lab.model.checkpoint", "nlo_lab.training"),
+        ("nlo_lab.model.checkpoint", "nlo_lab.training.train_model"),
+    ]
+
+
+@pytest.mark.parametrize("module, stage", [("nlo_lab.training.train", 0), ("nlo_lab.evaluate", 1), ("nlo_lab.lab", 2), ("nlo_lab.robot", -1)])
+def test_stages(module, stage):
+    assert _stage(module) == stage
