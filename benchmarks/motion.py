@@ -31,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from results_doc import stamp, update_section  # noqa: E402
 
 from nlo_lab.human import load_demonstration  # noqa: E402
-from nlo_lab.human.corpus import sign_corpus  # noqa: E402
+from nlo_lab.corpus import sign_corpus  # noqa: E402
 from nlo_lab.objective import LossWeights  # noqa: E402
 from nlo_lab.retarget import retarget  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402

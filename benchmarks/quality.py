@@ -44,7 +44,7 @@ import results_doc  # noqa: E402
 
 from nlo_lab.evaluation import BaselineSettings, evaluate, format_table  # noqa: E402
 from nlo_lab.errors import CheckpointError  # noqa: E402
-from nlo_lab.human.corpus import sign_corpus  # noqa: E402
+from nlo_lab.corpus import sign_corpus  # noqa: E402
 from nlo_lab.objective import targets_from_demonstration  # noqa: E402
 from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent  # noqa: E402

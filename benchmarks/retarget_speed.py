@@ -20,7 +20,7 @@ import time
 
 import torch
 
-from nlo_lab.human.corpus import sign_corpus
+from nlo_lab.corpus import sign_corpus
 from nlo_lab.human.demonstration import Demonstration
 from nlo_lab.objective import Targets, targets_from_demonstration
 from nlo_lab.metrics import tracking_errors

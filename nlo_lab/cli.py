@@ -129,7 +129,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 # ----------------------------------------------------------------------------- commands
 def _load_input(text: str):
-    from nlo_lab.human import corpus_clip, load_demonstration
+    from nlo_lab.corpus import corpus_clip
+    from nlo_lab.human import load_demonstration
 
     if text.startswith("demo:"):
         return corpus_clip(text[len("demo:"):])

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.human.body import (
+from nlo_lab.corpus import (
     ARM_RANGES,
     BODY_RANGES,
     FINGER_RANGES,
@@ -23,7 +23,7 @@ from nlo_lab.human.body import (
     torso_signed_distance,
     wrist_position,
 )
-from nlo_lab.human.signs import HANDSHAPES
+from nlo_lab.corpus import HANDSHAPES
 
 SIDES = ("left", "right")
 
@@ -163,6 +163,11 @@ def test_body_params_are_validated_and_vary():
             BodyParams(**{name: hi + 0.1})
         with pytest.raises(SettingsError, match=name):
             BodyParams(**{name: float("nan")})
+    with pytest.raises(SettingsError, match=r"^BodyParams.upper_arm must be in \[0.27, 0.32\] m, got 0.5$"):
+        BodyParams(upper_arm=0.5)
+    with pytest.raises(SettingsError, match="BodyParams.forearm must be a number"):
+        BodyParams(forearm=True)
+    assert type(BodyParams(forearm=np.float32(0.25)).forearm) is float  # stored as the checked float
     rng = np.random.default_rng(6)
     bodies = [random_body(rng) for _ in range(20)]
     arms = np.array([b.upper_arm for b in bodies])

@@ -8,10 +8,24 @@ import numpy as np
 import pytest
 
 from nlo_lab.errors import DemonstrationError
-from nlo_lab.human import Demonstration, corpus_clip, corpus_names, sign_corpus, wrist_frame_from_hand
-from nlo_lab.human.body import ARM_RANGES, FINGER_RANGES, BodyParams, arm_fk
-from nlo_lab.human.corpus import SCENARIOS, corpus_angles, corpus_lexicon
-from nlo_lab.human.signs import HANDSHAPES, LOCATIONS, MOVEMENTS, PATTERNS, is_test_combination
+from nlo_lab.corpus import (
+    ARM_RANGES,
+    FINGER_RANGES,
+    HANDSHAPES,
+    LOCATIONS,
+    MOVEMENTS,
+    PATTERNS,
+    SCENARIOS,
+    BodyParams,
+    arm_fk,
+    corpus_angles,
+    corpus_clip,
+    corpus_lexicon,
+    corpus_names,
+    is_test_combination,
+    sign_corpus,
+)
+from nlo_lab.human import Demonstration, wrist_frame_from_hand
 
 WRIST_ACCEL_BOUND = 30.0  # [m/s^2] plausible peak wrist acceleration of signing
 FINGERTIP_ACCEL_BOUND = 80.0  # [m/s^2] fingertips also swing with the wrist's rotation
@@ -212,3 +226,14 @@ def test_motion_is_smooth(all_demos):
         assert tip_acc.max() < FINGERTIP_ACCEL_BOUND, (d.name, tip_acc.max())
         # signing actually moves: the dominant wrist travels and changes speed
         assert speed.max() > 0.3
+
+
+def test_human_re_exports_the_corpus_objects():
+    """``nlo_lab.human.sign_corpus`` & co. (the README's path) are the corpus package's objects, imported on first use."""
+    import nlo_lab.corpus
+    import nlo_lab.human
+
+    for name in ("sign_corpus", "corpus_clip", "corpus_names"):
+        assert getattr(nlo_lab.human, name) is getattr(nlo_lab.corpus, name)
+    with pytest.raises(AttributeError, match="no attribute 'corpus_nothing'"):
+        nlo_lab.human.corpus_nothing  # noqa: B018

@@ -98,3 +98,17 @@ def test_the_check_sees_an_import_inside_a_function(tmp_path, monkeypatch):
 @pytest.mark.parametrize("module, stage", [("nlo_lab.training.train", 0), ("nlo_lab.evaluate", 1), ("nlo_lab.lab", 2), ("nlo_lab.robot", -1)])
 def test_stages(module, stage):
     assert _stage(module) == stage
+
+
+# the synthetic corpus is built on the human package: human imports it only to re-export it
+# (nlo_lab.human's lazy sign_corpus & co., and the old import paths of notebooks of earlier versions)
+CORPUS_REEXPORTS = {"nlo_lab.human", "nlo_lab.human.body", "nlo_lab.human.signs", "nlo_lab.human.corpus"}
+
+
+def test_human_imports_the_corpus_only_to_re_export_it():
+    importers = {_module_name(p) for p in sorted((PACKAGE / "human").rglob("*.py")) if any(m.startswith("nlo_lab.corpus") for m in _imports(p))}
+    assert importers == CORPUS_REEXPORTS, "nlo_lab.human must not build on nlo_lab.corpus (the corpus comes after it)"
+    for module in CORPUS_REEXPORTS:  # a re-export holds no code of its own
+        tree = ast.parse((PACKAGE.parent / (module.replace(".", "/") + ("/__init__.py" if module == "nlo_lab.human" else ".py"))).read_text())
+        if module != "nlo_lab.human":
+            assert all(isinstance(n, (ast.Expr, ast.ImportFrom, ast.Assign)) for n in tree.body), module

@@ -99,7 +99,7 @@ def _steps(angles: np.ndarray, robot) -> np.ndarray:
 def test_chunk_edges_are_as_smooth_as_the_inside():
     """With the smoothness term, a chunk starts anchored at the previous chunk's last frame:
     no step across a chunk edge is larger than the largest step inside the chunks."""
-    from nlo_lab.human.corpus import sign_corpus
+    from nlo_lab.corpus import sign_corpus
 
     robot = load_robot("yumi")
     demo = sign_corpus("test")[0]

@@ -184,7 +184,7 @@ def test_targets_from_demonstration_has_no_nan_and_keeps_masks(robot):
 
 def test_fast_objective_equals_the_term_functions(robot):
     """Objective (the optimiser's path) = the term-by-term path on full FK poses, values and gradients."""
-    from nlo_lab.human.corpus import sign_corpus
+    from nlo_lab.corpus import sign_corpus
 
     demo = sign_corpus("test")[0]
     t = targets_from_demonstration(demo, dtype=torch.float64).index(slice(0, 40))
@@ -206,7 +206,7 @@ def test_fast_objective_equals_the_term_functions(robot):
 @pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
 def test_numpy_terms_equal_the_term_functions(robot, dtype):
     """Objective's numpy path (hand-written backward) = its torch-ops path, values and gradients."""
-    from nlo_lab.human.corpus import sign_corpus
+    from nlo_lab.corpus import sign_corpus
     from nlo_lab.objective import Objective
 
     r = robot.to(dtype=dtype)
@@ -241,7 +241,7 @@ def test_culling_far_capsule_pairs_changes_nothing(robot, dtype):
     = every pair measured, values and gradients; and the bound it uses for the other
     pairs never exceeds the true surface distance."""
     from nlo_lab.robot.collision import segment_distance_ends
-    from nlo_lab.human.corpus import sign_corpus
+    from nlo_lab.corpus import sign_corpus
     from nlo_lab.objective import Objective, near_pair_distances
 
     r = robot.to(dtype=dtype)

@@ -110,7 +110,7 @@ def test_hand_frame_is_a_rotation_with_x_along_the_hand_and_y_across():
 
 def test_the_hand_frame_is_one_formulation():
     """The synthetic body's and the readers' wrist frames are rotations.hand_frame."""
-    from nlo_lab.human.body import hand_frame as body_hand_frame
+    from nlo_lab.corpus import hand_frame as body_hand_frame
     from nlo_lab.human.transforms import wrist_frame_from_hand
     from nlo_lab.rotations import hand_frame
 

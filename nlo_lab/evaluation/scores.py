@@ -34,7 +34,7 @@ import numpy as np
 from nlo_lab.errors import SettingsError
 from nlo_lab.evaluation.methods import LATENT_METHODS, METHODS, BaselineSettings, mean_objective, run_method
 from nlo_lab.metrics import limit_violations, max_joint_speed_ratio, self_collision_frames, tracking_errors, velocity_violations
-from nlo_lab.human import sign_corpus
+from nlo_lab.corpus import sign_corpus
 from nlo_lab.retime import retime_times
 from nlo_lab.model import load_pretrained
 from nlo_lab.training import supervised_network

@@ -23,7 +23,7 @@ Conversion (documented choices):
   lengths (:func:`nlo_lab.human.conditioning.depth_from_lengths`): a segment whose
   image is shorter than the segment points out of the image plane. Each segment's length
   is the larger of its 90th-percentile image length and the body model's proportion of
-  the shoulder width (upper arm 0.30 / 0.36, forearm 0.26 / 0.36, ``BodyParams``); the
+  the shoulder width (upper arm 0.30 / 0.36, forearm 0.26 / 0.36, :mod:`nlo_lab.human.proportions`); the
   sign (towards or away from the camera) follows MediaPipe's z where it says clearly
   away (by more than :data:`DEPTH_SIGN_MARGIN`), else towards the camera (signing space
   is in front of the body).
@@ -77,7 +77,7 @@ import warnings
 
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human import conditioning as cond
-from nlo_lab.human.body import BodyParams
+from nlo_lab.human import proportions
 from nlo_lab.human.demonstration import ARM_JOINTS, MAX_FRAMES, SIDES, Demonstration
 from nlo_lab.human.transforms import body_frame_from_shoulders, check_arm_lengths, fill_gaps, wrist_frame_from_hand
 
@@ -96,7 +96,7 @@ __all__ = [
     "load_pose",
 ]
 
-NOMINAL_SHOULDER_WIDTH = 0.36  # [m] shoulder-joint to shoulder-joint of an adult (scale of image-only files)
+NOMINAL_SHOULDER_WIDTH = proportions.SHOULDER_WIDTH  # [m] shoulder-joint to shoulder-joint of an adult (scale of image-only files)
 MAX_GAP_SECONDS = 0.25  # [s] longest gap of missing frames that is interpolated
 MIN_CONFIDENCE = 0.0  # a landmark is observed when its confidence is above this
 IMAGE_POSE_DEPTH_SCALE = 0.0  # image z of body landmarks is not used (see the module docstring)
@@ -108,9 +108,8 @@ _WORLD = "POSE_WORLD_LANDMARKS"
 _HANDS = {"left": "LEFT_HAND_LANDMARKS", "right": "RIGHT_HAND_LANDMARKS"}
 _IMAGE_UP = np.array([0.0, -1.0, 0.0])  # image y points down
 HIP_MIN_CONFIDENCE = 0.5  # hips below this median confidence are MediaPipe's guess: up comes from the face
-_BODY = BodyParams()  # the synthetic corpus' default adult (nlo_lab.human.body)
-HAND_PER_FOREARM = _BODY.hand_length / _BODY.forearm  # 0.19 / 0.26
-_SEGMENT_PER_SHOULDER = {"upper": _BODY.upper_arm / _BODY.shoulder_width, "fore": _BODY.forearm / _BODY.shoulder_width}
+HAND_PER_FOREARM = proportions.HAND_LENGTH / proportions.FOREARM  # 0.19 / 0.26, a nominal adult's
+_SEGMENT_PER_SHOULDER = {"upper": proportions.UPPER_ARM / proportions.SHOULDER_WIDTH, "fore": proportions.FOREARM / proportions.SHOULDER_WIDTH}
 ROTATION_JUMP = cond.ROTATION_JUMP  # [rad] a wrist rotation this far from both neighbours is an outlier frame
 DEPTH_SIGN_MARGIN = 0.05  # [m] MediaPipe's z must put a point this much further away to count as "away"
 _FACE_POINTS = (("LEFT_EAR", "RIGHT_EAR"), ("LEFT_EYE", "RIGHT_EYE"), ("NOSE",))

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import torch
 
-from nlo_lab.human import sign_corpus
+from nlo_lab.corpus import sign_corpus
 from nlo_lab.objective import Targets, targets_from_demonstration
 
 __all__ = ["VALIDATION_EVERY", "train_validation_split", "demos_targets", "corpus_targets"]

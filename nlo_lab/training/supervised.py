@@ -54,7 +54,7 @@ class SupervisedSettings:
         batch_size: samples per step.
         lr: Adam step size.
         seed: seeds the weights and the batch order (same seed, same network).
-        corpus_seed: seed of the synthetic corpus (:func:`nlo_lab.human.corpus.sign_corpus`).
+        corpus_seed: seed of the synthetic corpus (:func:`nlo_lab.corpus.sign_corpus`).
     """
 
     frame_stride: int = 4

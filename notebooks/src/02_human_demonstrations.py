@@ -18,9 +18,10 @@ setup()
 #
 # Sequences of signs (handshape, location, movement, two-handed pattern) performed by simulated signers
 # with different bodies. The test scenarios only use sign combinations never seen in training.
+# It is its own stage, `nlo_lab.corpus`, built on the `nlo_lab.human` data model.
 
 # %%
-from nlo_lab.human import corpus_clip, corpus_names
+from nlo_lab.corpus import corpus_clip, corpus_names
 train, test = corpus_names("train"), corpus_names("test")
 print(f"{len(train)} train and {len(test)} test sequences, e.g. {train[:3]}")
 demo = corpus_clip(test[0])
@@ -49,7 +50,7 @@ axes[0].legend(fontsize="x-small"); fig.tight_layout()
 # A handshape is four angles per finger: flexion at the base, spread, and two more flexions [rad].
 
 # %%
-from nlo_lab.human.signs import HANDSHAPES
+from nlo_lab.corpus import HANDSHAPES
 names = list(HANDSHAPES)[:8]
 fig, axes = plt.subplots(1, len(names), figsize=(1.6 * len(names), 2.2), sharey=True)
 for ax, name in zip(axes, names):
