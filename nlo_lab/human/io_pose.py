@@ -69,16 +69,26 @@ Conversion (documented choices):
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-import warnings
-
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human import conditioning as cond
 from nlo_lab.human import proportions
-from nlo_lab.human.demonstration import ARM_JOINTS, MAX_FRAMES, SIDES, Demonstration
+from nlo_lab.human.demonstration import ARM_JOINTS, SIDES, Demonstration
+from nlo_lab.human.pose_file import MAX_HEADER_BYTES, MAX_PEOPLE, MIN_CONFIDENCE, PoseComponents, read_pose_file
+from nlo_lab.human.pose_landmarks import (
+    DEPTH_SIGN_MARGIN,
+    HIP_MIN_CONFIDENCE,
+    NOMINAL_SHOULDER_WIDTH,
+    condition_arms,
+    face_centre,
+    median_shoulder_distance,
+    reconstruct_depth,
+    up_direction,
+)
 from nlo_lab.human.transforms import body_frame_from_shoulders, check_arm_lengths, fill_gaps, wrist_frame_from_hand
 
 __all__ = [
@@ -96,258 +106,16 @@ __all__ = [
     "load_pose",
 ]
 
-NOMINAL_SHOULDER_WIDTH = proportions.SHOULDER_WIDTH  # [m] shoulder-joint to shoulder-joint of an adult (scale of image-only files)
 MAX_GAP_SECONDS = 0.25  # [s] longest gap of missing frames that is interpolated
-MIN_CONFIDENCE = 0.0  # a landmark is observed when its confidence is above this
 IMAGE_POSE_DEPTH_SCALE = 0.0  # image z of body landmarks is not used (see the module docstring)
 HAND_FINGER_POINTS = ((2, 4), (5, 8), (9, 12), (13, 16), (17, 20))  # (base, tip) landmark per finger, thumb..pinky
+HAND_PER_FOREARM = proportions.HAND_LENGTH / proportions.FOREARM  # 0.19 / 0.26, a nominal adult's
+ROTATION_JUMP = cond.ROTATION_JUMP  # [rad] a wrist rotation this far from both neighbours is an outlier frame
 _HAND_WRIST, _HAND_INDEX, _HAND_MIDDLE, _HAND_PINKY = 0, 5, 9, 17
 _WORLD_SHOULDER_RANGE = (0.15, 0.8)  # [m] plausible world shoulder distances; outside it the world scale is not trusted
 _POSE = "POSE_LANDMARKS"
 _WORLD = "POSE_WORLD_LANDMARKS"
 _HANDS = {"left": "LEFT_HAND_LANDMARKS", "right": "RIGHT_HAND_LANDMARKS"}
-_IMAGE_UP = np.array([0.0, -1.0, 0.0])  # image y points down
-HIP_MIN_CONFIDENCE = 0.5  # hips below this median confidence are MediaPipe's guess: up comes from the face
-HAND_PER_FOREARM = proportions.HAND_LENGTH / proportions.FOREARM  # 0.19 / 0.26, a nominal adult's
-_SEGMENT_PER_SHOULDER = {"upper": proportions.UPPER_ARM / proportions.SHOULDER_WIDTH, "fore": proportions.FOREARM / proportions.SHOULDER_WIDTH}
-ROTATION_JUMP = cond.ROTATION_JUMP  # [rad] a wrist rotation this far from both neighbours is an outlier frame
-DEPTH_SIGN_MARGIN = 0.05  # [m] MediaPipe's z must put a point this much further away to count as "away"
-_FACE_POINTS = (("LEFT_EAR", "RIGHT_EAR"), ("LEFT_EYE", "RIGHT_EYE"), ("NOSE",))
-# Sizes a .pose header may declare, checked before the body is read or allocated (a crafted
-# file of a few kB must not make us read or allocate gigabytes).
-MAX_PEOPLE = 64  # people per frame (only the first is read)
-MAX_HEADER_BYTES = 1 << 20  # a Holistic header with the face mesh is about 10 kB
-
-
-def _check_sizes(path: Path, size: int) -> None:
-    """Refuse a file whose header declares more than we read, or a body its length cannot hold.
-
-    Reads only the header (at most :data:`MAX_HEADER_BYTES`) and the body's counts: frames at
-    most :data:`~nlo_lab.human.demonstration.MAX_FRAMES`, people at most :data:`MAX_PEOPLE`,
-    and the declared frames x people x points x (dims + confidence) float32 values must be
-    exactly what the file holds after its header.
-    """
-    import struct
-
-    from pose_format.pose_header import PoseHeader
-    from pose_format.utils.reader import BufferReader
-
-    with open(path, "rb") as f:
-        prefix = f.read(min(size, MAX_HEADER_BYTES))
-    reader = BufferReader(prefix)
-    try:
-        header = PoseHeader.read(reader)
-        version = round(float(header.version), 3)
-        points = sum(len(c.points) for c in header.components)
-        dims = max(len(c.format) for c in header.components) - 1  # as pose-format's body reader counts them
-        if version == 0.2:
-            _fps, frames, people = struct.unpack_from("<fIH", prefix, reader.read_offset)
-            body_start = reader.read_offset + struct.calcsize("<fIH")
-        elif version == 0.1:  # frames follow from the file's length (pose-format computes them so)
-            _fps, _frames, people = struct.unpack_from("<HHH", prefix, reader.read_offset)
-            body_start = reader.read_offset + struct.calcsize("<HHH")
-            per_frame = people * points * (dims + 1) * 4
-            frames = (size - body_start) // per_frame if per_frame else 0
-        else:
-            return  # other versions: pose-format's own reader decides (it refuses unknown ones)
-    except Exception as err:  # a header pose-format cannot parse, or longer than the limit
-        detail = f"{type(err).__name__}: {err}" if size <= MAX_HEADER_BYTES else f"no header within {MAX_HEADER_BYTES} bytes"
-        raise DemonstrationError(f"not a readable .pose file ({detail})", path=path) from None
-    if frames > MAX_FRAMES:
-        raise DemonstrationError(f"declares {frames} frames, more than the {MAX_FRAMES} this nlo_lab reads", path=path)
-    if people > MAX_PEOPLE:
-        raise DemonstrationError(f"declares {people} people per frame, more than {MAX_PEOPLE}", path=path)
-    body = frames * people * points * (dims + 1) * 4
-    if version == 0.2 and body != size - body_start:
-        raise DemonstrationError(
-            f"declares {frames} frames x {people} people x {points} points ({body} bytes), "
-            f"but the file holds {size - body_start} bytes after its header", path=path,
-        )
-
-
-def _read(path: Path):
-    try:
-        from pose_format import Pose
-    except ImportError as err:  # pragma: no cover - a declared dependency
-        raise DemonstrationError(f"reading .pose files needs the pose-format package ({err})", path=path) from None
-    try:
-        size = path.stat().st_size
-        if size:
-            _check_sizes(path, size)  # before the body is read or allocated
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise DemonstrationError("no such file", path=path) from None
-    except OSError as err:
-        raise DemonstrationError(f"cannot read the file ({err})", path=path) from None
-    if not raw:
-        raise DemonstrationError("the file is empty", path=path)
-    try:
-        pose = Pose.read(raw)
-        data = np.ma.getdata(pose.body.data)
-        mask = np.ma.getmaskarray(pose.body.data)
-        conf = np.asarray(pose.body.confidence)
-        fps = pose.body.fps
-    except Exception as err:  # pose-format raises many types on a truncated or foreign file
-        raise DemonstrationError(f"not a readable .pose file ({type(err).__name__}: {err})", path=path) from None
-    expected = sum(len(c.points) for c in pose.header.components)
-    if data.ndim != 4 or data.shape[2] != expected or data.shape[3] not in (2, 3) or conf.shape != data.shape[:3]:
-        raise DemonstrationError(
-            f"body data of shape {data.shape} (confidence {conf.shape}) does not match the header's {expected} points",
-            path=path, field="body.data",
-        )
-    return pose, data, mask, conf, fps
-
-
-class _Components:
-    """The first person's points per component: values ``(T, P, 3)`` and observed ``(T, P)``."""
-
-    def __init__(self, pose, data, mask, conf, path: Path):
-        self.path = path
-        self.names: dict[str, list[str]] = {}
-        self.values: dict[str, np.ndarray] = {}
-        self.observed: dict[str, np.ndarray] = {}
-        self.confidence: dict[str, np.ndarray] = {}
-        if data.shape[1] == 0:
-            raise DemonstrationError("the file holds no person", path=path, field="body.data")
-        start = 0
-        for comp in pose.header.components:
-            n = len(comp.points)
-            v = np.asarray(data[:, 0, start : start + n], dtype=np.float64)
-            if v.shape[-1] == 2:
-                v = np.concatenate([v, np.zeros(v.shape[:-1] + (1,))], axis=-1)
-            c = np.asarray(conf[:, 0, start : start + n], dtype=np.float64)
-            seen = (c > MIN_CONFIDENCE) & ~mask[:, 0, start : start + n].any(axis=-1)
-            bad = seen & ~np.isfinite(v).all(axis=-1)
-            if bad.any():
-                t, p = np.argwhere(bad)[0]
-                raise DemonstrationError("NaN or inf in an observed landmark", path=path, frame=int(t),
-                                         field=f"{comp.name}/{comp.points[p]}")
-            self.names[comp.name] = list(comp.points)
-            self.values[comp.name], self.observed[comp.name], self.confidence[comp.name] = v, seen, c
-            start += n
-
-    def point(self, component: str, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if name not in self.names[component]:
-            raise DemonstrationError(f"the {component} component has no {name} point", path=self.path, field=f"{component}/{name}")
-        i = self.names[component].index(name)
-        return self.values[component][:, i], self.observed[component][:, i], self.confidence[component][:, i]
-
-
-def _median_shoulder_distance(ls: np.ndarray, rs: np.ndarray, ok: np.ndarray, dims: slice) -> float:
-    d = np.linalg.norm((ls - rs)[ok][:, dims], axis=-1)
-    return float(np.median(d)) if d.size else float("nan")
-
-
-def _condition_arms(pts: dict, fps: float, max_gap: int, condition: bool = True) -> tuple[dict, dict]:
-    """Outlier frames of every arm point removed, gaps interpolated, points smoothed.
-
-    Returns the conditioned ``{(side, joint): (values (T, 3), valid (T,))}`` and counts of
-    repaired frames per kind (``meta["conditioning"]``).
-    """
-    if not condition:
-        return {k: fill_gaps(v, ok, max_gap) for k, (v, ok) in pts.items()}, {}
-    bad = {k: cond.spike_frames(v, ok) for k, (v, ok) in pts.items()}
-    counts = {"spike_frames": int(sum(b.sum() for b in bad.values())), "segment_jump_frames": 0}
-    for side in SIDES:
-        for parent, child in (("shoulder", "elbow"), ("elbow", "wrist")):
-            (pv, pok), (cv, cok) = pts[side, parent], pts[side, child]
-            jump = cond.segment_jump_frames(pv, cv, pok & cok & ~bad[side, parent]) & ~bad[side, child]
-            counts["segment_jump_frames"] += int(jump.sum())
-            bad[side, child] = bad[side, child] | jump
-    window = cond.window_frames(fps)
-    out = {}
-    for k, (v, ok) in pts.items():
-        values, valid = fill_gaps(v, ok & ~bad[k], max_gap)
-        out[k] = cond.savgol(values, valid, window), valid
-    counts["smoothing_window_frames"] = window
-    return out, counts
-
-
-def _reconstruct_depth(filled: dict, image: dict, z_to_m: float) -> tuple[dict, dict]:
-    """Image-only arms: depth of elbows and wrists from the segment lengths (module docstring).
-
-    ``filled`` holds image-plane points in metres with z = 0; ``image`` the raw landmarks,
-    whose z (times ``z_to_m``) only chooses the sign.
-    """
-    out = dict(filled)
-    lengths = {}
-    (ls, lok), (rs, rok) = filled["left", "shoulder"], filled["right", "shoulder"]
-    width = np.linalg.norm((ls - rs)[lok & rok], axis=-1)
-    width = float(np.median(width)) if width.size else NOMINAL_SHOULDER_WIDTH
-    for side in SIDES:
-        z_parent = np.zeros(len(ls))
-        for parent, child, seg in (("shoulder", "elbow", "upper"), ("elbow", "wrist", "fore")):
-            (pv, pok), (cv, cok) = out[side, parent], filled[side, child]
-            both = pok & cok
-            planar = np.linalg.norm((cv - pv)[:, :2], axis=-1)[both]
-            L = max(float(np.percentile(planar, 90)) if planar.size else 0.0, _SEGMENT_PER_SHOULDER[seg] * width)
-            lengths[f"{side}_{seg}"] = round(L, 4)
-            dz_img = (image[side, child][0][:, 2] - image[side, parent][0][:, 2]) * z_to_m
-            toward = np.where(np.nan_to_num(dz_img) > DEPTH_SIGN_MARGIN, 1.0, -1.0)
-            z = z_parent + cond.depth_from_lengths(pv, cv, L, toward)
-            values = cv.copy()
-            values[:, 2] = z
-            out[side, child] = (np.where(cok[:, None], values, np.nan), cok)
-            z_parent = z
-    return out, lengths
-
-
-def _face_centre(comps: "_Components", source: str, use_world: bool, unscale: np.ndarray, extra: float,
-                 m_per_px: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """The face's reference point ``(T, 3)`` in the arms' frame and its weight ``(T,)``, or None.
-
-    Ears' midpoint, else eyes', else the nose (from the arms' component); else the mean
-    of the face mesh (image landmarks, direction only: the world and image axes agree).
-    """
-    names = comps.names.get(source, [])
-    for group in _FACE_POINTS:
-        if all(n in names for n in group):
-            got = [comps.point(source, n) for n in group]
-            seen = np.logical_and.reduce([ok for _, ok, _ in got])
-            if seen.sum() >= 1:
-                weight = np.minimum.reduce([c for _, _, c in got]) * seen
-                centre = np.mean([v for v, _, _ in got], axis=0)
-                scale = unscale * extra if use_world else unscale
-                return centre * scale, weight
-    for comp in ("FACE_LANDMARKS", "FACE"):
-        if comp in comps.names:
-            v, seen = comps.values[comp], comps.observed[comp]
-            frames = seen.mean(axis=1) > 0.5
-            if frames.any():
-                centre = np.where(seen[..., None], v, 0.0).sum(1) / np.maximum(seen.sum(1), 1)[:, None]
-                centre = centre * np.array([m_per_px, m_per_px, 0.0])  # in the image plane only
-                return centre, frames.astype(float)
-    return None
-
-
-def _mean_direction(vec: np.ndarray, weight: np.ndarray) -> np.ndarray | None:
-    n = np.linalg.norm(vec, axis=-1)
-    w = np.where(np.isfinite(n) & (n > 1e-9), np.nan_to_num(weight), 0.0)
-    if w.sum() <= 0:
-        return None
-    mean = (np.nan_to_num(vec) / np.where(w > 0, n, 1.0)[:, None] * w[:, None]).sum(0)
-    norm = np.linalg.norm(mean)
-    return mean / norm if norm > 1e-9 else None
-
-
-def _up_direction(ls, rs, shoulders_ok, hips, face) -> tuple[np.ndarray, str]:
-    """The clip's up direction in the arms' frame and where it came from (module docstring)."""
-    centre = (ls + rs) / 2
-    if len(hips) == 2:
-        (lh, lw), (rh, rw) = hips
-        w = np.minimum(lw, rw) * shoulders_ok
-        if np.median(np.minimum(lw, rw)) >= HIP_MIN_CONFIDENCE:
-            up = _mean_direction(centre - (lh + rh) / 2, w)
-            if up is not None:
-                return up, "hips"
-    if face is not None:
-        point, w = face
-        vec = point - centre
-        vec[:, 2] = 0.0  # in the image plane: invariant to camera roll, and MediaPipe's depth of the face is noisy
-        up = _mean_direction(vec, w * shoulders_ok)
-        if up is not None:
-            return up, "face"
-    return _IMAGE_UP, "image"
 
 
 def load_pose(path, condition: bool = True) -> Demonstration:
@@ -369,7 +137,7 @@ def load_pose(path, condition: bool = True) -> Demonstration:
             frame, NaN or inf in an observed landmark, an arm of zero length.
     """
     path = Path(path)
-    pose, data, mask, conf, fps = _read(path)
+    pose, data, mask, conf, fps = read_pose_file(path)
     T = data.shape[0]
     if T == 0:
         raise DemonstrationError("the recording has no frames", path=path, field="body.data")
@@ -379,7 +147,7 @@ def load_pose(path, condition: bool = True) -> Demonstration:
         raise DemonstrationError(f"fps is not a number: {fps!r}", path=path, field="fps") from None
     if not np.isfinite(fps) or fps <= 0:
         raise DemonstrationError(f"fps must be > 0, got {fps}", path=path, field="fps")
-    comps = _Components(pose, data, mask, conf, path)
+    comps = PoseComponents(pose, data, mask, conf, path)
     if _POSE not in comps.names:
         raise DemonstrationError(f"no {_POSE} component (found {sorted(comps.names)})", path=path, field=_POSE)
     W, H = float(pose.header.dimensions.width), float(pose.header.dimensions.height)
@@ -395,7 +163,7 @@ def load_pose(path, condition: bool = True) -> Demonstration:
             image[side, joint] = v, ok
     img_ls, img_rs = image["left", "shoulder"][0], image["right", "shoulder"][0]
     img_sh_ok = image["left", "shoulder"][1] & image["right", "shoulder"][1]
-    img_width_px = _median_shoulder_distance(img_ls, img_rs, img_sh_ok, slice(0, 2))
+    img_width_px = median_shoulder_distance(img_ls, img_rs, img_sh_ok, slice(0, 2))
     if not img_width_px > 0:
         raise DemonstrationError("the shoulders are never apart in the image", path=path, field=f"{_POSE}/LEFT_SHOULDER")
 
@@ -414,14 +182,14 @@ def load_pose(path, condition: bool = True) -> Demonstration:
                     raise DemonstrationError("required landmark missing in every frame", path=path, field=f"{_WORLD}/{side.upper()}_{joint.upper()}")
                 pts[side, joint] = v * unscale, ok
         sh_ok = pts["left", "shoulder"][1] & pts["right", "shoulder"][1]
-        width = _median_shoulder_distance(pts["left", "shoulder"][0], pts["right", "shoulder"][0], sh_ok, slice(0, 3))
+        width = median_shoulder_distance(pts["left", "shoulder"][0], pts["right", "shoulder"][0], sh_ok, slice(0, 3))
         if not width > 0:  # e.g. every world landmark at zero: no scale to take from them
             raise DemonstrationError("the world landmarks put both shoulders at one point", path=path, field=f"{_WORLD}/LEFT_SHOULDER")
         extra = 1.0
         if not (_WORLD_SHOULDER_RANGE[0] <= width <= _WORLD_SHOULDER_RANGE[1]):
             extra = NOMINAL_SHOULDER_WIDTH / width  # the stored world scale is implausible: fall back to the nominal width
             pts = {k: (v * extra, ok) for k, (v, ok) in pts.items()}
-        world_xy = _median_shoulder_distance(pts["left", "shoulder"][0], pts["right", "shoulder"][0], sh_ok, slice(0, 2))
+        world_xy = median_shoulder_distance(pts["left", "shoulder"][0], pts["right", "shoulder"][0], sh_ok, slice(0, 2))
         m_per_px = world_xy / img_width_px
         meta_scale = {"scale": "world landmarks / frame size" if extra == 1.0 else "world landmarks rescaled to the nominal shoulder width",
                       "world_shoulder_width_m": float(width * extra)}
@@ -437,20 +205,20 @@ def load_pose(path, condition: bool = True) -> Demonstration:
         hips = [(comps.point(_POSE, n)[0] * flat, comps.point(_POSE, n)[2] * comps.point(_POSE, n)[1]) for n in hip_names]
 
     # outliers removed, gaps interpolated (long ones stay masked), then smoothed
-    filled, repaired = _condition_arms(pts, fps, max_gap, condition)
+    filled, repaired = condition_arms(pts, fps, max_gap, condition)
     depth = "world" if use_world else "image"
     if not use_world:
         zs = np.concatenate([v[ok][:, 2] for v, ok in image.values()])
         z_normalised = zs.size == 0 or np.abs(zs).max() <= 10.0  # MediaPipe's scale (like x / width), else pixels
-        filled, lengths = _reconstruct_depth(filled, image, (W if z_normalised and W > 0 else 1.0) * m_per_px)
+        filled, lengths = reconstruct_depth(filled, image, (W if z_normalised and W > 0 else 1.0) * m_per_px)
         meta_scale["segment_lengths_m"] = lengths
         warnings.warn(f"{path.name}: no world landmarks: depth reconstructed from the image and the limb lengths "
                       "(less reliable than a recording with world landmarks)", UserWarning, stacklevel=2)
 
     # ---------------------------------------------------------------- body frame
     (ls, ls_ok), (rs, rs_ok) = filled["left", "shoulder"], filled["right", "shoulder"]
-    face = _face_centre(comps, source, use_world, unscale if use_world else flat, extra if use_world else 1.0, m_per_px)
-    up, up_from = _up_direction(ls, rs, ls_ok & rs_ok, hips, face)
+    face = face_centre(comps, source, use_world, unscale if use_world else flat, extra if use_world else 1.0, m_per_px)
+    up, up_from = up_direction(ls, rs, ls_ok & rs_ok, hips, face)
     if up_from == "image":
         warnings.warn(f"{path.name}: neither the face nor the hips are seen: the body's up is taken from the image's "
                       "up; if the camera was rolled (a sideways phone), the demonstration is wrong", UserWarning, stacklevel=2)
