@@ -102,7 +102,7 @@ def test_stages(module, stage):
 
 # the synthetic corpus is built on the human package: human imports it only to re-export it
 # (nlo_lab.human's lazy sign_corpus & co., and the old import paths of notebooks of earlier versions)
-CORPUS_REEXPORTS = {"nlo_lab.human", "nlo_lab.human.body", "nlo_lab.human.signs", "nlo_lab.human.corpus"}
+CORPUS_REEXPORTS = {"nlo_lab.human", "nlo_lab.human.signs"}
 
 
 def test_human_imports_the_corpus_only_to_re_export_it():

@@ -15,9 +15,7 @@ OLD_TO_NEW = {
     "nlo_lab.evaluate": ["nlo_lab.evaluation"],
     "nlo_lab.train": ["nlo_lab.training", "nlo_lab.model"],
     "nlo_lab.losses": ["nlo_lab.objective"],
-    "nlo_lab.human.body": ["nlo_lab.corpus"],
     "nlo_lab.human.signs": ["nlo_lab.corpus"],
-    "nlo_lab.human.corpus": ["nlo_lab.corpus"],
 }
 
 

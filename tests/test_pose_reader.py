@@ -281,3 +281,19 @@ def test_real_missing_left_hand_is_masked_not_zero(shared_pose):
     assert np.isnan(d.finger_positions[:, 0]).all() and np.isnan(d.wrist_rotations[:, 0]).all()
     assert 0.8 * len(d) <= d.finger_mask[:, 1, 0].sum() < len(d)  # the right hand: present in about 85 % of frames
     assert np.isnan(d.finger_positions[~d.finger_mask[:, 1, 0], 1]).all()
+
+
+def test_pose_files_and_videos_share_one_first_check(tmp_path):
+    """Missing, folder, empty: the same one-line messages for a .pose file and a video (human.file_head)."""
+    from nlo_lab.human.video_frames import check_video_file
+
+    (tmp_path / "d.pose").mkdir()
+    (tmp_path / "d.mp4").mkdir()
+    (tmp_path / "e.pose").write_bytes(b"")
+    (tmp_path / "e.mp4").write_bytes(b"")
+    for name, match in (("missing", "no such file"), ("d", "is a folder, not a {} file"), ("e", "the file is empty")):
+        with pytest.raises(DemonstrationError, match=match.format(".pose")) as pose_err:
+            load_pose(tmp_path / f"{name}.pose")
+        with pytest.raises(DemonstrationError, match=match.format("video")) as video_err:
+            check_video_file(tmp_path / f"{name}.mp4")
+        assert f"{name}.pose" in str(pose_err.value) and f"{name}.mp4" in str(video_err.value)

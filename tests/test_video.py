@@ -151,14 +151,14 @@ def test_every_container_reads(tmp_path, suffix):
 
 
 def test_pose_workers_never_more_than_asked_available_or_useful(monkeypatch):
-    from nlo_lab.human import io_video
+    from nlo_lab.human import pose_estimation
 
     monkeypatch.delenv("NLO_LAB_THREADS", raising=False)
     cores = len(os.sched_getaffinity(0))
     assert pose_workers() == cores  # the default: every core this process may use
     assert pose_workers(1) == 1
     assert pose_workers(64) == min(64, cores)
-    monkeypatch.setattr(io_video, "_available_cores", lambda: 8)
+    monkeypatch.setattr(pose_estimation, "_available_cores", lambda: 8)
     assert pose_workers() == 8
     assert pose_workers(3) == 3  # never more than asked
     monkeypatch.setenv("NLO_LAB_THREADS", "2")
@@ -166,9 +166,9 @@ def test_pose_workers_never_more_than_asked_available_or_useful(monkeypatch):
     assert pose_workers(5) == 5  # an explicit argument wins over the environment
     monkeypatch.delenv("NLO_LAB_THREADS")
     assert pose_workers(frames=SAMPLE_FRAMES) == 2  # 58 frames are two segments: a third worker has nothing to do
-    assert pose_workers(frames=io_video.SEGMENT_FRAMES) == 1
-    assert pose_workers(frames=5 * io_video.SEGMENT_FRAMES + 1) == 6
-    monkeypatch.setattr(io_video, "_available_cores", lambda: 1)
+    assert pose_workers(frames=pose_estimation.SEGMENT_FRAMES) == 1
+    assert pose_workers(frames=5 * pose_estimation.SEGMENT_FRAMES + 1) == 6
+    monkeypatch.setattr(pose_estimation, "_available_cores", lambda: 1)
     assert pose_workers(8) == 1  # never more than the cores available
     with pytest.raises(DemonstrationError, match="threads"):
         pose_workers(0)
@@ -176,10 +176,10 @@ def test_pose_workers_never_more_than_asked_available_or_useful(monkeypatch):
 
 def test_the_result_does_not_depend_on_the_number_of_workers(sample, monkeypatch):
     """Two workers (forced, even on one core) give the one-worker landmarks and demonstration, frame by frame."""
-    from nlo_lab.human import io_video
+    from nlo_lab.human import pose_estimation
 
     demo1, pose_file, _ = sample
-    monkeypatch.setattr(io_video, "_available_cores", lambda: 4)
+    monkeypatch.setattr(pose_estimation, "_available_cores", lambda: 4)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", VideoWarning)
         video = estimate_pose(SAMPLE, threads=4)

@@ -3,23 +3,9 @@
 The kinematics of this body are in :mod:`nlo_lab.corpus.arm_kinematics`, its surface
 (torso, neck, head) in :mod:`nlo_lab.corpus.body_distance`.
 
-Frame: the body frame of :mod:`nlo_lab.human.demonstration` (origin at the centre of
-the shoulder joints, X forward, Y to the signer's left, Z up). Units: metres, radians.
-
-Arm (per side, 7 angles, ``ARM_JOINT_NAMES``): 3-DOF shoulder as intrinsic Euler angles
-``R_shoulder = Ry(-flexion) Rx(-abduction) Rz(rotation)`` (all zero = arm hanging
-straight down, palm facing the thigh, thumb forward), elbow flexion, forearm pronation
-(positive) / supination (negative) about the forearm axis, wrist flexion (towards the
-palm) / extension and ulnar (positive) / radial deviation. The angles mean the same on
-both sides: the left arm is the mirror image (Y -> -Y) of a right arm with the same angles.
-
-Hand (per side, ``(5, 4)`` angles thumb..pinky, ``FINGER_JOINT_NAMES``): every finger is a
-chain ``root -> j1 -> j2 -> j3 -> tip``. For index..pinky the root->j1 segment is the
-metacarpal (fixed in the palm), j1 = MCP (flexion + spread), j2 = PIP, j3 = DIP. For the
-thumb the root->j1 segment is a fixed carpal offset, j1 = CMC (flexion across the palm +
-palmar abduction, with coupled axial rotation = opposition), j2 = MCP, j3 = IP. The
-finger *base* of a Demonstration is the MCP joint: chain point 2 for the thumb, 1 otherwise
-(``BASE_INDEX``).
+Frame and units: the body frame of :mod:`nlo_lab.human.demonstration`, metres, radians.
+The joints (``ARM_JOINT_NAMES``, ``FINGER_JOINT_NAMES``) and what their angles mean are
+described with the kinematics, :mod:`nlo_lab.corpus.arm_kinematics`.
 
 Finger segment lengths are fractions of hand length after Buchholz, Armstrong & Goldstein (1992),
 "Anthropometric data for describing the kinematics of the human hand", Ergonomics 35(3).
