@@ -78,6 +78,35 @@ print(wrist)
 print(poses[wrist][0].numpy().round(3))
 
 # %% [markdown]
+# ### FK as code
+#
+# Every link hangs from its parent by a joint: a constant origin transform from the URDF, then the joint's
+# own motion (a rotation by `q` about its axis, or a translation along it):
+#
+# $$T_{world,link} = T_{world,parent} \cdot T_{origin} \cdot T_{joint}(q)$$
+#
+# `body_poses` below computes every local transform `T_origin · T_joint(q)` of the tree in one matrix product
+# (a rotation is linear in sin q and cos q), then composes the chain. `_compose_by_levels` is the equation
+# as written: one tree level after the other, each frame its parent's frame times its local transform.
+
+# %%
+import inspect
+from nlo_lab.robot import KinematicTree
+print(inspect.getsource(KinematicTree.body_poses))
+print(inspect.getsource(KinematicTree._compose_by_levels))
+
+# %% [markdown]
+# At small batches a faster composition runs instead (pointer jumping, further below). `backend.reference()`
+# switches every fast path off, so the code above is what runs; the poses agree to float32 rounding
+# (the two compositions multiply the same matrices in another order).
+
+# %%
+from nlo_lab import backend
+with backend.reference():
+    readable = yumi.forward_kinematics(q)
+print(f"largest difference to the fast path: {max(float((readable[k] - poses[k]).abs().max()) for k in poses):.1e}")
+
+# %% [markdown]
 # FK is batched and differentiable: thousands of random poses inside the limits at once give a picture of
 # the workspace of the left wrist.
 
