@@ -4,7 +4,7 @@
 
 For every recording in ``../shared/data/pose/`` (skipped with a note when that folder is
 absent) and every clip of the synthetic test split, and for every robot, it retargets
-with the shipped model (``nlo_lab.retarget.retarget``: smoothness term, warm start,
+with the shipped model (``nlo_lab.inference.retarget``: smoothness term, warm start,
 retiming) and prints per input: Fréchet distance (of the samples, so before any
 retiming), the joint speed over the limit had the frames played at the recording's rate,
 the slowdown retiming needed, velocity violations on the output's own time base, joint
@@ -33,7 +33,7 @@ from results_doc import stamp, update_section  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
 from nlo_lab.corpus import sign_corpus  # noqa: E402
 from nlo_lab.objective import LossWeights  # noqa: E402
-from nlo_lab.retarget import retarget  # noqa: E402
+from nlo_lab.inference import retarget  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
 
@@ -78,7 +78,7 @@ def time_170(weights: LossWeights) -> tuple[float, float, float]:
     (the machine is shared: the ratio of the two says what smoothing costs)."""
     import os
 
-    from nlo_lab.optimize import OptimizeSettings
+    from nlo_lab.inference import OptimizeSettings
 
     path = SHARED_POSE / "mediapipe_right_hand_170f.pose"
     if path.is_file():
@@ -171,7 +171,7 @@ def main(argv=None) -> int:
         "## Robot-ready motion (issue 14)",
         stamp().strip(),
         f"- smoothness weight {weights.smooth:g}; shipped checkpoints; 100 latent iterations, patience 5; "
-        "retiming to the published joint velocity limits (`nlo_lab.retime`)",
+        "retiming to the published joint velocity limits (`nlo_lab.inference.retime`)",
         "Per input: Fréchet distance of the samples (retiming moves samples in time, not in space); "
         "'speed / limit at recorded rate' = largest joint speed over its limit had the frames played 1/fps apart; "
         "slowdown = output duration over the recording's; violations counted on the output file's own time base.",

@@ -45,15 +45,14 @@ import results_doc  # noqa: E402
 from nlo_lab.evaluation import BaselineSettings, evaluate, format_table  # noqa: E402
 from nlo_lab.errors import CheckpointError  # noqa: E402
 from nlo_lab.corpus import sign_corpus  # noqa: E402
-from nlo_lab.objective import targets_from_demonstration  # noqa: E402
 from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
-from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent  # noqa: E402
+from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetInputs, optimize_joints, optimize_latent  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
 from nlo_lab.training import (  # noqa: E402
     SupervisedSettings,
     TrainSettings,
-    corpus_targets,
+    corpus_inputs,
     supervised_dataset,
     supervised_network,
     train_model,
@@ -128,7 +127,8 @@ def init_ablation(robot, model, demos, budgets=BUDGETS):
     from tqdm.auto import tqdm
 
     top = max(budgets)
-    targets = [targets_from_demonstration(d, dtype=robot.lower_limits.dtype) for d in demos]
+    inputs = [RetargetInputs.from_demonstration(d, dtype=robot.lower_limits.dtype) for d in demos]
+    targets = [x.targets for x in inputs]
     frames = np.array([len(d) for d in demos], dtype=float)
     rows, curves = {}, {}
     bar = tqdm(total=len(INITS) * len(demos), desc="init ablation", file=sys.stderr, leave=False)
@@ -136,9 +136,9 @@ def init_ablation(robot, model, demos, budgets=BUDGETS):
         fr = {b: [] for b in budgets}
         secs = {b: 0.0 for b in budgets}
         hist = np.zeros(top + 1)
-        for demo, tg in zip(demos, targets):
+        for demo, x in zip(demos, inputs):
             for b in budgets:
-                r = optimize_latent(model, robot, tg, OptimizeSettings(iterations=b, patience=NO_STOP, **kw))
+                r = optimize_latent(model, robot, x.targets, OptimizeSettings(iterations=b, patience=NO_STOP, **kw), encoder_input=x.encoder)
                 fr[b].append(_frechet(robot, demo, r.q))
                 secs[b] += r.seconds
                 if b == top:
@@ -192,7 +192,7 @@ VARIANTS = (("AE", "mlp", "supervised"), ("GAE", "graph", "supervised"), ("AE+FK
 def table3(robot, demos, train_seconds: float, iterations: int):
     """Train the four variants for the same wall-clock budget; Init and Optim Fréchet per sequence."""
     data, labels, _ = supervised_dataset(robot, SupervisedSettings(), progress=True)
-    val = corpus_targets("train").index(slice(2, None, 16)).index(slice(0, 600))  # train frames not in `data`
+    val = corpus_inputs("train").index(slice(2, None, 16)).index(slice(0, 600))  # train frames not in `data`
     results, trained = {}, {}
     for name, kind, objective in VARIANTS:
         print(f"Table III: training {name} ({kind}, {objective}) for {train_seconds:.0f} s ...", file=sys.stderr)
@@ -200,9 +200,9 @@ def table3(robot, demos, train_seconds: float, iterations: int):
         trained[name] = (secs, steps)
         per = {"Init": {}, "Optim": {}}
         for demo in demos:
-            tg = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
+            x = RetargetInputs.from_demonstration(demo, dtype=robot.lower_limits.dtype)
             for col, iters in (("Init", 0), ("Optim", iterations)):
-                r = optimize_latent(model, robot, tg, OptimizeSettings(init="encoder", iterations=iters))
+                r = optimize_latent(model, robot, x.targets, OptimizeSettings(init="encoder", iterations=iters), encoder_input=x.encoder)
                 q = r.q.detach().cpu().double().numpy()
                 per[col][demo.name] = (tracking_errors(demo, robot, q)["frechet_m"], self_collision_frames(robot, q) > 0, r.seconds)
         results[name] = per

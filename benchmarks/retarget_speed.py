@@ -22,11 +22,11 @@ import torch
 
 from nlo_lab.corpus import sign_corpus
 from nlo_lab.human.demonstration import Demonstration
-from nlo_lab.objective import Targets, targets_from_demonstration
+from nlo_lab.objective import Targets
 from nlo_lab.metrics import tracking_errors
-from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
+from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetInputs, optimize_joints, optimize_latent
 from nlo_lab.robot import load_robot
-from nlo_lab.model import load_checkpoint, load_pretrained
+from nlo_lab.model import EncoderInput, load_checkpoint, load_pretrained
 
 
 def concat_demos(demos: list[Demonstration], frames: int) -> Demonstration:
@@ -38,12 +38,18 @@ def concat_demos(demos: list[Demonstration], frames: int) -> Demonstration:
     return Demonstration(fps=demos[0].fps, name=f"{frames} frames", **arrays)
 
 
-def profile_iteration(model, robot, targets: Targets, reps: int = 20) -> dict[str, float]:
+def latent(model, robot, demo: Demonstration, settings: OptimizeSettings, **options):
+    """Targets and encoder input of ``demo`` (timed with the optimisation), then :func:`optimize_latent`."""
+    x = RetargetInputs.from_demonstration(demo)
+    return optimize_latent(model, robot, x.targets, settings, encoder_input=x.encoder, **options)
+
+
+def profile_iteration(model, robot, targets: Targets, features: EncoderInput, reps: int = 20) -> dict[str, float]:
     """Median wall time [ms] of each stage of one latent-optimisation iteration (the optimiser's own path)."""
     from nlo_lab.objective import Objective
-    from nlo_lab.optimize import _Adam
+    from nlo_lab.inference import Adam as _Adam
 
-    z = model.encode(targets.node_features, targets.edge_features).detach().requires_grad_(True)
+    z = model.encode(features.node_features, features.edge_features).detach().requires_grad_(True)
     for p in model.parameters():
         p.requires_grad_(False)
     loss_fn = Objective(robot, targets)
@@ -86,23 +92,24 @@ def main() -> None:
     # 1. 170-frame clip, 100 iterations.
     clip = concat_demos(test, 170)
     settings = OptimizeSettings(init="encoder", iterations=100, patience=100)  # no early stop: the full budget
-    optimize_latent(model, robot, targets_from_demonstration(clip), OptimizeSettings(iterations=3))  # warm-up
+    latent(model, robot, clip, OptimizeSettings(iterations=3))  # warm-up
     times = []
     for _ in range(3):
         t0 = time.perf_counter()
-        r = optimize_latent(model, robot, targets_from_demonstration(clip), settings)
+        r = latent(model, robot, clip, settings)
         times.append(time.perf_counter() - t0)
     print(f"170 frames x 100 iterations: {statistics.median(times):.3f} s median of 3 (target <= 1.5 s), "
           f"{r.iterations} steps, loss {r.history[0]:.1f} -> {min(r.history):.1f}")
     for frames in (170, 1):
-        parts = profile_iteration(model, robot, targets_from_demonstration(clip).index(slice(0, frames)), reps=20 if frames > 1 else 200)
+        x = RetargetInputs.from_demonstration(clip).index(slice(0, frames))
+        parts = profile_iteration(model, robot, x.targets, x.encoder, reps=20 if frames > 1 else 200)
         print(f"  per iteration at batch {frames} [ms, median]: " + ", ".join(f"{k} {v:.2f}" for k, v in parts.items()) + f"; sum {sum(parts.values()):.2f}")
     t_def = time.perf_counter()
-    r = optimize_latent(model, robot, targets_from_demonstration(clip), OptimizeSettings())
+    r = latent(model, robot, clip, OptimizeSettings())
     print(f"  with the default stop (patience 5): {time.perf_counter() - t_def:.3f} s, {r.iterations} steps")
 
     # 2. One frame, 30 iterations, warm-started from the clip's result.
-    one = targets_from_demonstration(clip).index(slice(80, 81))
+    one = RetargetInputs.from_demonstration(clip).targets.index(slice(80, 81))
     z_prev = r.z[79:80]
     ms = []
     for _ in range(20):
@@ -115,10 +122,11 @@ def main() -> None:
     rows = {"encoder only": [], "encoder + latent opt": [], "zeros + latent opt": [], "random + latent opt": [], "joint space (clamp)": []}
     secs = {k: 0.0 for k in rows}
     for demo in test[: args.clips]:
-        t = targets_from_demonstration(demo)
+        x = RetargetInputs.from_demonstration(demo)
+        t = x.targets
         runs = {
-            "encoder only": lambda: optimize_latent(model, robot, t, OptimizeSettings(iterations=0)),
-            "encoder + latent opt": lambda: optimize_latent(model, robot, t, OptimizeSettings()),
+            "encoder only": lambda: optimize_latent(model, robot, t, OptimizeSettings(iterations=0), encoder_input=x.encoder),
+            "encoder + latent opt": lambda: optimize_latent(model, robot, t, OptimizeSettings(), encoder_input=x.encoder),
             "zeros + latent opt": lambda: optimize_latent(model, robot, t, OptimizeSettings(init="zeros")),
             "random + latent opt": lambda: optimize_latent(model, robot, t, OptimizeSettings(init="random")),
             "joint space (clamp)": lambda: optimize_joints(robot, t, JointOptimizeSettings()),

@@ -8,7 +8,7 @@ Run::
 Measured in one run:
 
 1. **Retarget time against sequence length** (30 to 500 frames; clips of the test
-   split concatenated): :func:`nlo_lab.retarget.retarget` with 100 latent iterations
+   split concatenated): :func:`nlo_lab.inference.retarget` with 100 latent iterations
    forced (no early stop), median of ``--repeats``; also with the default early stop.
 2. **One-frame interactive time**: one frame re-optimised with 30 iterations from the
    encoder's latent (what a slider move costs), median and 90th percentile over
@@ -45,9 +45,8 @@ from nlo_lab.evaluation import mean_objective  # noqa: E402
 from nlo_lab.errors import CheckpointError  # noqa: E402
 from nlo_lab.human import Demonstration  # noqa: E402
 from nlo_lab.corpus import sign_corpus  # noqa: E402
-from nlo_lab.objective import targets_from_demonstration  # noqa: E402
-from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent  # noqa: E402
-from nlo_lab.retarget import retarget  # noqa: E402
+from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetInputs, optimize_joints, optimize_latent  # noqa: E402
+from nlo_lab.inference import retarget  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
 from nlo_lab.training import TrainSettings, train_model  # noqa: E402
@@ -163,11 +162,12 @@ def main(argv=None) -> int:
         print(f"{n:>4} frames: 100 iterations {full:.3f} s; early stop {early:.3f} s ({es[0].optimization.iterations} it)")
 
     # 2. one frame, 30 iterations
-    tg_all = targets_from_demonstration(demos[0], dtype=robot.lower_limits.dtype)
-    idx = np.linspace(0, len(tg_all) - 1, args.frames).astype(int)
+    x_all = RetargetInputs.from_demonstration(demos[0], dtype=robot.lower_limits.dtype)
+    idx = np.linspace(0, len(x_all) - 1, args.frames).astype(int)
     one = []
     for i in idx:
-        r = optimize_latent(model, robot, tg_all.index(slice(int(i), int(i) + 1)), OptimizeSettings(iterations=30, patience=NO_STOP))
+        x = x_all.index(slice(int(i), int(i) + 1))
+        r = optimize_latent(model, robot, x.targets, OptimizeSettings(iterations=30, patience=NO_STOP), encoder_input=x.encoder)
         one.append(r.seconds)
     one_med, one_p90 = statistics.median(one), float(np.percentile(one, 90))
     print(f"one frame, 30 iterations: median {one_med * 1000:.1f} ms, p90 {one_p90 * 1000:.1f} ms")
@@ -175,8 +175,9 @@ def main(argv=None) -> int:
     # 4. joint-space race
     race = []
     for demo in demos[: args.sequences]:
-        tg = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
-        r = optimize_latent(model, robot, tg, OptimizeSettings(init="encoder", iterations=100))
+        x = RetargetInputs.from_demonstration(demo, dtype=robot.lower_limits.dtype)
+        tg = x.targets
+        r = optimize_latent(model, robot, tg, OptimizeSettings(init="encoder", iterations=100), encoder_input=x.encoder)
         target = mean_objective(robot, demo, r.q.detach().cpu().numpy())
         timeline, reached = joint_space_race(robot, tg, target, args.joint_cap)
         at_equal = next((m for t, m in timeline if t >= r.seconds), timeline[-1][1])
@@ -190,7 +191,7 @@ def main(argv=None) -> int:
     out += [
         "### Retarget time against sequence length",
         "",
-        "`nlo_lab.retarget.retarget` (targets + encoder + latent optimisation, the whole sequence as one batch);"
+        "`nlo_lab.inference.retarget` (targets + encoder + latent optimisation, the whole sequence as one batch);"
         f" median of {args.repeats} runs.",
         "",
         "| frames | 100 iterations [s] | early stop (patience 5) [s] | iterations taken |",

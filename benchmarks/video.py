@@ -8,7 +8,7 @@
    frames per second, the CPU time over the wall time (the cores the estimation actually
    kept busy), the load average beside each, the speed-up over one worker, and whether
    the landmarks are byte-identical to one worker's (they must be).
-2. Retargeting the sample's demonstration (``nlo_lab.retarget.retarget``, 100 iterations).
+2. Retargeting the sample's demonstration (``nlo_lab.inference.retarget``, 100 iterations).
 3. End to end per second of video: pose estimation (default workers: every core) +
    retargeting, over the video's duration; and the whole command
    ``nlo-lab retarget VIDEO --json`` as a user runs it (interpreter start and imports included).
@@ -31,8 +31,8 @@ import warnings
 from results_doc import ROOT, stamp, update_section
 
 from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration, video_info
-from nlo_lab.optimize import OptimizeSettings
-from nlo_lab.retarget import retarget
+from nlo_lab.inference import OptimizeSettings
+from nlo_lab.inference import retarget
 from nlo_lab.robot import load_robot
 from nlo_lab.model import load_pretrained
 

@@ -69,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", metavar="INPUT",
                    help="a .pose/.h5/.npz file, a video (.mp4/.mov/.webm/.avi), or demo:NAME for a clip of the embedded corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
-    p.add_argument("--init", default="encoder", choices=LazyChoices("nlo_lab.optimize", "INITS"), metavar="INIT",
+    p.add_argument("--init", default="encoder", choices=LazyChoices("nlo_lab.inference", "INITS"), metavar="INIT",
                    help="initialisation of the latent code: %(choices)s (default: encoder)")
     p.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=100,
                    help=f"latent optimisation budget, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
@@ -197,8 +197,7 @@ def _print_summary(summary: dict) -> None:
 def cmd_retarget(args) -> int:
     from nlo_lab.atomic_files import check_output_place
     from nlo_lab.objective import LossWeights
-    from nlo_lab.optimize import OptimizeSettings
-    from nlo_lab.retarget import retarget
+    from nlo_lab.inference import OptimizeSettings, RetargetConfig
     from nlo_lab.robot import load_robot
 
     if args.out:
@@ -214,7 +213,7 @@ def cmd_retarget(args) -> int:
         demo, video = _load_video(args, progress)
     else:
         demo = _load_input(args.input)
-    result = retarget(demo, robot, settings=settings, weights=weights, progress=progress)
+    result = RetargetConfig(robot, settings, weights, progress=progress).build()(demo)
     if video is not None:
         result.summary["pose_seconds"] = round(video.seconds, 4)
     if args.out:

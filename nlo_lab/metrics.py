@@ -343,7 +343,7 @@ def joint_speed_ratios(robot, angles: Any, times: Any = None, fps: float | None 
         times: ``(T,)`` sample times [s] (the trajectory file's own time base), or None
             with ``fps`` for frames ``1/fps`` apart.
     """
-    from nlo_lab.retime import speed_ratios
+    from nlo_lab.inference.retime import speed_ratios
 
     q = _angles(robot, angles)
     return speed_ratios(q, _times(q, times, fps), _limits(robot))

@@ -9,7 +9,8 @@ import pytest
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.objective import targets_from_demonstration
+from nlo_lab.inference import RetargetInputs
+from nlo_lab.model import encoder_input
 from nlo_lab.metrics import limit_violations
 from nlo_lab.robot import load_robot
 from nlo_lab.evaluation import METHODS, BaselineSettings, ik_wrists, run_method, wrist_positions
@@ -26,8 +27,7 @@ def case(request):
     demo = demonstration_from_robot(robot, q)
     torch.manual_seed(0)
     model = new_model(robot)  # untrained: the interface, not the quality, is under test
-    targets = targets_from_demonstration(demo)
-    net = train_supervised_net(robot, targets.node_features, q, FAST.supervised)
+    net = train_supervised_net(robot, encoder_input(demo).node_features, q, FAST.supervised)
     return robot, demo, model, net
 
 
@@ -85,7 +85,7 @@ def test_ik_ignores_masked_wrists():
 def test_supervised_network_is_deterministic_from_its_seed():
     robot = load_robot("nao")
     q = random_feasible_pose(robot, 32, seed=5)
-    x = targets_from_demonstration(demonstration_from_robot(robot, q)).node_features
+    x = encoder_input(demonstration_from_robot(robot, q)).node_features
     s = SupervisedSettings(epochs=3, hidden=(32,), batch_size=8, seed=11)
     a = train_supervised_net(robot, x, q, s)
     b = train_supervised_net(robot, x, q, s)
@@ -99,10 +99,10 @@ def test_supervised_network_is_deterministic_from_its_seed():
 def test_supervised_model_training_fits_the_labels():
     robot = load_robot("nao")
     q = random_feasible_pose(robot, 16, seed=2)
-    targets = targets_from_demonstration(demonstration_from_robot(robot, q))
+    x = encoder_input(demonstration_from_robot(robot, q))
     torch.manual_seed(0)
     model = new_model(robot)
-    history = train_supervised_model(model, targets, q, epochs=8, batch_size=8, seed=0)
+    history = train_supervised_model(model, x, q, epochs=8, batch_size=8, seed=0)
     assert history[-1] < 0.5 * history[0]
     assert not model.training
 
@@ -127,11 +127,11 @@ def test_table3_variants_train_and_stay_inside_the_limits():
 
     robot = load_robot("nao")
     q = random_feasible_pose(robot, 16, seed=4)
-    data = targets_from_demonstration(demonstration_from_robot(robot, q))
+    data = RetargetInputs.from_demonstration(demonstration_from_robot(robot, q))
     for name in VARIANTS:
         model, seconds, steps = train_variant(robot, name, data, q, 0.2)
         assert steps >= 1 and seconds > 0
-        out = model.decode(model.encode(data.node_features, data.edge_features))
+        out = model.decode(model.encode(data.encoder.node_features, data.encoder.edge_features))
         assert limit_violations(robot, out.detach().numpy()) == 0
     with pytest.raises(SettingsError, match="unknown variant"):
         train_variant(robot, "VAE", data, q, 0.1)

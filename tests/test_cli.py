@@ -176,8 +176,8 @@ def test_retarget_progress_bar_on_a_terminal_unless_quiet(monkeypatch, capsys, q
 
 def test_retarget_progress_bar_leaves_the_result_unchanged(capsys):
     from nlo_lab.human import corpus_clip, corpus_names
-    from nlo_lab.optimize import OptimizeSettings
-    from nlo_lab.retarget import retarget
+    from nlo_lab.inference import OptimizeSettings
+    from nlo_lab.inference import retarget
     from nlo_lab.robot import load_robot
 
     robot, demo = load_robot("nao"), corpus_clip(corpus_names("test")[1])

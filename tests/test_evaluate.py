@@ -11,7 +11,7 @@ import nlo_lab.evaluation.scores as scores
 from nlo_lab.cli import main as cli_main
 from nlo_lab.evaluation import JSON_KEYS, METHODS, BaselineSettings, Evaluation, SequenceScore, evaluate, format_table, to_json
 from nlo_lab.training import SupervisedSettings, new_model, train_supervised_net
-from nlo_lab.objective import targets_from_demonstration
+from nlo_lab.model import encoder_input
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
 FAST = BaselineSettings(iterations=2, ik_iterations=3)
@@ -32,7 +32,7 @@ def small(nao):
     demos = _demos(nao)
     torch.manual_seed(0)
     model = new_model(nao)
-    x = torch.cat([targets_from_demonstration(d).node_features for d in demos])
+    x = torch.cat([encoder_input(d).node_features for d in demos])
     q = random_feasible_pose(nao, len(x), seed=1)
     net = train_supervised_net(nao, x, q, SupervisedSettings(epochs=1, hidden=(8,)))
     return demos, model, net

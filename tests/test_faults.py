@@ -30,7 +30,7 @@ from nlo_lab.atomic_files import TEMP_TAG
 from nlo_lab.cli import OUTPUT_FILES, main
 from nlo_lab.errors import CheckpointError, DemonstrationError, SettingsError
 from nlo_lab.human import save_npz
-from nlo_lab.retarget import retarget
+from nlo_lab.inference import retarget
 from nlo_lab.robot import load_robot
 from test_human_io import write_authors_h5
 from test_pose_reader import write_pose
@@ -392,7 +392,7 @@ def test_the_largest_weights_in_range_still_give_a_finite_result(work, demo_npz,
 
 def test_a_nan_loss_is_an_error_not_an_output():
     from nlo_lab.objective import LossWeights
-    from nlo_lab.optimize import OptimizeSettings
+    from nlo_lab.inference import OptimizeSettings
 
     with pytest.raises(Exception, match="NaN"):  # the command line's range check keeps such weights out
         retarget(make_demo(T=6), load_robot("nao"), weights=LossWeights(ee=1e39), settings=OptimizeSettings(iterations=2))
@@ -452,7 +452,7 @@ def test_read_only_place_is_refused_before_work(work, demo_npz, capsys, monkeypa
 
 
 def test_permission_error_while_writing(work, demo_npz, capsys, monkeypatch):
-    import nlo_lab.trajectory as trajectory
+    import nlo_lab.inference.trajectory as trajectory
 
     def denied(self, path):
         raise PermissionError(errno.EACCES, "Permission denied", str(path))
@@ -486,7 +486,7 @@ def test_memory_error_is_one_line(work, demo_npz, capsys, monkeypatch):
     def oom(*args, **kwargs):
         raise MemoryError()
 
-    monkeypatch.setattr("nlo_lab.retarget.retarget", oom)
+    monkeypatch.setattr("nlo_lab.inference.Retargeter.__call__", oom)
     fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "nao", "--out", "out"], "out of memory")
 
 
@@ -494,7 +494,7 @@ def test_a_bug_still_gives_a_traceback(work, demo_npz, monkeypatch):
     def bug(*args, **kwargs):
         raise ZeroDivisionError("our bug")
 
-    monkeypatch.setattr("nlo_lab.retarget.retarget", bug)
+    monkeypatch.setattr("nlo_lab.inference.Retargeter.__call__", bug)
     with pytest.raises(ZeroDivisionError):  # exit 1 with a traceback, from the interpreter
         main(["retarget", str(demo_npz), "--robot", "nao"])
 
@@ -530,15 +530,15 @@ def test_stale_temp_folder_of_a_killed_run_is_cleaned(work, demo_npz, capsys):
 def test_warnings_are_one_line_each_and_quiet_silences_them(work, demo_npz, capsys, monkeypatch):
     import warnings
 
-    import nlo_lab.retarget as rt
+    from nlo_lab.inference import Retargeter
 
-    real = rt.retarget
+    real = Retargeter.__call__
 
     def noisy(*args, **kwargs):
         warnings.warn("first line\nsecond line", UserWarning)
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(rt, "retarget", noisy)
+    monkeypatch.setattr(Retargeter, "__call__", noisy)
     code, _, err = run(["retarget", demo_npz, "--robot", "nao", "--iters", "0", "--json"], capsys)
     assert code == 0
     assert err.splitlines() == ["nlo-lab: warning: first line\\nsecond line"]

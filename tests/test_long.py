@@ -10,8 +10,8 @@ import umsgpack
 
 from nlo_lab.objective import LossWeights
 from nlo_lab.metrics import frechet_distance, frechet_distance_reference
-from nlo_lab.optimize import OptimizeSettings
-from nlo_lab.retarget import retarget
+from nlo_lab.inference import OptimizeSettings
+from nlo_lab.inference import retarget
 from nlo_lab.robot import load_robot
 from nlo_lab.viz import _packing
 from nlo_lab.viz.export import VIEWER_MAX_FRAMES, decimate, recording_visualizer, static_html
@@ -118,7 +118,7 @@ def test_anchor_enters_the_smoothness_term():
     import torch
 
     from nlo_lab.objective import smoothness_loss, targets_from_demonstration
-    from nlo_lab.optimize import _smoothness
+    from nlo_lab.inference import smoothness_term as _smoothness
 
     robot = load_robot("nao")
     t = targets_from_demonstration(make_demo(T=4), dtype=robot.lower_limits.dtype)

@@ -17,12 +17,12 @@ from nlo_lab.human import corpus_clip, load_demonstration
 from nlo_lab.human.conditioning import condition_demonstration, savgol
 from nlo_lab.objective import LossWeights, smoothness_loss, targets_from_demonstration
 from nlo_lab.metrics import joint_speed_ratios, max_joint_step, max_joint_speed_ratio, velocity_violations
-from nlo_lab.optimize import OptimizeSettings, optimize_latent, sequence_start, initial_latent
-from nlo_lab.retarget import retarget
-from nlo_lab.retime import retime_times, segment_durations
+from nlo_lab.inference import OptimizeSettings, optimize_latent, sequence_start, initial_latent
+from nlo_lab.inference import retarget
+from nlo_lab.inference import retime_times, segment_durations
 from nlo_lab.robot import load_robot
-from nlo_lab.model import load_pretrained
-from nlo_lab.trajectory import RobotTrajectory
+from nlo_lab.model import encoder_input, load_pretrained
+from nlo_lab.inference import RobotTrajectory
 
 RECORDINGS = ["holistic_both_hands_47f.pose", "holistic_world_97f.pose", "mediapipe_right_hand_170f.pose"]
 
@@ -133,7 +133,7 @@ def test_trajectory_files_carry_time_and_old_files_still_read(tmp_path):
     ([0.0, np.nan, 0.2, 0.3], "NaN"),
 ])
 def test_bad_time_is_rejected(bad, match):
-    from nlo_lab.trajectory import TrajectoryError
+    from nlo_lab.inference import TrajectoryError
 
     with pytest.raises(TrajectoryError, match=match):
         RobotTrajectory("nao", ("a",), np.zeros((4, 1)), fps=25.0, time=bad)
@@ -172,9 +172,9 @@ def test_smoothing_removes_jumps_and_keeps_the_best_sequence(robots):
     robot = robots["nao"]
     model = load_pretrained(robot)
     demo = corpus_clip("introduction_12")
-    targets = targets_from_demonstration(demo)
-    rough = optimize_latent(model, robot, targets, OptimizeSettings(), weights=LossWeights(smooth=0.0))
-    smooth = optimize_latent(model, robot, targets, OptimizeSettings(), weights=LossWeights())
+    targets, x = targets_from_demonstration(demo), encoder_input(demo)
+    rough = optimize_latent(model, robot, targets, OptimizeSettings(), weights=LossWeights(smooth=0.0), encoder_input=x)
+    smooth = optimize_latent(model, robot, targets, OptimizeSettings(), weights=LossWeights(), encoder_input=x)
     step = lambda r: float((r.q[1:] - r.q[:-1]).abs().max())  # noqa: E731
     assert step(smooth) < 0.5 < step(rough)
     speed = lambda r: max_joint_speed_ratio(robot, r.q.double().numpy(), fps=demo.fps)  # noqa: E731
@@ -184,8 +184,9 @@ def test_smoothing_removes_jumps_and_keeps_the_best_sequence(robots):
 def test_sequence_start_picks_neighbouring_latents(robots):
     robot = robots["nao"]
     model = load_pretrained(robot)
-    targets = targets_from_demonstration(corpus_clip("hospital_11"))
-    z0 = initial_latent(model, targets, OptimizeSettings())
+    demo = corpus_clip("hospital_11")
+    targets = targets_from_demonstration(demo)
+    z0 = initial_latent(model, encoder_input(demo), OptimizeSettings())
     z = sequence_start(model, robot, targets, z0, LossWeights(), window=2)
     T = len(targets)
     flat0, flat = z0.flatten(1), z.flatten(1)

@@ -16,6 +16,10 @@ OLD_TO_NEW = {
     "nlo_lab.train": ["nlo_lab.training", "nlo_lab.model"],
     "nlo_lab.losses": ["nlo_lab.objective"],
     "nlo_lab.human.signs": ["nlo_lab.corpus"],
+    "nlo_lab.optimize": ["nlo_lab.inference"],
+    "nlo_lab.retarget": ["nlo_lab.inference"],
+    "nlo_lab.retime": ["nlo_lab.inference", "nlo_lab.inference.retime"],
+    "nlo_lab.trajectory": ["nlo_lab.inference"],
 }
 
 

@@ -7,15 +7,16 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.objective import LossWeights, latent_loss, objective, targets_from_demonstration
-from nlo_lab.optimize import (
+from nlo_lab.inference import (
     JointOptimizeSettings,
     OptimizeSettings,
-    _descend,
+    descend,
     initial_latent,
     optimize_joints,
     optimize_latent,
     optimize_stream,
 )
+from nlo_lab.model import encoder_input
 from nlo_lab.robot import load_robot
 from nlo_lab.training import new_model
 from robot_targets import demonstration_from_robot, random_feasible_pose
@@ -33,6 +34,12 @@ def setup(nao):
     q = random_feasible_pose(nao, 6, seed=11)
     targets = targets_from_demonstration(demonstration_from_robot(nao, q))
     return model, targets
+
+
+@pytest.fixture(scope="module")
+def features(nao):
+    """The encoder's input of the same frames as ``setup``'s targets."""
+    return encoder_input(demonstration_from_robot(nao, random_feasible_pose(nao, 6, seed=11)))
 
 
 @pytest.mark.parametrize(
@@ -60,14 +67,14 @@ def test_gradients_reach_z_through_the_frozen_decoder(nao, setup):
 
 
 @pytest.mark.parametrize("init", ["encoder", "zeros", "random", "train-stats"])
-def test_latent_optimisation_lowers_the_objective(nao, setup, init):
+def test_latent_optimisation_lowers_the_objective(nao, setup, features, init):
     model, targets = setup
     weights = LossWeights(smooth=0.0)  # the paper's objective: frames independent (smoothing: test_smoothness.py)
-    z0 = initial_latent(model, targets, OptimizeSettings(init=init))
+    z0 = initial_latent(model, features, OptimizeSettings(init=init))
     with torch.no_grad():
         start, _ = objective(nao, model.decode(z0), targets, weights)
         start = start + latent_loss(z0)
-    result = optimize_latent(model, nao, targets, OptimizeSettings(init=init, iterations=100), weights=weights)  # the default budget
+    result = optimize_latent(model, nao, targets, OptimizeSettings(init=init, iterations=100), weights=weights, encoder_input=features)
     assert result.history[0] == pytest.approx(float(start.mean()), rel=1e-5)
     assert min(result.history) < 0.7 * result.history[0]
     assert (result.loss <= start + 1e-6).all()  # the best point is kept per frame
@@ -99,16 +106,16 @@ def test_patience_stops_after_evaluations_without_improvement():
     def evaluate(x):  # flat loss: never improves
         return x.sum(-1) * 0 + 1.0, x, {}
 
-    *_, history, steps = _descend(x0, evaluate, None, iterations=100, patience=4, lr=0.1, callback=None)
+    *_, history, steps = descend(x0, evaluate, None, iterations=100, patience=4, lr=0.1, callback=None)
     assert steps == 4 and len(history) == 5
     def evaluate(x):  # a bowl: keeps improving
         return (x - 3).pow(2).sum(-1), x, {}
 
-    *_, history, steps = _descend(x0, evaluate, None, iterations=20, patience=4, lr=0.1, callback=None)
+    *_, history, steps = descend(x0, evaluate, None, iterations=20, patience=4, lr=0.1, callback=None)
     assert steps == 20 and history[-1] < history[0]
 
 
-def test_initialisations(nao, setup):
+def test_initialisations(nao, setup, features):
     model, targets = setup
     T = len(targets)
     zeros = initial_latent(model, targets, OptimizeSettings(init="zeros"))
@@ -129,11 +136,14 @@ def test_initialisations(nao, setup):
         with torch.no_grad():
             model.latent_mean.zero_()
             model.latent_std.fill_(1.0)
-    enc = initial_latent(model, targets, OptimizeSettings(init="encoder"))
-    torch.testing.assert_close(enc, model.encode(targets.node_features, targets.edge_features))
-    no_features = targets.__class__(**{**targets.__dict__, "node_features": None, "edge_features": None})
-    with pytest.raises(SettingsError, match="node_features"):
-        initial_latent(model, no_features, OptimizeSettings(init="encoder"))
+    enc = initial_latent(model, features, OptimizeSettings(init="encoder"))
+    torch.testing.assert_close(enc, model.encode(features.node_features, features.edge_features))
+    # the loss targets do not carry the encoder's input: the encoder start asks for it
+    assert not hasattr(targets, "node_features")
+    with pytest.raises(SettingsError, match="encoder_input"):
+        initial_latent(model, targets, OptimizeSettings(init="encoder"))
+    with pytest.raises(SettingsError, match="encoder_input"):
+        optimize_latent(model, nao, targets, OptimizeSettings(iterations=0))
 
 
 def test_z0_overrides_init_and_is_checked(nao, setup):
@@ -187,7 +197,7 @@ def test_float64_end_to_end(setup):
 
 
 def test_hand_written_adam_equals_torch_adam():
-    from nlo_lab.optimize import _Adam
+    from nlo_lab.inference import Adam as _Adam
 
     g = torch.Generator().manual_seed(10)
     x0 = torch.randn(4, 3, 2, generator=g, dtype=torch.float64)

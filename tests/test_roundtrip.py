@@ -28,9 +28,9 @@ import pytest
 import torch
 
 from nlo_lab.objective import LossWeights, point_plan, robot_points, targets_from_demonstration
-from nlo_lab.optimize import OptimizeSettings, optimize_latent
+from nlo_lab.inference import OptimizeSettings, optimize_latent
 from nlo_lab.robot import load_robot
-from nlo_lab.model import load_pretrained
+from nlo_lab.model import encoder_input, load_pretrained
 from robot_targets import demonstration_from_robot, random_feasible_pose
 
 WRIST_TOL = 0.05  # fraction of the arm length, median over poses and arms
@@ -47,10 +47,11 @@ def test_round_trip_recovers_wrist_and_elbow(name):
     robot = load_robot(name)
     model = load_pretrained(robot)
     q = random_feasible_pose(robot, 48, seed=7, margin=0.2)
-    targets = targets_from_demonstration(demonstration_from_robot(robot, q))
+    demo = demonstration_from_robot(robot, q)
+    targets = targets_from_demonstration(demo)
     # 48 independent random poses, not a motion: no smoothness term between them
     result = optimize_latent(model, robot, targets, OptimizeSettings(init="encoder", iterations=300, patience=20, lr=0.03),
-                             weights=LossWeights(smooth=0.0))
+                             weights=LossWeights(smooth=0.0), encoder_input=encoder_input(demo))
     assert min(result.history) < 0.1 * result.history[0]
     assert (result.q >= robot.lower_limits).all() and (result.q <= robot.upper_limits).all()
     with torch.no_grad():

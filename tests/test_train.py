@@ -8,7 +8,7 @@ import torch
 import nlo_lab.model.checkpoint as checkpoint
 import nlo_lab.training.train as training_mod
 from nlo_lab.errors import CheckpointError, SettingsError
-from nlo_lab.objective import targets_from_demonstration
+from nlo_lab.inference import RetargetInputs
 from nlo_lab.robot import load_robot
 from nlo_lab.model import CHECKPOINT_FORMAT_VERSION, load_checkpoint, load_pretrained, save_checkpoint
 from nlo_lab.training import TrainSettings, new_model, train_model
@@ -18,8 +18,8 @@ from robot_targets import demonstration_from_robot, random_feasible_pose
 @pytest.fixture(scope="module")
 def pose_data(nao):
     """Small train / validation sets the robot can meet exactly."""
-    train = targets_from_demonstration(demonstration_from_robot(nao, random_feasible_pose(nao, 96, seed=21)))
-    val = targets_from_demonstration(demonstration_from_robot(nao, random_feasible_pose(nao, 32, seed=22)))
+    train = RetargetInputs.from_demonstration(demonstration_from_robot(nao, random_feasible_pose(nao, 96, seed=21)))
+    val = RetargetInputs.from_demonstration(demonstration_from_robot(nao, random_feasible_pose(nao, 32, seed=22)))
     return train, val
 
 
@@ -44,7 +44,7 @@ def test_training_lowers_the_validation_loss_and_keeps_the_best(nao, pose_data):
     # The returned model is the best state: its validation loss is the reported one.
     assert training_mod._evaluate(result.model, nao, val, training_mod.LossWeights(), "hinge") == pytest.approx(result.val_loss, rel=1e-4)
     # Latent statistics of the training latents are filled in.
-    z = result.model.encode(train.node_features, train.edge_features)
+    z = result.model.encode(train.encoder.node_features, train.encoder.edge_features)
     torch.testing.assert_close(result.model.latent_mean, z.mean(0), atol=1e-5, rtol=1e-4)
 
 
@@ -64,7 +64,7 @@ def test_checkpoint_round_trip(tmp_path, nao, pose_data):
     loaded = load_checkpoint(path, nao)
     for k, v in model.state_dict().items():
         torch.testing.assert_close(loaded.state_dict()[k], v)
-    x = pose_data[1]
+    x = pose_data[1].encoder
     torch.testing.assert_close(loaded(x.node_features, x.edge_features)[0], model(x.node_features, x.edge_features)[0])
     assert path.stat().st_size < 2_000_000
 

@@ -1,4 +1,4 @@
-"""Tests of nlo_lab.trajectory.RobotTrajectory: validation and file round trips."""
+"""Tests of nlo_lab.inference.RobotTrajectory: validation and file round trips."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from nlo_lab.errors import NloLabError
-from nlo_lab.trajectory import RobotTrajectory, TrajectoryError
+from nlo_lab.inference import RobotTrajectory, TrajectoryError
 
 
 @pytest.fixture
@@ -105,7 +105,7 @@ def test_failed_write_leaves_old_file_intact(tmp_path, traj, monkeypatch):
     def boom(*a, **k):
         raise OSError("disk full")
 
-    monkeypatch.setattr("nlo_lab.trajectory.os.replace", boom)
+    monkeypatch.setattr("nlo_lab.inference.trajectory.os.replace", boom)
     other = RobotTrajectory("nao", ["a", "b", "c"], np.ones((2, 3)), 10.0)
     with pytest.raises(OSError, match="disk full"):
         other.save_json(path)

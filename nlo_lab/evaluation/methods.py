@@ -10,7 +10,7 @@ training of a network excluded):
 * ``encoder_only``: the encoder's latent decoded, no optimisation (the paper's 'Init').
 * ``latent_random``: latent optimisation from ``N(0, random_sigma²)``.
 * ``joint_space``: Adam on the angles themselves, same objective, clamped to the limits,
-  from the robot's neutral pose (:func:`nlo_lab.optimize.optimize_joints`).
+  from the robot's neutral pose (:func:`nlo_lab.inference.optimize_joints`).
 * ``nn_supervised``: a feed-forward network from the human node features to the
   angles, trained supervised on joint-space optimisation results over the
   training split (the paper's 'NN'); trained once per settings, cached in memory
@@ -30,10 +30,9 @@ import numpy as np
 import torch
 
 from nlo_lab.errors import SettingsError
+from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetConfig, optimize_joints
 from nlo_lab.objective import LossWeights, objective, targets_from_demonstration
-from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
 from nlo_lab.settings import check_int, check_positive, validate_fields
-from nlo_lab.model import load_pretrained
 from nlo_lab.training import SupervisedNet, SupervisedSettings, supervised_network
 
 __all__ = [
@@ -114,18 +113,13 @@ def _numpy(q: torch.Tensor) -> np.ndarray:
     return q.detach().cpu().double().numpy()
 
 
-def _model(robot, model):
-    if model is not None:
-        return model
-    return load_pretrained(robot)
-
-
 def _latent(name: str, robot, demo, settings: BaselineSettings, model, init: str, iterations: int) -> MethodResult:
-    model = _model(robot, model)
-    start = time.perf_counter()
-    targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)
+    """The retargeting pipeline's optimisation (:class:`~nlo_lab.inference.RetargetConfig`) with the
+    evaluation's fixed budget: the whole sequence as one batch, no retiming, default weights."""
     opt = OptimizeSettings(init=init, iterations=iterations, patience=settings.patience, latent_sigma=settings.random_sigma, seed=settings.seed)
-    r = optimize_latent(model, robot, targets, opt)
+    retargeter = RetargetConfig(robot, opt, model=model, chunk_frames=None, retime=False).build()
+    start = time.perf_counter()
+    r = retargeter.optimize(retargeter.inputs(demo))
     return MethodResult(name, _numpy(r.q), time.perf_counter() - start, list(r.history), r.iterations)
 
 

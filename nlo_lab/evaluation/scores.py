@@ -35,7 +35,7 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.evaluation.methods import LATENT_METHODS, METHODS, BaselineSettings, mean_objective, run_method
 from nlo_lab.metrics import limit_violations, max_joint_speed_ratio, self_collision_frames, tracking_errors, velocity_violations
 from nlo_lab.corpus import sign_corpus
-from nlo_lab.retime import retime_times
+from nlo_lab.inference import retime_times
 from nlo_lab.model import load_pretrained
 from nlo_lab.training import supervised_network
 
@@ -57,7 +57,7 @@ class SequenceScore:
         velocity_violations: (frame pair, joint) entries over the joint's velocity limit, the
             frames played at the recording's rate (the methods do not retime).
         max_joint_speed_ratio: largest joint speed over its limit, same time base.
-        slowdown: how much longer retiming (``nlo_lab.retime``) would make the motion.
+        slowdown: how much longer retiming (``nlo_lab.inference.retime``) would make the motion.
         depth: ``"world"`` or ``"image"`` (the demonstration's ``meta["depth"]``).
     """
 

@@ -31,8 +31,8 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.lab.views import View, guarded, svg_convergence
-from nlo_lab.objective import TERMS, LossWeights, Targets, targets_from_demonstration
-from nlo_lab.optimize import INITS, OptimizeResult, OptimizeSettings, initial_latent, optimize_latent
+from nlo_lab.inference import INITS, OptimizeResult, OptimizeSettings, RetargetConfig, Retargeter, RetargetInputs, retime_times
+from nlo_lab.objective import TERMS, LossWeights, Targets
 from nlo_lab.paths import BUNDLED_ROBOTS
 from nlo_lab.threads import single_thread
 
@@ -49,7 +49,7 @@ class RetargetPanel:
         model_loader: ``robot -> model`` used on a robot change (default: the shipped checkpoints,
             ``nlo_lab.model.load_pretrained``).
         weights: start loss weights (the paper's by default).
-        init: start initialisation strategy (one of ``nlo_lab.optimize.INITS``).
+        init: start initialisation strategy (one of ``nlo_lab.inference.INITS``).
         iterations: iteration budget of a cold start (the init/budget controls) and of the sequence button.
         frame_iterations: at most this many steps when a control re-optimises the current frame warm-started.
         frame: the start frame.
@@ -186,6 +186,16 @@ class RetargetPanel:
         its = int(self.controls["iterations"].value) if iterations is None else int(iterations)
         return OptimizeSettings(init=self.controls["init"].value, iterations=its)
 
+    def retargeter(self, iterations: int | None = None) -> Retargeter:
+        """The retargeting pipeline with the controls' settings and weights (the whole sequence as one batch)."""
+        config = RetargetConfig(self.robot, self.settings(iterations), self.weights, model=self.model, chunk_frames=None)
+        return config.build()
+
+    @property
+    def targets(self) -> Targets:
+        """The demonstration as the objective compares it, in the robot's dtype."""
+        return self.inputs.targets
+
     @property
     def q(self) -> np.ndarray:
         """Joint angles ``(n,)`` of the current frame [rad]."""
@@ -208,9 +218,10 @@ class RetargetPanel:
         robot = self._robot(name)
         if self._models[name][1] is None:
             self._models[name] = (robot, self.model_loader(robot))
-        self.targets: Targets = targets_from_demonstration(self.demo, dtype=robot.lower_limits.dtype)
+        retargeter = self.retargeter()
+        self.inputs: RetargetInputs = retargeter.inputs(self.demo)
         with torch.no_grad():
-            self.latents = initial_latent(self.model, self.targets, self.settings()).clone()
+            self.latents = retargeter.start(self.inputs).clone()
             self.angles = self.model.decode(self.latents).to(robot.lower_limits.dtype).cpu().double().numpy()  # (T, n)
         self.curves = []
         if self._view.vis is not None:
@@ -252,9 +263,7 @@ class RetargetPanel:
 
     def play_times(self) -> np.ndarray:
         """``(T,)`` times [s] at which Play shows the frames: the current angles retimed to the robot's
-        velocity limits (:func:`nlo_lab.retime.retime_times`, as :func:`nlo_lab.retarget.retarget` does)."""
-        from nlo_lab.retime import retime_times
-
+        velocity limits (:func:`nlo_lab.inference.retime_times`, as :func:`nlo_lab.inference.retarget` does)."""
         return retime_times(self.angles, self.demo.fps, self.robot.velocity_limits.double().numpy())
 
     def reoptimise_frame(self, warm: bool = True) -> OptimizeResult:
@@ -266,16 +275,13 @@ class RetargetPanel:
                 initialisation with the full iteration budget.
         """
         t = self.frame
-        one = self.targets.index(slice(t, t + 1))
         budget = int(self.controls["iterations"].value)
-        if warm:
-            settings = self.settings(min(self.frame_iterations, budget))
-            z0 = self.latents[t : t + 1]
-        else:
-            settings, z0 = self.settings(), None
+        iterations, z0 = (min(self.frame_iterations, budget), self.latents[t : t + 1]) if warm else (budget, None)
+        retargeter = self.retargeter(iterations)
+        settings = retargeter.settings
         with single_thread():
             start = time.perf_counter()
-            result = optimize_latent(self.model, self.robot, one, settings, weights=self.weights, z0=z0)
+            result = retargeter.optimize_frame(self.inputs, t, z0)
             self.last_seconds = time.perf_counter() - start
         self.latents[t] = result.z[0].detach()
         self.angles[t] = result.q[0].detach().cpu().double().numpy()
@@ -285,7 +291,8 @@ class RetargetPanel:
 
     def optimise_sequence(self) -> OptimizeResult:
         """Optimise every frame from the chosen initialisation with the full budget (the button)."""
-        settings = self.settings()
+        retargeter = self.retargeter()
+        settings = retargeter.settings
         live_every = 10
 
         def progress(it: int, loss: float) -> None:  # a live curve while the sequence runs
@@ -295,7 +302,7 @@ class RetargetPanel:
 
         running: list[float] = []
         start = time.perf_counter()
-        result = optimize_latent(self.model, self.robot, self.targets, settings, weights=self.weights, callback=progress)
+        result = retargeter.optimize(self.inputs, callback=progress)
         self.last_seconds = time.perf_counter() - start
         self.latents = result.z.detach().clone()
         self.angles = result.q.detach().cpu().double().numpy()

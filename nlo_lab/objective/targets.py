@@ -16,7 +16,6 @@ import torch
 
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human.demonstration import SIDES, Demonstration
-from nlo_lab.human.skeleton import edge_features, node_features
 
 __all__ = ["Targets", "targets_from_demonstration"]
 
@@ -37,8 +36,6 @@ class Targets:
         finger_mask: ``(T, 2, 5)`` bool.
         arm_length: ``(T, 2)`` demonstrator's upper + fore arm length [m].
         fore_length: ``(T, 2)`` demonstrator's forearm length [m].
-        node_features: ``(T, N_h, F)`` encoder input, or None.
-        edge_features: ``(T, E_h, 3)`` encoder edge input, or None.
         fps: frame rate of the sequence (the smoothness term's time step), or None.
     """
 
@@ -53,8 +50,6 @@ class Targets:
     finger_mask: torch.Tensor
     arm_length: torch.Tensor
     fore_length: torch.Tensor
-    node_features: Optional[torch.Tensor] = None
-    edge_features: Optional[torch.Tensor] = None
     fps: Optional[float] = None
 
     def __len__(self) -> int:
@@ -65,7 +60,7 @@ class Targets:
         return self.shoulder.dtype
 
     def _map(self, fn) -> "Targets":
-        out = {f.name: None if getattr(self, f.name) is None else fn(f.name, getattr(self, f.name)) for f in fields(self) if f.name != "fps"}
+        out = {f.name: fn(f.name, getattr(self, f.name)) for f in fields(self) if f.name != "fps"}
         return Targets(**out, fps=self.fps)
 
     def to(self, device=None, dtype=None) -> "Targets":
@@ -78,7 +73,7 @@ class Targets:
 
     @staticmethod
     def cat(items: "list[Targets]") -> "Targets":
-        """Concatenate along frames (encoder features kept only if all have them)."""
+        """Concatenate along frames."""
         if not items:
             raise DemonstrationError("no targets to concatenate")
         rates = {t.fps for t in items}
@@ -86,8 +81,7 @@ class Targets:
         for f in fields(Targets):
             if f.name == "fps":
                 continue
-            values = [getattr(t, f.name) for t in items]
-            out[f.name] = None if any(v is None for v in values) else torch.cat(values, dim=0)
+            out[f.name] = torch.cat([getattr(t, f.name) for t in items], dim=0)
         return Targets(**out)
 
 
@@ -103,8 +97,8 @@ def _sequence_lengths(demo: Demonstration, side: str) -> tuple[float, float]:
 def targets_from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.float32, device=None) -> Targets:
     """Build :class:`Targets` from a :class:`Demonstration` (numpy, NaN where masked).
 
-    Arm lengths are per sequence (median), broadcast per frame. Encoder inputs
-    come from ``nlo_lab.human.node_features`` / ``edge_features`` (NaN -> 0).
+    Arm lengths are per sequence (median), broadcast per frame. The encoder reads the
+    same frames differently: :func:`nlo_lab.model.encoder_input`.
     """
     T = len(demo)
 
@@ -116,7 +110,6 @@ def targets_from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.f
 
     rot = np.where(demo.wrist_mask[..., None, None], np.nan_to_num(demo.wrist_rotations), np.eye(3))
     lengths = np.array([_sequence_lengths(demo, s) for s in SIDES])  # (2, 2)
-    node_x, edge_x = tensor(node_features(demo)), tensor(edge_features(demo))  # the encoder's inputs
     return Targets(
         shoulder=tensor(demo.arm_positions[:, :, 0]),
         elbow=tensor(demo.arm_positions[:, :, 1]),
@@ -129,7 +122,5 @@ def targets_from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.f
         finger_mask=mask(demo.finger_mask),
         arm_length=tensor(np.broadcast_to(lengths[:, 0], (T, 2))),
         fore_length=tensor(np.broadcast_to(lengths[:, 1], (T, 2))),
-        node_features=node_x,
-        edge_features=edge_x,
         fps=float(demo.fps),
     )

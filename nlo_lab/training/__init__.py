@@ -1,7 +1,7 @@
 """Training: the encoder-decoder on the objective (paper Eq. 10), the supervised baseline's
 network, and the Table III ablation.
 
-* :mod:`~nlo_lab.training.data`: the training split as targets; validation held out of it.
+* :mod:`~nlo_lab.training.data`: the training split as targets and encoder input; validation held out of it.
 * :mod:`~nlo_lab.training.train`: :func:`train_model` (``nlo-lab train``).
 * :mod:`~nlo_lab.training.supervised`: labels by joint-space optimisation, :class:`SupervisedNet`, the cache.
 * :mod:`~nlo_lab.training.ablation`: :data:`VARIANTS` and :func:`train_variant` (Table III).
@@ -10,7 +10,7 @@ Checkpoints (save, load, the shipped ones) belong to the model: :mod:`nlo_lab.mo
 """
 
 from nlo_lab.training.ablation import VARIANTS, train_variant
-from nlo_lab.training.data import VALIDATION_EVERY, corpus_targets, demos_targets, train_validation_split
+from nlo_lab.training.data import VALIDATION_EVERY, corpus_inputs, corpus_targets, demos_inputs, demos_targets, train_validation_split
 from nlo_lab.training.supervised import (
     SupervisedNet,
     SupervisedSettings,
@@ -26,7 +26,7 @@ from nlo_lab.training.train import TrainResult, TrainSettings, latent_statistics
 __all__ = [
     # train, data
     "TrainSettings", "TrainResult", "train_model", "new_model", "latent_statistics",
-    "VALIDATION_EVERY", "train_validation_split", "demos_targets", "corpus_targets",
+    "VALIDATION_EVERY", "train_validation_split", "demos_targets", "corpus_targets", "demos_inputs", "corpus_inputs",
     # supervised
     "SupervisedSettings", "SupervisedNet", "supervised_labels", "train_supervised_net", "train_supervised_model",
     "supervised_dataset", "supervised_network", "cache_dir",

@@ -12,7 +12,7 @@ import time
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.objective import Targets
+from nlo_lab.inference import RetargetInputs
 from nlo_lab.training.supervised import train_supervised_model
 from nlo_lab.training.train import TrainSettings, new_model, train_model
 
@@ -26,14 +26,14 @@ VARIANTS = {  # Table III of the paper: name -> (model kind, training objective)
 }
 
 
-def train_variant(robot, name: str, data: Targets, labels: torch.Tensor | None, seconds: float, *, val_data: Targets | None = None, seed: int = 0):
+def train_variant(robot, name: str, data: RetargetInputs, labels: torch.Tensor | None, seconds: float, *, val_data: RetargetInputs | None = None, seed: int = 0):
     """Train one Table III variant for a wall-clock budget.
 
     Args:
         robot: a loaded robot.
         name: ``"AE"``, ``"GAE"`` (supervised on ``labels``) or ``"AE+FK"``, ``"GAE+FK"``
             (the objective through forward kinematics, :func:`nlo_lab.training.train_model`).
-        data: training frames (with encoder features).
+        data: training frames (targets and encoder input).
         labels: ``(N, n)`` joint-space labels of ``data`` (supervised variants only).
         seconds: training budget [s] (the same for every variant makes them comparable).
         val_data: validation frames of the FK variants (default: ``data``).

@@ -1,6 +1,6 @@
 """The supervised baseline's network (the paper's 'NN') and its data.
 
-Labels are joint-space optimisation results (:func:`nlo_lab.optimize.optimize_joints`)
+Labels are joint-space optimisation results (:func:`nlo_lab.inference.optimize_joints`)
 over every ``frame_stride``-th frame of the training split (:func:`supervised_dataset`);
 a feed-forward network (:class:`SupervisedNet`) learns the angles from the human
 node features (:func:`train_supervised_net`). Both are cached in memory and under
@@ -25,10 +25,11 @@ import torch
 from torch import nn
 
 from nlo_lab.errors import SettingsError
+from nlo_lab.inference import JointOptimizeSettings, RetargetInputs, optimize_joints
+from nlo_lab.model import EncoderInput
 from nlo_lab.objective import Targets
-from nlo_lab.optimize import JointOptimizeSettings, optimize_joints
 from nlo_lab.settings import check_int, check_positive
-from nlo_lab.training.data import corpus_targets
+from nlo_lab.training.data import corpus_inputs
 
 __all__ = [
     "SupervisedSettings",
@@ -157,10 +158,11 @@ def train_supervised_net(robot, features: torch.Tensor, labels: torch.Tensor, se
     return net
 
 
-def train_supervised_model(model, targets: Targets, labels: torch.Tensor, *, epochs: int, batch_size: int = 64, lr: float = 1e-3, seed: int = 0, max_seconds: float | None = None) -> list[float]:
+def train_supervised_model(model, inputs: EncoderInput | RetargetInputs, labels: torch.Tensor, *, epochs: int, batch_size: int = 64, lr: float = 1e-3, seed: int = 0, max_seconds: float | None = None) -> list[float]:
     """Train a :class:`~nlo_lab.model.RetargetModel` (encoder + decoder) supervised on
     ``labels (N, n)`` (paper Eq. ``L_sup``: squared error of the angles, here
     normalised by the half range of each joint): the 'AE'/'GAE' of Table III.
+    ``inputs``: the encoder's input of the N frames (or frames carrying it).
 
     Returns:
         Mean training loss per epoch. The model is left in eval mode.
@@ -168,13 +170,13 @@ def train_supervised_model(model, targets: Targets, labels: torch.Tensor, *, epo
     lo, hi = model.decoder.lower, model.decoder.upper
     mid, half = (hi + lo) / 2, ((hi - lo) / 2).clamp_min(1e-9)
     u = ((labels.to(lo.dtype) - mid) / half).clamp(-1, 1)
-    ef = targets.edge_features
+    x = inputs.encoder if isinstance(inputs, RetargetInputs) else inputs
 
     def predict(x, e):
         return (model(x, e)[0].to(lo.dtype) - mid) / half
 
     torch.manual_seed(seed)
-    return _fit(model, predict, (targets.node_features.to(lo.dtype), None if ef is None else ef.to(lo.dtype)), u, epochs, batch_size, lr, seed, max_seconds)
+    return _fit(model, predict, (x.node_features.to(lo.dtype), x.edge_features.to(lo.dtype)), u, epochs, batch_size, lr, seed, max_seconds)
 
 
 def cache_dir() -> Path:
@@ -186,10 +188,10 @@ def cache_dir() -> Path:
     return Path(base) / "nlo_lab"
 
 
-def _cache_key(robot, settings: SupervisedSettings, data: Targets) -> str:
+def _cache_key(robot, settings: SupervisedSettings, data: RetargetInputs) -> str:
     """Robot joints, limits and collision margins, settings and the training frames' content (a changed corpus is a new key)."""
     ident = {
-        "data": hashlib.sha256(data.node_features.detach().cpu().float().numpy().tobytes()).hexdigest(),
+        "data": hashlib.sha256(data.encoder.node_features.detach().cpu().float().numpy().tobytes()).hexdigest(),
         "robot": robot.name,
         "joints": list(robot.joint_names),
         "lower": [round(float(v), 6) for v in robot.lower_limits],
@@ -206,16 +208,16 @@ def _cache_key(robot, settings: SupervisedSettings, data: Targets) -> str:
 _NETWORKS: dict[str, SupervisedNet] = {}
 
 
-def supervised_dataset(robot, settings: SupervisedSettings | None = None, *, use_cache: bool = True, progress: bool = False) -> tuple[Targets, torch.Tensor, float]:
+def supervised_dataset(robot, settings: SupervisedSettings | None = None, *, use_cache: bool = True, progress: bool = False) -> tuple[RetargetInputs, torch.Tensor, float]:
     """Training frames (every ``frame_stride``-th of the train split) and their
     joint-space optimisation labels ``(N, n)`` [rad], float32.
 
     The labels are cached as a file under :func:`cache_dir` (keyed like the
     network, without the training settings). Returns ``(targets, labels,
-    label_seconds)``; ``label_seconds`` is the time the labels took when made.
+    label_seconds)``: the frames' targets and encoder input, the labels, and the time the labels took when made.
     """
     s = settings or SupervisedSettings()
-    data = corpus_targets("train", seed=s.corpus_seed).index(slice(0, None, s.frame_stride))
+    data = corpus_inputs("train", seed=s.corpus_seed).index(slice(0, None, s.frame_stride))
     label_key = _cache_key(robot, SupervisedSettings(frame_stride=s.frame_stride, label_iterations=s.label_iterations, corpus_seed=s.corpus_seed), data)
     path = cache_dir() / f"labels_{robot.name}_{label_key}.pt"
     if use_cache and path.is_file():
@@ -226,7 +228,7 @@ def supervised_dataset(robot, settings: SupervisedSettings | None = None, *, use
         except Exception:  # a damaged cache file is rebuilt, never trusted
             pass
     start = time.perf_counter()
-    labels = supervised_labels(robot.to(dtype=torch.float32), data, s.label_iterations, progress=progress).float()
+    labels = supervised_labels(robot.to(dtype=torch.float32), data.targets, s.label_iterations, progress=progress).float()
     seconds = time.perf_counter() - start
     if use_cache:
         try:
@@ -266,13 +268,13 @@ def supervised_network(robot, settings: SupervisedSettings | None = None, *, use
         except Exception:  # a damaged cache file is rebuilt, never trusted
             pass
     r32 = robot.to(dtype=torch.float32)
-    net = train_supervised_net(r32, data.node_features, labels, s)
+    net = train_supervised_net(r32, data.encoder.node_features, labels, s)
     net.info["label_seconds"] = label_seconds
     if use_cache:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(path.name + ".tmp")
-            torch.save({"in_features": int(data.node_features[0].numel()), "state_dict": net.state_dict(), "info": json.dumps(net.info)}, tmp)
+            torch.save({"in_features": int(data.encoder.node_features[0].numel()), "state_dict": net.state_dict(), "info": json.dumps(net.info)}, tmp)
             tmp.replace(path)
         except OSError:  # an unwritable cache only costs time
             pass

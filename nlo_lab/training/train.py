@@ -23,10 +23,12 @@ from dataclasses import dataclass
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.objective import COLLISION_FORMS, LossWeights, Targets, latent_loss, objective
+from nlo_lab.inference import RetargetInputs
+from nlo_lab.model import EncoderInput
+from nlo_lab.objective import COLLISION_FORMS, LossWeights, latent_loss, objective
 from nlo_lab.model import MODEL_KINDS, RetargetModel, build_model
 from nlo_lab.settings import check_choice, check_int, check_positive
-from nlo_lab.training.data import demos_targets, train_validation_split
+from nlo_lab.training.data import demos_inputs, train_validation_split
 
 __all__ = ["TrainSettings", "TrainResult", "new_model", "train_model", "latent_statistics"]
 
@@ -123,15 +125,15 @@ def new_model(robot, settings: TrainSettings | None = None, in_features: int | N
     )
 
 
-def _batch_loss(model, robot, batch: Targets, weights: LossWeights, form: str) -> torch.Tensor:
+def _batch_loss(model, robot, batch: RetargetInputs, weights: LossWeights, form: str) -> torch.Tensor:
     """Per-frame Eq. 10: objective of the decoded encoder latent + ``||z||²/σ²`` -> ``(B,)``."""
-    q, z = model(batch.node_features, batch.edge_features)
-    total, _ = objective(robot, q.to(robot.lower_limits.dtype), batch, weights, collision_form=form)
+    q, z = model(batch.encoder.node_features, batch.encoder.edge_features)
+    total, _ = objective(robot, q.to(robot.lower_limits.dtype), batch.targets, weights, collision_form=form)
     return total + weights.latent * latent_loss(z)
 
 
 @torch.no_grad()
-def _evaluate(model, robot, data: Targets, weights: LossWeights, form: str, chunk: int = 512) -> float:
+def _evaluate(model, robot, data: RetargetInputs, weights: LossWeights, form: str, chunk: int = 512) -> float:
     model.eval()
     total = 0.0
     for i in range(0, len(data), chunk):
@@ -141,9 +143,10 @@ def _evaluate(model, robot, data: Targets, weights: LossWeights, form: str, chun
 
 
 @torch.no_grad()
-def latent_statistics(model: RetargetModel, data: Targets, chunk: int = 1024) -> tuple[torch.Tensor, torch.Tensor]:
+def latent_statistics(model: RetargetModel, data: EncoderInput | RetargetInputs, chunk: int = 1024) -> tuple[torch.Tensor, torch.Tensor]:
     """Mean and standard deviation ``(N_r, k)`` of the encoder's latents over ``data``."""
-    zs = [model.encode(data.node_features[i : i + chunk], data.edge_features[i : i + chunk]) for i in range(0, len(data), chunk)]
+    x = data.encoder if isinstance(data, RetargetInputs) else data
+    zs = [model.encode(x.node_features[i : i + chunk], x.edge_features[i : i + chunk]) for i in range(0, len(x), chunk)]
     z = torch.cat(zs)
     return z.mean(0), z.std(0).clamp_min(1e-3)
 
@@ -153,8 +156,8 @@ def train_model(
     settings: TrainSettings | None = None,
     *,
     weights: LossWeights | None = None,
-    train_data: Targets | None = None,
-    val_data: Targets | None = None,
+    train_data: RetargetInputs | None = None,
+    val_data: RetargetInputs | None = None,
     model: RetargetModel | None = None,
 ) -> TrainResult:
     """Train encoder and decoder for ``robot`` (paper Eq. 10).
@@ -163,7 +166,7 @@ def train_model(
         robot: a ``Robot`` or a robot name.
         settings: :class:`TrainSettings`.
         weights: :class:`LossWeights` (defaults of the paper).
-        train_data, val_data: :class:`Targets` with encoder features; default the
+        train_data, val_data: :class:`~nlo_lab.inference.RetargetInputs` (targets and encoder input); default the
             two parts of :func:`train_validation_split` (never the test split).
         model: a model to continue training; a new one otherwise.
 
@@ -177,17 +180,17 @@ def train_model(
     robot = robot.to(dtype=dtype)
     if train_data is None or val_data is None:
         fit, val = train_validation_split(settings.seed)
-        train_data = train_data if train_data is not None else demos_targets(fit)
-        val_data = val_data if val_data is not None else demos_targets(val)
+        train_data = train_data if train_data is not None else demos_inputs(fit)
+        val_data = val_data if val_data is not None else demos_inputs(val)
+    if not isinstance(train_data, RetargetInputs) or not isinstance(val_data, RetargetInputs):
+        raise SettingsError("training needs frames with targets and encoder input (nlo_lab.inference.RetargetInputs)")
     train_data, val_data = train_data.to(dtype=dtype), val_data.to(dtype=dtype)
-    if train_data.node_features is None or val_data.node_features is None:
-        raise SettingsError("training needs targets with encoder features (node_features)")
     if len(val_data) > settings.val_frames:  # evenly spaced subset, fixed across runs
         val_data = val_data.index(torch.linspace(0, len(val_data) - 1, settings.val_frames).long())
 
     torch.manual_seed(settings.seed)
     if model is None:
-        model = new_model(robot, settings, in_features=int(train_data.node_features.shape[-1]))
+        model = new_model(robot, settings, in_features=int(train_data.encoder.node_features.shape[-1]))
     model = model.to(dtype=dtype).train()
     opt = torch.optim.Adam(model.parameters(), lr=settings.lr)
     gen = torch.Generator().manual_seed(settings.seed)

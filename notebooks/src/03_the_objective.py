@@ -92,7 +92,7 @@ def shares(**w):
 # (`JointOptimizeSettings(init="neutral")`, the default).
 
 # %%
-from nlo_lab.optimize import JointOptimizeSettings, optimize_joints
+from nlo_lab.inference import JointOptimizeSettings, optimize_joints
 from nlo_lab.viz import plot_convergence
 ITERS = budget(300, 30)
 res = optimize_joints(robot, one, JointOptimizeSettings(iterations=ITERS, patience=ITERS))

@@ -62,7 +62,7 @@ one = targets.index(slice(t, t + 1))
 # many random starts and the same number of steps.
 
 # %%
-from nlo_lab.optimize import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
+from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
 from nlo_lab.viz import plot_convergence
 ITERS, SEEDS = budget(150, 20), budget(6, 3)
 latent, joints = {}, {}

@@ -17,12 +17,13 @@ import numpy as np
 from nlo_lab.human import corpus_clip, corpus_names
 from nlo_lab.objective import targets_from_demonstration
 from nlo_lab.robot import load_robot
-from nlo_lab.model import load_pretrained
+from nlo_lab.model import encoder_input, load_pretrained
 robot = load_robot("yumi")
 model = load_pretrained(robot)
 demo = corpus_clip(corpus_names("test")[0])
 demo = demo.slice(0, budget(len(demo), 12))            # fewer frames in test mode
-targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
+targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)  # what the objective compares
+features = encoder_input(demo)                                               # what the encoder reads
 print(f"{demo.name}: {len(demo)} frames, unseen sign combinations (test split)")
 
 # %% [markdown]
@@ -32,10 +33,11 @@ print(f"{demo.name}: {len(demo)} frames, unseen sign combinations (test split)")
 # frames after each step. Budget 0 is the start itself: for the encoder, that is the encoder's own answer.
 
 # %%
-from nlo_lab.optimize import INITS, OptimizeSettings, optimize_latent
+from nlo_lab.inference import INITS, OptimizeSettings, optimize_latent
 from nlo_lab.viz import plot_convergence
 ITERS = budget(100, 10)
-runs = {init: optimize_latent(model, robot, targets, OptimizeSettings(init=init, iterations=ITERS, patience=ITERS)) for init in INITS}
+runs = {init: optimize_latent(model, robot, targets, OptimizeSettings(init=init, iterations=ITERS, patience=ITERS), encoder_input=features)
+        for init in INITS}
 plot_convergence({init: r.history for init, r in runs.items()}, title=f"{len(demo)} frames, mean loss");
 
 # %%

@@ -64,8 +64,7 @@ for side, seen in demo.meta["hands"].items():
 # The same call as in notebook 08: the encoder's guess, then latent optimisation of the whole clip.
 
 # %%
-from nlo_lab.optimize import OptimizeSettings
-from nlo_lab.retarget import retarget
+from nlo_lab.inference import OptimizeSettings, retarget
 from nlo_lab.robot import load_robot
 robot = load_robot("yumi")                 # or "nao", "pepper"
 result = retarget(demo, robot, settings=OptimizeSettings(iterations=budget(100, 10)))

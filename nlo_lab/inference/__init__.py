@@ -1,0 +1,34 @@
+"""Inference: from a demonstration to a robot trajectory with a trained, frozen model.
+
+- :mod:`~nlo_lab.inference.settings`: :class:`OptimizeSettings`, :class:`JointOptimizeSettings`, :data:`INITS`.
+- :mod:`~nlo_lab.inference.descent`: the one descent (Adam, best point, patience), :class:`OptimizeResult`.
+- :mod:`~nlo_lab.inference.latent`: latent optimisation (:func:`initial_latent`, :func:`sequence_start`,
+  :func:`optimize_latent`, :func:`optimize_stream`).
+- :mod:`~nlo_lab.inference.joint_space`: the joint-space baseline (:func:`optimize_joints`).
+- :mod:`~nlo_lab.inference.retime`: slowing a trajectory to the joints' velocity limits.
+- :mod:`~nlo_lab.inference.trajectory`: :class:`RobotTrajectory` and its files.
+- :mod:`~nlo_lab.inference.pipeline`: the pipeline assembled in one place
+  (:class:`RetargetConfig` ``.build()`` -> :class:`Retargeter`), :func:`retarget`, :func:`summary`.
+"""
+
+from nlo_lab.inference.descent import Adam, OptimizeResult, descend, frozen, join_results, smoothness_term
+from nlo_lab.inference.joint_space import optimize_joints
+from nlo_lab.inference.latent import initial_latent, optimize_latent, optimize_stream, sequence_start
+from nlo_lab.inference.pipeline import CHUNK_FRAMES, RetargetConfig, Retargeter, RetargetInputs, RetargetResult, retarget, summary
+from nlo_lab.inference.retime import joint_speeds, retime_times, segment_durations, speed_ratios
+from nlo_lab.inference.settings import INITS, JOINT_INITS, JOINT_LIMITS, PAPER_LR, SMOOTH_LR, JointOptimizeSettings, OptimizeSettings
+from nlo_lab.inference.trajectory import FORMAT_VERSION, RobotTrajectory, TrajectoryError
+
+__all__ = [
+    # settings
+    "INITS", "JOINT_INITS", "JOINT_LIMITS", "PAPER_LR", "SMOOTH_LR", "OptimizeSettings", "JointOptimizeSettings",
+    # descent
+    "OptimizeResult", "Adam", "descend", "frozen", "smoothness_term", "join_results",
+    # latent, joint_space
+    "initial_latent", "sequence_start", "optimize_latent", "optimize_stream", "optimize_joints",
+    # retime, trajectory
+    "retime_times", "segment_durations", "joint_speeds", "speed_ratios",
+    "RobotTrajectory", "TrajectoryError", "FORMAT_VERSION",
+    # pipeline
+    "CHUNK_FRAMES", "RetargetConfig", "Retargeter", "RetargetInputs", "RetargetResult", "retarget", "summary",
+]

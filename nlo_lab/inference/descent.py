@@ -1,0 +1,191 @@
+"""The one descent every optimiser runs: Adam, best point kept, patience stop.
+
+Iterations: the loss is evaluated at the start point and after every Adam step;
+``history[0]`` is the initial mean loss, ``history[i]`` the mean after ``i`` steps. At
+most ``iterations`` steps; the loop stops early after ``patience`` evaluations in a row
+without improving the best mean loss. The *best* point is kept per sample (each frame
+keeps the parameters of its own lowest loss), so the result is never worse than the
+start for any frame; when a sequence term couples the frames, the best point is the
+iteration with the lowest mean instead (per-frame picks could stitch together frames
+from different iterations).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import torch
+
+from nlo_lab.objective import LossWeights, Targets, smoothness_loss
+
+__all__ = ["OptimizeResult", "Adam", "descend", "frozen", "smoothness_term", "join_results"]
+
+
+@dataclass
+class OptimizeResult:
+    """What the optimisers return.
+
+    Attributes:
+        q: ``(T, n)`` joint angles [rad] at each frame's best point (detached).
+        z: ``(T, N_r, k)`` best latents, or None for the joint-space baseline.
+        history: mean optimised loss per evaluation (``history[0]`` = start).
+        terms: unweighted objective terms at the best point, each ``(T,)``.
+        loss: ``(T,)`` best optimised loss per frame (objective + latent term).
+        iterations: Adam steps taken.
+        seconds: wall time [s].
+        init: the initialisation used.
+    """
+
+    q: torch.Tensor
+    z: Optional[torch.Tensor]
+    history: list[float]
+    terms: dict[str, torch.Tensor]
+    loss: torch.Tensor
+    iterations: int
+    seconds: float
+    init: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+def join_results(parts: list[OptimizeResult], init: str, seconds: float, frames_weighted: bool = False) -> OptimizeResult:
+    """Results of consecutive frame ranges as one result.
+
+    ``history`` is the mean over parts of each evaluation (a part that stopped early
+    contributes its last value), weighted by the parts' frames when ``frames_weighted``;
+    ``iterations`` the total steps, or with ``frames_weighted`` (parts optimised as
+    batches, :func:`nlo_lab.inference.retarget`) the most steps any part took.
+    """
+    n = max(len(r.history) for r in parts)
+    weight = [len(r.q) if frames_weighted else 1 for r in parts]
+    total = sum(weight)
+    history = [sum(r.history[min(i, len(r.history) - 1)] * w for r, w in zip(parts, weight)) / total for i in range(n)]
+    steps = [r.iterations for r in parts]
+    return OptimizeResult(
+        q=torch.cat([r.q for r in parts]),
+        z=torch.cat([r.z for r in parts]),
+        history=history,
+        terms={k: torch.cat([r.terms[k] for r in parts]) for k in parts[0].terms},
+        loss=torch.cat([r.loss for r in parts]),
+        iterations=max(steps) if frames_weighted else sum(steps),
+        seconds=seconds,
+        init=init,
+    )
+
+
+@contextlib.contextmanager
+def frozen(module: torch.nn.Module):
+    """Turn off parameter gradients (and training mode) for the duration."""
+    flags = [p.requires_grad for p in module.parameters()]
+    was_training = module.training
+    module.eval()
+    for p in module.parameters():
+        p.requires_grad_(False)
+    try:
+        yield module
+    finally:
+        for p, f in zip(module.parameters(), flags):
+            p.requires_grad_(f)
+        module.train(was_training)
+
+
+def smoothness_term(robot, targets: Targets, weights: LossWeights, anchor: torch.Tensor | None = None):
+    """``q (T, n) -> (T,)`` the weighted smoothness term, or None when it does not apply.
+
+    ``anchor (n,)``: fixed angles of the frame just before ``targets`` (the previous
+    chunk's last frame); frame 0 then pays its step from there.
+    """
+    if weights.smooth == 0 or targets.fps is None or len(targets) + (anchor is not None) < 2:
+        return None
+    limits, fps, w = robot.velocity_limits, float(targets.fps), weights.smooth
+    if anchor is None:
+        return lambda q: w * smoothness_loss(q, fps, limits)
+    anchor = anchor.detach().to(robot.lower_limits.dtype).reshape(1, -1)
+    return lambda q: w * smoothness_loss(torch.cat([anchor, q]), fps, limits)[1:]
+
+
+def _select(better: torch.Tensor, new, old):
+    """Per sample ``new`` where ``better (B,)`` else ``old``; tensors ``(B, ...)`` or dicts of them."""
+    if isinstance(new, dict):
+        return {k: _select(better, new[k], old[k]) for k in old}
+    return torch.where(better.view(-1, *([1] * (new.ndim - 1))), new.detach(), old)
+
+
+class Adam:
+    """Adam on one tensor, the same arithmetic as ``torch.optim.Adam``'s default
+    (single-tensor) step, without the optimiser's per-step bookkeeping (a few
+    hundred microseconds matter when one iteration at batch 1 is about a millisecond)."""
+
+    def __init__(self, x: torch.Tensor, lr: float, betas=(0.9, 0.999), eps: float = 1e-8):
+        self.lr, self.betas, self.eps, self.step = lr, betas, eps, 0
+        self.m, self.v = torch.zeros_like(x), torch.zeros_like(x)
+
+    @torch.no_grad()
+    def update(self, x: torch.Tensor, grad: torch.Tensor) -> None:
+        b1, b2 = self.betas
+        self.step += 1
+        self.m.lerp_(grad, 1 - b1)
+        self.v.mul_(b2).addcmul_(grad, grad, value=1 - b2)
+        bias1, bias2 = 1 - b1**self.step, 1 - b2**self.step
+        denom = (self.v.sqrt() / math.sqrt(bias2)).add_(self.eps)
+        x.addcdiv_(self.m, denom, value=-self.lr / bias1)
+
+
+def descend(
+    params: torch.Tensor,
+    evaluate: Callable[[torch.Tensor], tuple[torch.Tensor, torch.Tensor, torch.Tensor | dict]],
+    project: Callable[[torch.Tensor], None] | None,
+    iterations: int,
+    patience: int,
+    lr: float,
+    callback,
+    per_sample: bool = True,
+):
+    """Adam on ``params`` (B, ...) with per-sample best tracking and patience.
+
+    ``evaluate(x)`` returns ``loss (B,)``, ``q (B, n)`` and the terms (a ``(B, K)``
+    tensor or a dict of ``(B,)``), all tracked at each sample's best point; with
+    ``per_sample=False`` (samples coupled by a sequence term) at the best mean instead.
+    ``project(x)`` runs in place after every step (the joint limits' clamp), or None.
+
+    Returns:
+        ``(best_x, best_q, best_loss, best_terms, history, steps)``.
+    """
+    x = params.detach().clone().requires_grad_(True)
+    adam = Adam(x, lr)
+    best_loss = best_x = best_q = best_terms = None
+    history: list[float] = []
+    best_mean, stale, steps = float("inf"), 0, 0
+    for it in range(iterations + 1):
+        loss, q, terms = evaluate(x)  # loss (B,)
+        with torch.no_grad():
+            mean = float(loss.mean())
+            history.append(mean)
+            if best_loss is None:
+                best_loss, best_x, best_q = loss.detach().clone(), x.detach().clone(), q.detach().clone()
+                best_terms = {k: v.detach().clone() for k, v in terms.items()} if isinstance(terms, dict) else terms.detach().clone()
+            elif per_sample:
+                better = loss < best_loss  # (B,)
+                best_loss, best_x, best_q, best_terms = (
+                    _select(better, new, old) for new, old in ((loss, best_loss), (x, best_x), (q, best_q), (terms, best_terms))
+                )
+            elif mean < best_mean:  # coupled samples: the whole point at the best mean (no per-sample select)
+                best_loss, best_x, best_q = loss.detach(), x.detach().clone(), q.detach().clone()  # q may be x
+                best_terms = {k: v.detach() for k, v in terms.items()} if isinstance(terms, dict) else terms.detach()
+            if mean < best_mean:
+                best_mean, stale = mean, 0
+            else:
+                stale += 1
+        if callback is not None:
+            callback(it, mean)
+        if it == iterations or stale >= patience:
+            break
+        (grad,) = torch.autograd.grad(loss.sum(), x)
+        adam.update(x, grad)
+        steps += 1
+        if project is not None:
+            with torch.no_grad():
+                project(x)
+    return best_x, best_q, best_loss, best_terms, history, steps

@@ -1,0 +1,219 @@
+"""Latent optimisation with a frozen decoder (paper Eq. 9/12).
+
+``z* = argmin_z L(D, K(f_psi(z))) + ||z||²/σ²`` with Adam on ``z`` only; the decoder's
+parameters are frozen (``requires_grad`` off for the duration). The whole sequence is
+one batch: frames are independent (per-frame losses are summed, and Adam's update is per
+coordinate), so one batched step advances every frame at once
+(:func:`nlo_lab.inference.descend`).
+
+The start (:func:`initial_latent`) is the encoder's latent of the demonstration (the
+paper's neural initialisation, from :class:`nlo_lab.model.EncoderInput`, which the
+objective's :class:`~nlo_lab.objective.Targets` do not carry), random, or zeros.
+
+Temporal coherence. With ``weights.smooth > 0`` and a frame rate in the targets, the
+objective also holds :func:`nlo_lab.objective.smoothness_loss` over consecutive frames, so
+frames are no longer independent: the best point is then tracked for the whole sequence
+(the iteration with the lowest mean), not per frame. And the start is warm along the
+sequence (:func:`sequence_start`): each frame may start from its own encoder latent or
+from one of its ``settings.warm_window`` neighbours' on either side, the choice over the
+whole sequence minimising objective + smoothness by dynamic programming (Viterbi). The
+encoder maps every frame on its own and, where two arm configurations fit about equally,
+it can alternate between them from frame to frame; gradient steps do not cross from one
+to the other, the start does.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable
+
+import torch
+
+from nlo_lab.errors import SettingsError
+from nlo_lab.inference.descent import OptimizeResult, descend, frozen, join_results, smoothness_term
+from nlo_lab.inference.settings import PAPER_LR, SMOOTH_LR, OptimizeSettings
+from nlo_lab.model import EncoderInput
+from nlo_lab.objective import TERMS, LossWeights, Objective, Targets, step_cost
+
+__all__ = ["initial_latent", "sequence_start", "optimize_latent", "optimize_stream"]
+
+
+def _model_dtype(model: torch.nn.Module) -> torch.dtype:
+    return next(model.parameters()).dtype
+
+
+def initial_latent(model, inputs, settings: OptimizeSettings) -> torch.Tensor:
+    """The start latent ``z0 (T, N_r, k)`` for ``settings.init``.
+
+    Args:
+        model: a :class:`nlo_lab.model.RetargetModel`.
+        inputs: the encoder's :class:`~nlo_lab.model.EncoderInput` of the T frames
+            (:func:`nlo_lab.model.encoder_input`); the other inits need only the number
+            of frames, so anything with a length (e.g. the :class:`Targets`) will do.
+        settings: :class:`OptimizeSettings` (``init``, ``seed``, ``latent_sigma``).
+
+    Raises:
+        SettingsError: ``"encoder"`` without an :class:`~nlo_lab.model.EncoderInput`.
+    """
+    shape = (len(inputs), *model.latent_shape)
+    param = next(model.parameters())
+    dtype, device = param.dtype, param.device
+    if settings.init == "zeros":
+        return torch.zeros(shape, dtype=dtype, device=device)
+    if settings.init == "encoder":
+        if not isinstance(inputs, EncoderInput):
+            raise SettingsError("init 'encoder' needs the encoder's input: pass encoder_input=nlo_lab.model.encoder_input(demo)")
+        x = inputs.to(device=device, dtype=dtype)
+        with torch.no_grad(), frozen(model):
+            return model.encode(x.node_features, x.edge_features).detach()
+    gen = torch.Generator().manual_seed(settings.seed)
+    noise = torch.randn(shape, generator=gen, dtype=torch.float64).to(device=device, dtype=dtype)
+    if settings.init == "random":
+        return noise * settings.latent_sigma
+    return model.latent_mean.to(dtype) + model.latent_std.to(dtype) * noise  # "train-stats"
+
+
+@torch.no_grad()
+def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: LossWeights | None = None,
+                   window: int = 2, collision_form: str = "hinge", anchor: torch.Tensor | None = None) -> torch.Tensor:
+    """Warm start along the sequence: per frame, its own start latent or a neighbour's.
+
+    Frame t's candidates are ``z0[t - window .. t + window]``. Each candidate costs its
+    objective at frame t (plus the latent term); consecutive choices cost the
+    smoothness term between their decoded angles (frame 0 also its step from the fixed
+    ``anchor (n,)`` when given). The cheapest sequence of choices
+    is found exactly by dynamic programming (Viterbi), ``O(T (2 window + 1)²)``.
+
+    Returns:
+        ``(T, N_r, k)`` start latents (``z0`` itself when smoothing does not apply).
+    """
+    weights = weights or LossWeights()
+    smooth = smoothness_term(robot, targets, weights, anchor)
+    T = len(targets)
+    if smooth is None or window == 0:
+        return z0
+    dtype = robot.lower_limits.dtype
+    targets = targets.to(dtype=dtype)
+    loss_fn = Objective(robot, targets, weights, collision_form)
+    K = 2 * window + 1
+    idx = (torch.arange(T)[:, None] + torch.arange(-window, window + 1)[None]).clamp(0, T - 1)  # (T, K)
+    unary, angles = [], []
+    with frozen(model):
+        for k in range(K):
+            z = z0[idx[:, k]]
+            q = model.decode(z).to(dtype)
+            total, _ = loss_fn(q)
+            unary.append(total + weights.latent * z.pow(2).flatten(1).sum(1).to(dtype))
+            angles.append(q)
+    unary_np = torch.stack(unary, 1).double().numpy()  # (T, K)
+    Q = torch.stack(angles, 1).double()  # (T, K, n)
+    step = Q[1:, None] - Q[:-1, :, None]  # (T-1, K_prev, K_next, n)
+    pair = (weights.smooth * step_cost(step, float(targets.fps), robot.velocity_limits.double())).numpy()
+    if anchor is not None:  # frame 0's step from the fixed frame before it
+        first = step_cost(Q[0] - anchor.detach().double().reshape(1, -1), float(targets.fps), robot.velocity_limits.double())
+        unary_np[0] += weights.smooth * first.numpy()
+    cost, back = unary_np[0], []
+    for t in range(1, T):
+        total = cost[:, None] + pair[t - 1]  # (K_prev, K_next)
+        arg = total.argmin(0)
+        back.append(arg)
+        cost = total[arg, range(K)] + unary_np[t]
+    k = int(cost.argmin())
+    path = [k]
+    for arg in reversed(back):
+        k = int(arg[k])
+        path.append(k)
+    path.reverse()
+    return z0[idx[torch.arange(T), torch.tensor(path)]]
+
+
+def optimize_latent(
+    model,
+    robot,
+    targets: Targets,
+    settings: OptimizeSettings | None = None,
+    *,
+    weights: LossWeights | None = None,
+    z0: torch.Tensor | None = None,
+    callback: Callable[[int, float], None] | None = None,
+    anchor: torch.Tensor | None = None,
+    encoder_input: EncoderInput | None = None,
+) -> OptimizeResult:
+    """Optimise the latent of every frame of ``targets`` at once, decoder frozen.
+
+    Args:
+        model: a :class:`nlo_lab.model.RetargetModel` for ``robot``.
+        robot: the robot (FK, capsules).
+        targets: :class:`Targets` of T frames (what the objective compares).
+        settings: :class:`OptimizeSettings`.
+        weights: :class:`LossWeights`; ``weights.latent`` scales ``||z||²``.
+        z0: ``(T, N_r, k)`` start latents; overrides ``settings.init`` (warm start).
+        callback: called as ``callback(iteration, mean_loss)`` after every evaluation.
+        anchor: ``(n,)`` fixed joint angles of the frame just before ``targets`` (the
+            previous chunk's last frame, :func:`nlo_lab.inference.retarget`): with the
+            smoothness term on, frame 0's step from it is part of the objective and of
+            the warm start, so a sequence optimised in chunks has no seam.
+        encoder_input: the encoder's input of the same T frames; needed for
+            ``init="encoder"`` without ``z0``.
+
+    Returns:
+        :class:`OptimizeResult` with ``q (T, n)`` in the robot's dtype.
+    """
+    settings = settings or OptimizeSettings()
+    weights = weights or LossWeights()
+    start = time.perf_counter()
+    dtype = robot.lower_limits.dtype
+    targets = targets.to(dtype=dtype)
+    init = settings.init if z0 is None else "given"
+    if z0 is None:
+        z0 = initial_latent(model, targets if encoder_input is None else encoder_input, settings)
+    elif z0.shape != (len(targets), *model.latent_shape):
+        raise SettingsError(f"z0 must be {(len(targets), *model.latent_shape)}, got {tuple(z0.shape)}")
+
+    loss_fn = Objective(robot, targets, weights, settings.collision_form)
+    if anchor is not None and anchor.shape != robot.lower_limits.shape:
+        raise SettingsError(f"anchor must be {tuple(robot.lower_limits.shape)}, got {tuple(anchor.shape)}")
+    smooth = smoothness_term(robot, targets, weights, anchor)
+    if smooth is not None and settings.warm_start:
+        z0 = sequence_start(model, robot, targets, z0, weights, settings.warm_window, settings.collision_form, anchor)
+
+    def evaluate(z):
+        q = model.decode(z).to(dtype)
+        total, terms = loss_fn(q)
+        if smooth is not None:
+            total = total + smooth(q)
+        # + weights.latent * latent_loss(z), in one op
+        return torch.add(total, z.pow(2).flatten(1).sum(1).to(dtype), alpha=weights.latent), q, terms
+
+    with frozen(model):
+        lr = settings.lr if settings.lr is not None else (PAPER_LR if smooth is None else SMOOTH_LR)
+        z, q, loss, terms, history, steps = descend(
+            z0.to(_model_dtype(model)), evaluate, None, settings.iterations, settings.patience, lr, callback,
+            per_sample=smooth is None,
+        )
+    return OptimizeResult(q, z, history, dict(zip(TERMS, terms.unbind(1))), loss, steps, time.perf_counter() - start, init)
+
+
+def optimize_stream(model, robot, targets: Targets, settings: OptimizeSettings | None = None, *, weights: LossWeights | None = None,
+                    z0: torch.Tensor | None = None, callback: Callable[[int, float], None] | None = None,
+                    encoder_input: EncoderInput | None = None) -> OptimizeResult:
+    """Frame by frame, as a live stream: with ``settings.warm_start`` frame t starts
+    from frame t-1's best latent (frame 0 from ``z0`` or ``settings.init``).
+
+    Arguments as :func:`optimize_latent`; ``callback`` is called as
+    ``callback(frame, last_mean_loss)`` after every frame. ``history`` is the mean over
+    frames of each evaluation (a frame that stopped early contributes its last value);
+    ``iterations`` the total steps.
+    """
+    settings = settings or OptimizeSettings()
+    start = time.perf_counter()
+    inits = initial_latent(model, targets if encoder_input is None else encoder_input, settings) if z0 is None else z0
+    prev = None
+    parts: list[OptimizeResult] = []
+    for t in range(len(targets)):
+        start_z = prev if (settings.warm_start and prev is not None) else inits[t : t + 1]
+        parts.append(optimize_latent(model, robot, targets.index(slice(t, t + 1)), settings, weights=weights, z0=start_z))
+        prev = parts[-1].z
+        if callback is not None:
+            callback(t, parts[-1].history[-1])
+    return join_results(parts, settings.init, time.perf_counter() - start)

@@ -1,0 +1,321 @@
+"""One call from a demonstration to a robot trajectory and its quality figures.
+
+The pipeline is assembled in one place, :class:`RetargetConfig` (in the manner of
+dex-retargeting's ``RetargetingConfig.build()``): the robot, the loss weights, the
+optimisation settings and the model (the shipped checkpoint unless given) make a
+:class:`Retargeter`, which turns a demonstration into the objective's targets and the
+encoder's input, optimises the latents (in chunks of bounded memory), retimes the
+angles to the robot's velocity limits and measures the result with the metric of
+``nlo_lab.metrics`` (Fréchet distance of wrists and elbows). :func:`retarget` is
+``RetargetConfig(...).build()(demo)``; the command line, the notebooks, the lab's panel
+and the evaluation's latent methods all go through it.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+
+from nlo_lab.errors import SettingsError
+from nlo_lab.human import Demonstration
+from nlo_lab.inference.descent import OptimizeResult, join_results
+from nlo_lab.inference.latent import initial_latent, optimize_latent
+from nlo_lab.inference.retime import retime_times
+from nlo_lab.inference.settings import OptimizeSettings
+from nlo_lab.inference.trajectory import RobotTrajectory
+from nlo_lab.metrics import (
+    limit_violations,
+    max_joint_speed_ratio,
+    max_joint_step,
+    self_collision_frames,
+    tracking_errors,
+    velocity_violations,
+)
+from nlo_lab.model import EncoderInput, encoder_input, load_pretrained
+from nlo_lab.objective import LossWeights, Targets, targets_from_demonstration
+from nlo_lab.robot import Robot
+from nlo_lab.threads import single_thread
+
+__all__ = ["CHUNK_FRAMES", "RetargetConfig", "Retargeter", "RetargetInputs", "RetargetResult", "retarget", "summary"]
+
+# Frames optimised together. Frames are independent (per-frame losses, per-frame Adam),
+# so chunks only bound memory: the autograd graph of one step holds about 0.3 MB per
+# frame, so 1000 frames take a few hundred MB however long the recording is
+# (benchmarks/long_recording.py). The one coupling is the patience stop, which looks
+# at the mean loss of the frames optimised together (here: of one chunk). With the
+# smoothness term (LossWeights.smooth) frames are coupled to their neighbours; across a
+# chunk boundary the previous chunk's last frame is a fixed anchor of the next chunk's
+# first step (optimize_latent(anchor=...)), in its objective and its warm start.
+CHUNK_FRAMES = 1000
+
+
+@dataclass
+class RetargetResult:
+    """What :func:`retarget` returns.
+
+    Attributes:
+        trajectory: the robot's joint trajectory (T, n).
+        optimization: the latent optimisation's result (loss history, terms, z).
+        seconds: wall time of the retargeting itself (targets + optimisation) [s].
+        summary: the JSON summary of the command line (see :func:`summary`).
+    """
+
+    trajectory: RobotTrajectory
+    optimization: OptimizeResult
+    seconds: float
+    summary: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class RetargetInputs:
+    """Demonstration frames as the latent optimisation and the training read them: what
+    the objective compares (:class:`~nlo_lab.objective.Targets`) and what the encoder
+    reads (:class:`~nlo_lab.model.EncoderInput`), the same T frames each."""
+
+    targets: Targets
+    encoder: EncoderInput
+
+    def __len__(self) -> int:
+        return len(self.targets)
+
+    def index(self, idx) -> "RetargetInputs":
+        """Frames ``idx`` (a slice, index tensor or boolean mask)."""
+        return RetargetInputs(self.targets.index(idx), self.encoder.index(idx))
+
+    def to(self, device=None, dtype=None) -> "RetargetInputs":
+        """A copy on ``device``; ``dtype`` applies to the float tensors only."""
+        return RetargetInputs(self.targets.to(device=device, dtype=dtype), self.encoder.to(device=device, dtype=dtype))
+
+    @staticmethod
+    def cat(items: "list[RetargetInputs]") -> "RetargetInputs":
+        """Concatenate along frames."""
+        return RetargetInputs(Targets.cat([x.targets for x in items]), EncoderInput.cat([x.encoder for x in items]))
+
+    @staticmethod
+    def from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.float32, device=None) -> "RetargetInputs":
+        """Targets in ``dtype`` on ``device``; the encoder's input in float32 (the models' dtype) on ``device``."""
+        return RetargetInputs(targets_from_demonstration(demo, dtype=dtype, device=device), encoder_input(demo, device=device))
+
+
+@dataclass(frozen=True)
+class RetargetConfig:
+    """Everything that decides a retargeting; :meth:`build` assembles the pipeline.
+
+    Attributes:
+        robot: a loaded robot (``nlo_lab.robot.load_robot``).
+        settings: initialisation strategy, iteration budget, ... (default: encoder, 100).
+        weights: loss weights (default: the paper's).
+        model: a trained model for this robot; None: the shipped checkpoint
+            (:func:`nlo_lab.model.load_pretrained`).
+        chunk_frames: optimise at most this many frames at once (bounded memory,
+            see :data:`CHUNK_FRAMES`); None for the whole recording in one batch.
+        retime: slow the trajectory down where a joint would exceed its velocity limit
+            (:mod:`nlo_lab.inference.retime`); the trajectory's ``time`` then says when each frame plays.
+        progress: show a progress bar of the optimisation's iterations on stderr.
+    """
+
+    robot: Robot
+    settings: OptimizeSettings | None = None
+    weights: LossWeights | None = None
+    model: Any = None
+    chunk_frames: int | None = CHUNK_FRAMES
+    retime: bool = True
+    progress: bool = False
+
+    def build(self) -> "Retargeter":
+        """Check the configuration, load the model if none was given, and return the retargeter.
+
+        Raises:
+            SettingsError: ``chunk_frames`` is not a whole number >= 1 or None.
+            CheckpointError: no shipped checkpoint for this robot (``model`` omitted).
+        """
+        chunk = self.chunk_frames
+        if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1):
+            raise SettingsError(f"chunk_frames must be a whole number >= 1 or None, got {chunk!r}")
+        model = self.model if self.model is not None else load_pretrained(self.robot)
+        return Retargeter(self, model, self.settings or OptimizeSettings(), self.weights or LossWeights())
+
+
+class Retargeter:
+    """The assembled pipeline (made by :meth:`RetargetConfig.build`): call it on a demonstration.
+
+    ``retargeter(demo)`` does what :func:`retarget` documents. Its steps are public for
+    callers that need one of them: :meth:`inputs` (targets and encoder input of a
+    demonstration), :meth:`start` (the start latents), :meth:`optimize` (the latent
+    optimisation of some frames), :meth:`optimize_frame` (one frame, e.g. warm-started from
+    its current latent).
+    """
+
+    def __init__(self, config: RetargetConfig, model, settings: OptimizeSettings, weights: LossWeights):
+        self.config, self.robot, self.model = config, config.robot, model
+        self.settings, self.weights = settings, weights
+
+    def inputs(self, demo: Demonstration) -> RetargetInputs:
+        """The demonstration's targets (in the robot's dtype and device) and encoder input."""
+        lo = self.robot.lower_limits
+        return RetargetInputs.from_demonstration(demo, dtype=lo.dtype, device=lo.device)
+
+    def start(self, inputs: RetargetInputs) -> torch.Tensor:
+        """``(T, N_r, k)`` start latents for ``settings.init`` (:func:`~nlo_lab.inference.initial_latent`)."""
+        return initial_latent(self.model, inputs.encoder, self.settings)
+
+    def optimize(self, inputs: RetargetInputs, *, z0: torch.Tensor | None = None, callback=None) -> OptimizeResult:
+        """Latent optimisation of ``inputs``' frames, at most ``chunk_frames`` at once.
+
+        Args:
+            inputs: :meth:`inputs` of a demonstration, or some of its frames (``inputs.index``).
+            z0: ``(T, N_r, k)`` start latents (a warm start); default :meth:`start`.
+            callback: ``callback(iteration, mean_loss)`` after every evaluation of every chunk.
+
+        Chunks after the first are anchored at the previous chunk's last angles (smoothness
+        across the boundary); ``history`` is the frame-weighted mean over chunks (a chunk that
+        stopped early contributes its last value), ``iterations`` the most steps any chunk took.
+        """
+        T, size = len(inputs), self.config.chunk_frames or len(inputs)
+        bounds = [(a, min(a + size, T)) for a in range(0, T, size)]
+        if len(bounds) == 1:
+            return self._optimize(inputs.targets, z0=z0, encoder_input=inputs.encoder, callback=callback)
+        # random starts are drawn for the whole recording at once: chunking leaves them unchanged
+        if z0 is None and self.settings.init not in ("encoder", "zeros"):
+            z0 = self.start(inputs)
+        parts: list[OptimizeResult] = []
+        for a, b in bounds:
+            part = inputs.index(slice(a, b))
+            anchor = parts[-1].q[-1] if parts else None
+            start = self.start(part) if z0 is None else z0[a:b]
+            parts.append(self._optimize(part.targets, z0=start, callback=callback, anchor=anchor))
+        return join_results(parts, self.settings.init, sum(r.seconds for r in parts), frames_weighted=True)
+
+    def optimize_frame(self, inputs: RetargetInputs, t: int, z0: torch.Tensor | None = None) -> OptimizeResult:
+        """Frame ``t`` of ``inputs`` alone, from ``z0 (1, N_r, k)`` (e.g. its current latent: a warm
+        start) or from ``settings.init`` (the lab's panel re-optimising the frame a slider shows)."""
+        return self.optimize(inputs.index(slice(t, t + 1)), z0=z0)
+
+    def _optimize(self, targets: Targets, **options) -> OptimizeResult:
+        return optimize_latent(self.model, self.robot, targets, self.settings, weights=self.weights, **options)
+
+    def chunks(self, frames: int) -> int:
+        """How many chunks :meth:`optimize` splits ``frames`` frames into."""
+        size = self.config.chunk_frames or frames
+        return max(1, -(-frames // size))
+
+    def __call__(self, demo: Demonstration) -> "RetargetResult":
+        demo.validate()  # again: the arrays may have changed since the demonstration was built
+        robot, settings = self.robot, self.settings
+        with single_thread():
+            start = time.perf_counter()
+            inputs = self.inputs(demo)
+            desc = f"retarget {len(demo)} frames to {robot.name}"
+            with _progress_bar(self.config.progress, (settings.iterations + 1) * self.chunks(len(inputs)), desc) as callback:
+                result = self.optimize(inputs, callback=callback)
+            seconds = time.perf_counter() - start
+        if not all(np.isfinite(result.history)) or not bool(torch.isfinite(result.loss).all()):
+            raise SettingsError("the loss became NaN or infinite (are the loss weights absurdly large?)")
+        angles = result.q.detach().cpu().numpy().astype(np.float64)
+        limits = robot.velocity_limits.double().numpy()
+        times = retime_times(angles, demo.fps, limits) if self.config.retime else None
+        trajectory = RobotTrajectory(robot=robot.name, joint_names=list(robot.joint_names), angles=angles, fps=demo.fps, time=times)
+        out = RetargetResult(trajectory=trajectory, optimization=result, seconds=seconds)
+        out.summary = summary(demo, robot, out)
+        return out
+
+
+def retarget(
+    demo: Demonstration,
+    robot: Robot,
+    *,
+    settings: OptimizeSettings | None = None,
+    weights: LossWeights | None = None,
+    model=None,
+    progress: bool = False,
+    chunk_frames: int | None = CHUNK_FRAMES,
+    retime: bool = True,
+) -> RetargetResult:
+    """Retarget a whole demonstration to ``robot`` by neural latent optimisation.
+
+    ``RetargetConfig(robot, settings, weights, model, chunk_frames, retime, progress).build()(demo)``.
+
+    Args:
+        demo: the human demonstration.
+        robot: a loaded robot (``nlo_lab.robot.load_robot``).
+        settings: initialisation strategy, iteration budget, ... (defaults: encoder, 100).
+        weights: loss weights (defaults of the paper).
+        model: a trained model for this robot; the shipped checkpoint when omitted.
+        progress: show a progress bar of the optimisation's iterations on stderr
+            (the command line turns it on for a terminal: long clips take seconds).
+        chunk_frames: optimise at most this many frames at once (bounded memory,
+            see :data:`CHUNK_FRAMES`); None for the whole recording in one batch.
+        retime: slow the trajectory down where a joint would exceed its velocity limit
+            (:mod:`nlo_lab.inference.retime`); the trajectory's ``time`` then says when each frame plays.
+
+    Returns:
+        A :class:`RetargetResult` with the trajectory and the quality figures.
+
+    Raises:
+        DemonstrationError: ``demo`` is not (or no longer) valid: NaN where its mask
+            says valid, a wrist rotation that is not a rotation, fps out of range.
+        SettingsError: the loss became NaN or infinite (e.g. absurd weights).
+    """
+    config = RetargetConfig(robot, settings, weights, model, chunk_frames, retime, progress)
+    return config.build()(demo)
+
+
+@contextmanager
+def _progress_bar(show: bool, total: int, desc: str):
+    """A callback ``(iteration, mean_loss)`` that advances a tqdm bar, or None."""
+    if not show:
+        yield None
+        return
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=total, desc=desc, unit="it", file=sys.stderr, leave=False)
+
+    def callback(iteration: int, loss: float) -> None:
+        bar.update(1)
+        bar.set_postfix(loss=f"{loss:.3g}", refresh=False)
+
+    try:
+        yield callback
+    finally:
+        bar.close()
+
+
+def summary(demo: Demonstration, robot: Robot, result: RetargetResult) -> dict[str, Any]:
+    """The command line's JSON object (README.md, "Command line").
+
+    Joint speed keys: ``velocity_violations`` (frame pairs x joints over the velocity limit)
+    and ``max_joint_speed_ratio`` on the trajectory file's own time base;
+    ``recording_speed_ratio`` the same ratio had the frames played at the recording's
+    rate; ``slowdown`` the output's duration over the recording's (1 = not retimed);
+    ``max_joint_step_rad`` the largest change of a joint between consecutive frames;
+    ``depth``: ``"world"`` (measured 3-D) or ``"image"`` (reconstructed from an image-only recording).
+    """
+    traj = result.trajectory
+    angles = torch.tensor(np.array(traj.angles), dtype=robot.lower_limits.dtype)  # a writable copy
+    errors = tracking_errors(demo, robot, angles)
+    return {
+        "robot": robot.name,
+        "input": demo.name,
+        "frames": len(demo),
+        "fps": demo.fps,
+        "seconds": round(result.seconds, 4),
+        "iterations": int(result.optimization.iterations),
+        "frechet_m": float(errors["frechet_m"]),
+        "frechet_wrist_m": float(errors["frechet_wrist_m"]),
+        "frechet_elbow_m": float(errors["frechet_elbow_m"]),
+        "self_collision_frames": int(self_collision_frames(robot, angles)),
+        "limit_violations": int(limit_violations(robot, angles)),
+        "velocity_violations": velocity_violations(robot, traj.angles, traj.times),
+        "max_joint_speed_ratio": round(max_joint_speed_ratio(robot, traj.angles, traj.times), 4),
+        "recording_speed_ratio": round(max_joint_speed_ratio(robot, traj.angles, fps=demo.fps), 4),
+        "slowdown": round(traj.duration / demo.duration, 4),
+        "max_joint_step_rad": round(max_joint_step(traj.angles), 4),
+        "depth": str(demo.meta.get("depth", "world")),
+        "final_loss": float(result.optimization.history[-1]) if len(result.optimization.history) else None,
+    }

@@ -1,0 +1,116 @@
+"""The pipeline is assembled in one place (``RetargetConfig.build()``): ``retarget()``, the
+command line, the lab's panel and the evaluation's latent methods run it, and it gives the
+numbers of the parts put together by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from nlo_lab.errors import SettingsError
+from nlo_lab.evaluation import BaselineSettings, run_method
+from nlo_lab.human import corpus_clip
+from nlo_lab.inference import (
+    OptimizeSettings,
+    RetargetConfig,
+    Retargeter,
+    RetargetInputs,
+    initial_latent,
+    optimize_latent,
+    retarget,
+    retime_times,
+)
+from nlo_lab.model import encoder_input, load_pretrained
+from nlo_lab.objective import LossWeights, targets_from_demonstration
+
+SETTINGS = OptimizeSettings(iterations=8)
+
+
+@pytest.fixture(scope="module")
+def demo():
+    return corpus_clip("introduction_12").slice(0, 30)
+
+
+@pytest.fixture(scope="module")
+def model(nao):
+    return load_pretrained(nao)
+
+
+def test_retarget_is_the_built_config(nao, model, demo):
+    a = retarget(demo, nao, settings=SETTINGS, model=model)
+    b = RetargetConfig(nao, SETTINGS, model=model).build()(demo)
+    np.testing.assert_array_equal(a.trajectory.angles, b.trajectory.angles)
+    np.testing.assert_array_equal(a.trajectory.times, b.trajectory.times)
+    assert {k: v for k, v in a.summary.items() if k != "seconds"} == {k: v for k, v in b.summary.items() if k != "seconds"}
+
+
+def test_the_pipeline_gives_the_numbers_of_its_parts(nao, model, demo):
+    weights = LossWeights(ee=500.0)
+    result = RetargetConfig(nao, SETTINGS, weights, model=model).build()(demo)
+    targets = targets_from_demonstration(demo, dtype=nao.lower_limits.dtype)
+    by_hand = optimize_latent(model, nao, targets, SETTINGS, weights=weights, encoder_input=encoder_input(demo))
+    angles = by_hand.q.detach().numpy().astype(np.float64)
+    np.testing.assert_array_equal(result.trajectory.angles, angles)
+    np.testing.assert_array_equal(result.trajectory.times, retime_times(angles, demo.fps, nao.velocity_limits.double().numpy()))
+    assert result.optimization.history == by_hand.history
+
+
+def test_chunks_are_anchored_and_joined(nao, model, demo):
+    retargeter = RetargetConfig(nao, SETTINGS, model=model, chunk_frames=12).build()
+    assert retargeter.chunks(30) == 3 and retargeter.chunks(12) == 1
+    inputs = retargeter.inputs(demo)
+    joined = retargeter.optimize(inputs)
+    assert joined.q.shape == (30, nao.n_joints) and joined.z.shape[0] == 30
+    # the third chunk is the direct optimisation of its frames, anchored at the second chunk's last angles
+    part = inputs.index(slice(24, 30))
+    third = optimize_latent(model, nao, part.targets, SETTINGS, z0=initial_latent(model, part.encoder, SETTINGS), anchor=joined.q[23])
+    torch.testing.assert_close(joined.q[24:], third.q, rtol=0, atol=0)
+
+
+def test_one_frame_warm_started(nao, model, demo):
+    retargeter = RetargetConfig(nao, OptimizeSettings(iterations=4), model=model, chunk_frames=None).build()
+    inputs = retargeter.inputs(demo)
+    z = retargeter.start(inputs)
+    warm = retargeter.optimize_frame(inputs, 7, z[7:8] + 0.1)
+    direct = optimize_latent(model, nao, inputs.targets.index(slice(7, 8)), OptimizeSettings(iterations=4), z0=z[7:8] + 0.1)
+    torch.testing.assert_close(warm.q, direct.q, rtol=0, atol=0)
+    assert warm.init == "given"
+    cold = retargeter.optimize_frame(inputs, 7)  # from the encoder's latent of that frame
+    one = inputs.index(slice(7, 8))
+    direct = optimize_latent(model, nao, one.targets, OptimizeSettings(iterations=4), encoder_input=one.encoder)
+    assert cold.init == "encoder"
+    torch.testing.assert_close(cold.q, direct.q, rtol=0, atol=0)
+    torch.testing.assert_close(retargeter.start(one), z[7:8])
+
+
+def test_inputs_keep_targets_and_encoder_input_together(demo):
+    x = RetargetInputs.from_demonstration(demo)
+    assert len(x) == len(x.targets) == len(x.encoder) == len(demo)
+    halves = RetargetInputs.cat([x.index(slice(0, 10)), x.index(slice(10, None))])
+    torch.testing.assert_close(halves.encoder.node_features, x.encoder.node_features)
+    torch.testing.assert_close(halves.targets.wrist, x.targets.wrist)
+    assert x.to(dtype=torch.float64).targets.dtype == torch.float64
+
+
+@pytest.mark.parametrize("chunk", [0, -1, 2.5, True])
+def test_bad_chunk_frames_are_refused_when_built(nao, model, chunk):
+    with pytest.raises(SettingsError, match="chunk_frames"):
+        RetargetConfig(nao, model=model, chunk_frames=chunk).build()
+
+
+def test_the_evaluation_runs_the_pipeline(nao, model, demo, monkeypatch):
+    s = BaselineSettings(iterations=5)
+    ours = run_method("latent_encoder", nao, demo, s, model=model)
+    targets = targets_from_demonstration(demo, dtype=nao.lower_limits.dtype)
+    opt = OptimizeSettings(init="encoder", iterations=5, patience=s.patience, latent_sigma=s.random_sigma, seed=s.seed)
+    direct = optimize_latent(model, nao, targets, opt, encoder_input=encoder_input(demo))
+    np.testing.assert_array_equal(ours.angles, direct.q.detach().double().numpy())
+
+    def elsewhere(*args, **kwargs):
+        raise RuntimeError("the pipeline ran")
+
+    monkeypatch.setattr(Retargeter, "optimize", elsewhere)
+    for method in ("latent_encoder", "encoder_only", "latent_random"):
+        with pytest.raises(RuntimeError, match="the pipeline ran"):
+            run_method(method, nao, demo, s, model=model)
