@@ -220,7 +220,7 @@ def _poses_torch(robot, q: np.ndarray):
     import torch
 
     ref = robot.lower_limits
-    qt = torch.as_tensor(q, dtype=ref.dtype, device=ref.device)
+    qt = torch.tensor(q, dtype=ref.dtype, device=ref.device)  # a copy: angles read from a file may be read-only
     with torch.no_grad():
         return robot.forward_kinematics(qt)
 

@@ -270,3 +270,24 @@ def test_real_robot_mid_pose_is_feasible():
     q[1, 0] = robot.upper_limits[0].item() + 0.1
     assert limit_violations(robot, q) == 1
     assert isinstance(self_collision_frames(robot, q), int)
+
+
+def test_read_only_angles_give_no_torch_warning():
+    """Angles read from a file can be a read-only array; scoring them must not print torch's
+    'non-writable tensor' warning to the user (torch prints it once per process: a fresh one)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import warnings, numpy as np\n"
+        "warnings.simplefilter('error')\n"
+        "from nlo_lab.robot import load_robot\n"
+        "from nlo_lab.metrics import self_collision_frames\n"
+        "robot = load_robot('nao')\n"
+        "q = np.repeat(robot.neutral_q.double().numpy()[None], 3, axis=0)\n"
+        "q.setflags(write=False)\n"
+        "print(self_collision_frames(robot, q))\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.strip() == "0"
