@@ -177,8 +177,7 @@ class Retargeter:
         across the boundary); ``history`` is the frame-weighted mean over chunks (a chunk that
         stopped early contributes its last value), ``iterations`` the most steps any chunk took.
         """
-        T, size = len(inputs), self.config.chunk_frames or len(inputs)
-        bounds = [(a, min(a + size, T)) for a in range(0, T, size)]
+        bounds = self._bounds(len(inputs))
         if len(bounds) == 1:
             return self._optimize(inputs.targets, z0=z0, encoder_input=inputs.encoder, callback=callback)
         # random starts are drawn for the whole recording at once: chunking leaves them unchanged
@@ -200,10 +199,14 @@ class Retargeter:
     def _optimize(self, targets: Targets, **options) -> OptimizeResult:
         return optimize_latent(self.model, self.robot, targets, self.settings, weights=self.weights, **options)
 
+    def _bounds(self, frames: int) -> list[tuple[int, int]]:
+        """The ``(first, end)`` frame ranges :meth:`optimize` optimises together (one when ``frames`` is 0)."""
+        size = self.config.chunk_frames or max(frames, 1)
+        return [(a, min(a + size, frames)) for a in range(0, frames, size)] or [(0, 0)]
+
     def chunks(self, frames: int) -> int:
         """How many chunks :meth:`optimize` splits ``frames`` frames into."""
-        size = self.config.chunk_frames or frames
-        return max(1, -(-frames // size))
+        return len(self._bounds(frames))
 
     def __call__(self, demo: Demonstration) -> "RetargetResult":
         demo.validate()  # again: the arrays may have changed since the demonstration was built
@@ -297,7 +300,7 @@ def summary(demo: Demonstration, robot: Robot, result: RetargetResult) -> dict[s
     ``depth``: ``"world"`` (measured 3-D) or ``"image"`` (reconstructed from an image-only recording).
     """
     traj = result.trajectory
-    angles = torch.tensor(np.array(traj.angles), dtype=robot.lower_limits.dtype)  # a writable copy
+    angles = traj.angles  # (T, n) float64; the metrics check and convert it themselves
     errors = tracking_errors(demo, robot, angles)
     return {
         "robot": robot.name,
