@@ -17,6 +17,7 @@ installed. ``--enable-unsafe-swiftshader`` gives WebGL in software.
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -253,6 +254,10 @@ def test_notebook_01_views_and_sliders_in_jupyterlab(lab_page):
     page.run_all()
     page.wait_views(2)
     _check_clean(page)
+    # multisampling decided in the page: off where WebGL draws on the CPU (SwiftShader here), on with a GPU
+    renderer = page.canvas(0).get_attribute("data-renderer")
+    software = re.search("swiftshader|llvmpipe|software", renderer, re.I) is not None
+    assert page.canvas(0).get_attribute("data-antialias") == str(not software).lower(), renderer
     yumi = page.canvas_image(0, tmp / "01-yumi.png")
     colours = _robot_colours(yumi)
     assert colours["arm"] > 0.01 and colours["hand"] > 0.002 and colours["torso"] > 0.005, colours  # YuMi, hands and all
@@ -309,14 +314,15 @@ BUSY_SECONDS = 40  # the cell after the view keeps the kernel busy this long
 def test_a_view_inside_a_container_draws_while_the_kernel_is_busy(lab_page):
     """A scene widget shown inside a plain VBox (never displayed itself), the next cell busy: the view draws
     the robot from its saved scene while the kernel still runs that cell, and goes live when it answers."""
-    import re
     import time
 
     import nbformat
 
     page, tmp = lab_page
     cells = [
-        "import ipywidgets\nfrom nlo_lab.lab import show_robot\nipywidgets.VBox([show_robot('yumi')])",
+        "import ipywidgets\nfrom nlo_lab.lab import show_robot\nfrom nlo_lab.viz import SceneWidget\n"
+        "SceneWidget.default_antialias = True  # multisampled, even on a software renderer\n"
+        "ipywidgets.VBox([show_robot('yumi')])",
         f"import time\ntime.sleep({BUSY_SECONDS})",
     ]
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
@@ -334,6 +340,7 @@ def test_a_view_inside_a_container_draws_while_the_kernel_is_busy(lab_page):
         if colours["arm"] > 0.01 and colours["hand"] > 0.002:
             drawn_while_busy = page.kernel_status()
     assert drawn_while_busy == "busy", f"the view did not draw YuMi while the kernel was busy ({drawn_while_busy})"
+    assert page.canvas(0).get_attribute("data-antialias") == "true"
     page.wait_kernel_idle(timeout=BUSY_SECONDS + 60)
     page.wait_views(1, timeout=30)  # answered: no message over the view once the kernel is free
     _check_clean(page)

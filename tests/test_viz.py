@@ -515,6 +515,10 @@ def test_the_light_detail_draws_the_same_scene_with_fewer_triangles():
     assert SceneWidget().detail == SceneWidget.default_detail == "light"  # the live view's default
     with pytest.raises(NloLabError, match="detail"):
         SceneWidget(detail="coarse")
+    # the page decides multisampling unless told (None); a wrong value is named
+    assert SceneWidget().antialias is None and SceneWidget(antialias=True).antialias is True
+    with pytest.raises(NloLabError, match="antialias"):
+        SceneWidget(antialias="on")
     # the static page keeps meshcat's tessellation
     vis = recording_visualizer()
     RetargetScene(vis, robot, sweep(robot, 6), demo=demo)

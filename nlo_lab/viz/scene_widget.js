@@ -23,6 +23,23 @@ function loadMeshCat(code) {
   return globalThis.__nloLabMeshCat;
 }
 
+// The WebGL renderer's name, and whether it draws on the CPU (SwiftShader, llvmpipe: a browser without a GPU,
+// or with GPU access off). Asked once per page, from a throwaway context.
+function webglRenderer() {
+  if (!globalThis.__nloLabRenderer) {
+    let name = "unknown";
+    try {
+      const gl = document.createElement("canvas").getContext("webgl2") || document.createElement("canvas").getContext("webgl");
+      const info = gl.getExtension("WEBGL_debug_renderer_info");
+      name = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+      const lose = gl.getExtension("WEBGL_lose_context");
+      if (lose) lose.loseContext();  // browsers allow only a few live contexts per page
+    } catch (err) { /* no WebGL: the viewer's own error says so */ }
+    globalThis.__nloLabRenderer = { name, software: /swiftshader|llvmpipe|softpipe|software/i.test(name) };
+  }
+  return globalThis.__nloLabRenderer;
+}
+
 function asBytes(buffer) {
   if (buffer instanceof Uint8Array) return buffer;
   if (ArrayBuffer.isView(buffer)) return new Uint8Array(buffer.buffer, buffer.byteOffset, buffer.byteLength);
@@ -71,7 +88,19 @@ async function render({ model, el }) {
     const ref = model.get("_bundle");
     const bundle = await model.widget_manager.get_model(String(ref).slice(PREFIX.length));
     const MeshCat = await loadMeshCat(bundle.get("code"));
-    viewer = new MeshCat.Viewer(pane, false);  // false: we run the drawing loop (and stop it)
+    // meshcat's own renderer (multisampled, soft shadows), except that multisampling is off where WebGL draws on
+    // the CPU: there it costs about a third of the frame rate (docs/RESULTS.md); the widget's antialias overrides.
+    const renderer = webglRenderer();
+    const wanted = model.get("antialias");
+    const antialias = wanted === null || wanted === undefined ? !renderer.software : Boolean(wanted);
+    const three = new MeshCat.THREE.WebGLRenderer({ antialias, alpha: true });
+    three.shadowMap.enabled = true;
+    three.shadowMap.type = MeshCat.THREE.PCFSoftShadowMap;
+    pane.appendChild(three.domElement);
+    // what this view draws with, for a reader of the page (tests, benchmarks): the context's own answer
+    three.domElement.dataset.renderer = renderer.name;
+    three.domElement.dataset.antialias = String(Boolean(three.getContext().getContextAttributes().antialias));
+    viewer = new MeshCat.Viewer(pane, false, three);  // false: we run the drawing loop (and stop it)
   } catch (err) {
     setStatus(`The 3-D view could not start: ${err && err.message ? err.message : err}`);
     return;

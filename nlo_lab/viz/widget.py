@@ -131,6 +131,9 @@ class SceneWidget(anywidget.AnyWidget):
         detail: ``"light"`` (spheres and cylinders with about 5x fewer triangles: a browser without a GPU
             draws the scene faster) or ``"full"`` (meshcat's own tessellation, as in ``viewer.html``);
             None: :attr:`default_detail`. It applies to scenes drawn after it is set.
+        antialias: multisampled (smooth) edges: True or False; None: :attr:`default_antialias`, which is None:
+            on where the browser draws WebGL with a GPU, off where it draws on the CPU (SwiftShader, llvmpipe:
+            there multisampling costs about a third of the frame rate). It applies to views displayed after it is set.
 
     Attributes:
         vis: the meshcat ``Visualizer`` drawing into this scene.
@@ -145,14 +148,21 @@ class SceneWidget(anywidget.AnyWidget):
     height = traitlets.Int(400).tag(sync=True)
     message = traitlets.Unicode("").tag(sync=True)
     detail = traitlets.Enum(DETAILS, default_value="light").tag(sync=True)
+    antialias = traitlets.Bool(None, allow_none=True).tag(sync=True)
     default_detail = "light"  # of every new view (the panels' and show_*'s too): set to "full" for meshcat's own
+    default_antialias: bool | None = None  # of every new view: None decides in the browser (GPU: on; CPU: off)
 
-    def __init__(self, height: int = 400, message: str = "", detail: str | None = None, **kwargs) -> None:
+    def __init__(self, height: int = 400, message: str = "", detail: str | None = None, antialias: bool | None = None,
+                 **kwargs) -> None:
         kwargs.setdefault("layout", ipywidgets.Layout(width="100%"))
         detail = type(self).default_detail if detail is None else detail
         if detail not in DETAILS:
             raise NloLabError(f"detail must be one of {DETAILS}, got {detail!r}")
-        super().__init__(_bundle=meshcat_bundle(), height=int(height), message=message, detail=detail, **kwargs)
+        antialias = type(self).default_antialias if antialias is None else antialias
+        if antialias is not None and not isinstance(antialias, bool):
+            raise NloLabError(f"antialias must be True, False or None, got {antialias!r}")
+        super().__init__(_bundle=meshcat_bundle(), height=int(height), message=message, detail=detail,
+                         antialias=antialias, **kwargs)
         self.vis = Visualizer(window=WidgetWindow(self))
         self._version = 0  # commands issued so far; the page's views count the same way
         self._held: list[bytes] | None = None
