@@ -1,6 +1,6 @@
 """JupyterLab in a real browser, for tests/test_browser.py and benchmarks/viewer.py.
 
-:class:`Lab` starts JupyterLab on 127.0.0.1 (a free port, a random token, its own
+:class:`Lab` starts JupyterLab (or Notebook 7, ``app="notebook"``) on 127.0.0.1 (a free port, a random token, its own
 config, data and runtime folders) over a folder, and stops it. :class:`LabPage` is a
 Playwright page in Debian's Chromium (``executable_path``: Playwright cannot download
 its own browsers here) that opens a notebook, runs all its cells, moves sliders, and
@@ -51,8 +51,10 @@ def free_port() -> int:
 class Lab:
     """JupyterLab over ``root`` on 127.0.0.1; ``env`` is added to the kernel's environment."""
 
-    def __init__(self, root: Path, state: Path, env: dict[str, str] | None = None, timeout: float = 90.0):
+    def __init__(self, root: Path, state: Path, env: dict[str, str] | None = None, timeout: float = 90.0,
+                 app: str = "jupyterlab"):
         self.root, self.state = Path(root), Path(state)
+        self.app = app  # "jupyterlab", or "notebook" (Notebook 7: the same server, a one-notebook page)
         self.port, self.token = free_port(), secrets.token_hex(16)
         self.origin = f"http://127.0.0.1:{self.port}"
         self.log_path = self.state / "jupyterlab.log"
@@ -76,7 +78,7 @@ class Lab:
             PYDEVD_DISABLE_FILE_VALIDATION="1",
         )
         cmd = [
-            sys.executable, "-m", "jupyterlab", "--no-browser", "--ServerApp.ip=127.0.0.1", f"--ServerApp.port={self.port}",
+            sys.executable, "-m", app, "--no-browser", "--ServerApp.ip=127.0.0.1", f"--ServerApp.port={self.port}",
             "--ServerApp.port_retries=0", f"--IdentityProvider.token={self.token}", f"--ServerApp.root_dir={self.root}",
             "--LabApp.news_url=", "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
         ] + (["--allow-root"] if hasattr(os, "geteuid") and os.geteuid() == 0 else [])
@@ -154,7 +156,10 @@ class LabPage:
 
     # ---------------------------------------------------------------- notebooks
     def open_notebook(self, name: str, timeout: float = 120.0) -> None:
-        self.page.goto(self.lab.url(f"lab/tree/{name}", "reset"))  # reset: this notebook alone, no tabs restored
+        if self.lab.app == "notebook":  # Notebook 7: one notebook per page
+            self.page.goto(self.lab.url(f"notebooks/{name}"))
+        else:
+            self.page.goto(self.lab.url(f"lab/tree/{name}", "reset"))  # reset: this notebook alone, no tabs restored
         self.page.locator(".jp-Notebook").first.wait_for(timeout=timeout * 1000)
         # JupyterLab may ask which kernel to start: the notebook's own (python3) is the default choice.
         accept = self.page.locator(".jp-Dialog .jp-mod-accept")

@@ -194,19 +194,30 @@ MOVE_BYTES = 50_000  # the issue's bound for one RetargetPanel move on YuMi with
 
 
 @pytest.fixture(scope="module")
-def lab_page(tmp_path_factory):
+def browser():
+    """One Chromium for the module's Jupyter tests (Playwright allows one sync session at a time)."""
     from playwright.sync_api import sync_playwright
 
+    with sync_playwright() as p:
+        chromium = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        try:
+            yield chromium
+        finally:
+            chromium.close()
+
+
+@pytest.fixture(scope="module")
+def lab_page(tmp_path_factory, browser):
     tmp = tmp_path_factory.mktemp("lab")
     (tmp / "notebooks").mkdir()
     for name in ("01_robots_and_kinematics.ipynb", "05_neural_initialisation.ipynb"):
         shutil.copy(ROOT / "notebooks" / name, tmp / "notebooks" / name)  # the lab writes to its copies only
-    with Lab(tmp / "notebooks", tmp / "state", env={"NLO_LAB_TEST_MODE": "1"}) as lab, sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+    with Lab(tmp / "notebooks", tmp / "state", env={"NLO_LAB_TEST_MODE": "1"}) as lab:
+        page = LabPage(browser, lab, width=1280, height=900)
         try:
-            yield LabPage(browser, lab, width=1280, height=900), tmp
+            yield page, tmp
         finally:
-            browser.close()
+            page.page.close()
         log = lab.log()
     assert "Traceback" not in log, f"the kernel or the server logged an error:\n{log[-4000:]}"
 
@@ -344,3 +355,44 @@ def test_a_view_inside_a_container_draws_while_the_kernel_is_busy(lab_page):
     page.wait_kernel_idle(timeout=BUSY_SECONDS + 60)
     page.wait_views(1, timeout=30)  # answered: no message over the view once the kernel is free
     _check_clean(page)
+
+
+def test_the_view_and_a_panel_in_notebook_7(tmp_path, browser):
+    """Notebook 7 (not JupyterLab): a robot's view and a JointPanel draw, a slider move changes the picture."""
+    import nbformat
+
+    pytest.importorskip("notebook", minversion="7", reason="Notebook 7 is not installed (pip install 'notebook>=7')")
+    (tmp_path / "nb").mkdir()
+    cells = [
+        "from nlo_lab.lab import show_robot\nshow_robot('yumi')",
+        "from nlo_lab.lab import JointPanel\nfrom nlo_lab.robot import load_robot\nJointPanel(load_robot('nao'))",
+    ]
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
+    nbformat.write(nb, tmp_path / "nb" / "views.ipynb")
+    with Lab(tmp_path / "nb", tmp_path / "state", app="notebook") as lab:
+        page = LabPage(browser, lab, width=1280, height=900)
+        try:
+            page.open_notebook("views.ipynb")
+            assert "/notebooks/views.ipynb" in page.page.url and "/lab" not in page.page.url  # Notebook 7's own page
+            # Notebook 7.6.5 itself throws one page error while it loads any notebook, "1+1" alone too (its
+            # shortcut settings, in notebook_core.js), before any cell ran or our view's code was loaded:
+            # only errors after that count.
+            print("Notebook 7's own errors at load:", page.console_errors)
+            page.console_errors.clear()
+            page.run_all()
+            page.wait_views(2)
+            _check_clean(page)
+            yumi = _robot_colours(page.canvas_image(0, tmp_path / "nb7-yumi.png"))
+            assert yumi["arm"] > 0.01 and yumi["hand"] > 0.002, yumi
+            panel_cell = page.cell_with("JointPanel(")
+            assert _readouts_visible(page, panel_cell) == [], "controls covered at 1280 px"
+            before = page.canvas_image(1, tmp_path / "nb7-nao-before.png")
+            assert _robot_colours(before)["arm"] > 0.002, "NAO is not drawn"
+            move = page.move_slider(page.slider_handles(panel_cell).first, key="End")
+            after = page.canvas_image(1, tmp_path / "nb7-nao-after.png")
+            assert move["messages"] == 1 and move["bytes"] < MOVE_BYTES, move
+            assert _changed(before, after) > 0.002, "the joint slider did not change the picture"
+            _check_clean(page)
+        finally:
+            page.page.close()
