@@ -52,7 +52,7 @@ class Lab:
     """JupyterLab over ``root`` on 127.0.0.1; ``env`` is added to the kernel's environment."""
 
     def __init__(self, root: Path, state: Path, env: dict[str, str] | None = None, timeout: float = 90.0,
-                 app: str = "jupyterlab"):
+                 app: str = "jupyterlab", settings: dict[str, dict] | None = None):
         self.root, self.state = Path(root), Path(state)
         self.app = app  # "jupyterlab", or "notebook" (Notebook 7: the same server, a one-notebook page)
         self.port, self.token = free_port(), secrets.token_hex(16)
@@ -63,11 +63,13 @@ class Lab:
         run_env = dict(os.environ)
         run_env.update(env or {})
         # Every cell in the page (no windowing), no news, no kernel dialog: settings of this lab only.
+        # ``settings``: more, as {"@scope/extension/plugin": values}.
         for plugin, values in {
-            "notebook-extension/tracker": {"windowingMode": "none", "autoStartDefaultKernel": True},
-            "apputils-extension/notification": {"fetchNews": "false", "checkForUpdates": False},
+            "@jupyterlab/notebook-extension/tracker": {"windowingMode": "none", "autoStartDefaultKernel": True},
+            "@jupyterlab/apputils-extension/notification": {"fetchNews": "false", "checkForUpdates": False},
+            **(settings or {}),
         }.items():
-            target = self.state / "settings" / "@jupyterlab" / f"{plugin}.jupyterlab-settings"
+            target = self.state / "settings" / f"{plugin}.jupyterlab-settings"
             target.parent.mkdir(parents=True, exist_ok=True)
             target.write_text(json.dumps(values), encoding="utf-8")
         run_env.update(
@@ -97,6 +99,13 @@ class Lab:
                 self.close()
                 raise RuntimeError(f"JupyterLab did not start:\n{self.log()[-3000:]}")
             time.sleep(0.3)
+
+    def api(self, method: str, path: str) -> object:
+        """A call to the server's REST API (``api/...``): its JSON answer, or None."""
+        req = urllib.request.Request(self.url(path), method=method)
+        with urllib.request.urlopen(req, timeout=30) as resp:
+            body = resp.read()
+        return json.loads(body) if body else None
 
     def url(self, path: str, query: str = "") -> str:
         return f"{self.origin}/{path.lstrip('/')}?token={self.token}{'&' + query if query else ''}"
@@ -219,10 +228,12 @@ class LabPage:
             """() => Array.from(document.querySelectorAll('.nlo-lab-view-message'))
                    .filter(el => el.style.display !== 'none').map(el => el.textContent)""")
 
-    def wait_views(self, count: int, timeout: float = 60.0) -> None:
+    def wait_views(self, count: int, timeout: float = 60.0, messages: bool = False) -> None:
+        """Wait until ``count`` 3-D views drew, none of them with a message over it (unless ``messages``)."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            if self.page.locator(".jp-NotebookPanel:not(.lm-mod-hidden) .nlo-lab-view canvas").count() >= count and not self.view_messages():
+            if (self.page.locator(".jp-NotebookPanel:not(.lm-mod-hidden) .nlo-lab-view canvas").count() >= count
+                    and (messages or not self.view_messages())):
                 return
             time.sleep(0.2)
         raise TimeoutError(f"{self.page.locator('.nlo-lab-view canvas').count()} views drew, {count} expected; "

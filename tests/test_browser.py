@@ -370,7 +370,8 @@ def test_the_view_and_a_panel_in_notebook_7(tmp_path, browser):
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
     nbformat.write(nb, tmp_path / "nb" / "views.ipynb")
-    with Lab(tmp_path / "nb", tmp_path / "state", app="notebook") as lab:
+    saving = {"@jupyter-widgets/jupyterlab-manager/plugin": {"saveState": True}}  # File > Save keeps widget state
+    with Lab(tmp_path / "nb", tmp_path / "state", app="notebook", settings=saving) as lab:
         page = LabPage(browser, lab, width=1280, height=900)
         try:
             page.open_notebook("views.ipynb")
@@ -394,5 +395,22 @@ def test_the_view_and_a_panel_in_notebook_7(tmp_path, browser):
             assert move["messages"] == 1 and move["bytes"] < MOVE_BYTES, move
             assert _changed(before, after) > 0.002, "the joint slider did not change the picture"
             _check_clean(page)
+            # Saved, its kernel shut down, opened again (a new kernel, which never made these views): each view
+            # draws its saved scene and says that no kernel answers, instead of a blank canvas in silence.
+            page.page.keyboard.press("Control+s")
+            page.page.wait_for_timeout(2000)
+            saved = nbformat.read(tmp_path / "nb" / "views.ipynb", as_version=4)
+            assert "application/vnd.jupyter.widget-state+json" in saved.metadata.get("widgets", {}), "widget state not saved"
+            for session in lab.api("GET", "api/sessions"):
+                lab.api("DELETE", f"api/sessions/{session['id']}")  # shuts its kernel down
+            page.open_notebook("views.ipynb")
+            page.wait_views(2, messages=True)
+            yumi = _robot_colours(page.canvas_image(0, tmp_path / "nb7-saved-yumi.png"))
+            assert yumi["arm"] > 0.01 and yumi["hand"] > 0.002, yumi  # the saved scene, drawn without its kernel
+            page.page.wait_for_function(
+                "() => document.querySelectorAll('.nlo-lab-view-message').length === 2 && Array.from("
+                "document.querySelectorAll('.nlo-lab-view-message')).every(el => el.style.display !== 'none')",
+                timeout=30_000)
+            assert all(text.startswith("No kernel answers") for text in page.view_messages()), page.view_messages()
         finally:
             page.page.close()
