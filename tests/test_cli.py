@@ -9,6 +9,7 @@ import sys
 import numpy as np
 import pytest
 
+from cli_errors import assert_one_line_error
 from nlo_lab.cli import main
 
 SUMMARY_KEYS = {
@@ -21,15 +22,6 @@ def run(argv, capsys):
     code = main(argv)
     out, err = capsys.readouterr()
     return code, out, err
-
-
-def assert_one_line_error(code, err, *needles):
-    assert code == 2
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1, err
-    assert "Traceback" not in err
-    for needle in needles:
-        assert needle in lines[0], (needle, lines[0])
 
 
 def test_bad_flag_is_one_line_exit_2(capsys):

@@ -23,7 +23,6 @@ from pathlib import Path
 import nbformat
 import numpy as np
 import pytest
-import umsgpack
 
 from lab_browser import CHROMIUM, CHROMIUM_ARGS, browser_missing, hue_mask
 
@@ -31,14 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tools"))
 import export_js  # noqa: E402
 
-
-def _unpack(data: bytes) -> list[dict]:
-    out, at = [], 0
-    while at < len(data):
-        n = int.from_bytes(data[at:at + 4], "little")
-        out.append(umsgpack.unpackb(data[at + 4:at + 4 + n]))
-        at += 4 + n
-    return out
+from nlo_lab.viz.widget import unpack_commands  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +59,7 @@ def test_exported_notebook_holds_the_scene(exported):
     assert bundle["state"]["code"] == (Path(VIEWER_ROOT) / "main.min.js").read_text(encoding="utf-8")
     assert scene["state"]["_bundle"] == f"IPY_MODEL_{bundle_id}"
     buffer, = [b for b in scene["buffers"] if b["path"] == ["_scene"]]
-    commands = _unpack(base64.b64decode(buffer["data"]))
+    commands = unpack_commands(base64.b64decode(buffer["data"]))
     paths = {c["path"] for c in commands}
     assert commands[0]["type"] == "delete" and "/meshcat/robot/Head" in paths  # NAO, drawn from scratch
     assert scene["state"]["_scene_version"] > 0

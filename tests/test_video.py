@@ -17,6 +17,7 @@ import pytest
 pytest.importorskip("mediapipe", reason="the video extra (mediapipe) is not installed")
 cv2 = pytest.importorskip("cv2", reason="the video extra (opencv) is not installed")
 
+from cli_errors import assert_one_line_error  # noqa: E402
 from nlo_lab.cli import main  # noqa: E402
 from nlo_lab.errors import DemonstrationError  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
@@ -61,15 +62,6 @@ def same_demonstration(a, b) -> None:
     assert a.fps == pytest.approx(b.fps)
     for name in ARRAYS:
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
-
-
-def assert_one_line_error(code, err, *needles):
-    assert code == 2
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1, err
-    assert "Traceback" not in err
-    for needle in needles:
-        assert needle in lines[0], (needle, lines[0])
 
 
 @pytest.fixture(scope="module")

@@ -32,6 +32,7 @@ from nlo_lab.viz import (
     static_html,
 )
 from nlo_lab.viz.scene import matrix_to_quaternion
+from nlo_lab.viz.widget import pack_commands, unpack_commands
 
 ROBOTS = ("nao", "pepper", "yumi")
 ALLOWED_URLS = {"http://www.w3.org/1999/xhtml"}  # an XML namespace name inside three.js, never fetched
@@ -344,14 +345,13 @@ def test_bad_scene_input():
 
 
 # ------------------------------------------------------------------ the widget
-def _unpack(data: bytes) -> list[dict]:
-    """Framed commands (uint32 LE length + msgpack) back to dicts."""
-    out, at = [], 0
-    while at < len(data):
-        n = int.from_bytes(data[at:at + 4], "little")
-        out.append(umsgpack.unpackb(data[at + 4:at + 4 + n]))
-        at += 4 + n
-    return out
+def test_packed_commands_unpack_to_what_was_packed():
+    commands = [{"type": "set_transform", "path": "/meshcat/a", "matrix": [float(i) for i in range(16)]},
+                {"type": "delete", "path": "/meshcat"}]
+    data = pack_commands([umsgpack.packb(c) for c in commands])
+    assert unpack_commands(data) == commands
+    with pytest.raises(NloLabError, match="past the end"):
+        unpack_commands(data[:-1])
 
 
 class _Sent:
@@ -373,7 +373,7 @@ def test_scene_widget_sends_meshcat_commands_and_only_what_changed():
         scene.set_pose(robot.neutral_q.numpy())
     assert len(sent.messages) == 1, "one update, one message"
     content, (data,) = sent.messages[0]
-    cmds = _unpack(data)
+    cmds = unpack_commands(data)
     assert content == {"type": "commands", "version": widget._version, "count": len(cmds)}
     assert {c["type"] for c in cmds} == {"set_object", "set_transform"}
     # the same pose again sends nothing; one joint sends only the links below it
@@ -385,7 +385,7 @@ def test_scene_widget_sends_meshcat_commands_and_only_what_changed():
     q[j] = robot.lower_limits[j].item()
     with widget.hold():
         scene.set_pose(q)
-    moved = _unpack(sent.messages[-1][1][0])
+    moved = unpack_commands(sent.messages[-1][1][0])
     assert moved and {c["type"] for c in moved} == {"set_transform"}
     assert all("/robot/l_" in c["path"] or "/robot/L" in c["path"] for c in moved), [c["path"] for c in moved]
     assert len(moved) < len(scene.links) / 2
@@ -401,7 +401,7 @@ def test_scene_widget_gives_a_new_view_the_whole_scene():
     widget = SceneWidget()
     sent = _Sent(widget)
     RetargetScene(widget.vis, robot, sweep(robot, 3))
-    snapshot = _unpack(widget.snapshot())
+    snapshot = unpack_commands(widget.snapshot())
     assert snapshot[0] == {"type": "delete", "path": "/meshcat"}  # a view that already drew something starts over
     assert {"set_object", "set_transform", "set_property"} <= {c["type"] for c in snapshot}
     assert snapshot[1:] == commands_of(widget.vis.static_html())  # the same scene as the static page
@@ -495,7 +495,7 @@ def test_the_light_detail_draws_the_same_scene_with_fewer_triangles():
     for detail in ("full", "light"):
         widget = SceneWidget(detail=detail)
         RetargetScene(widget.vis, robot, sweep(robot, 6), demo=demo)
-        scenes[detail] = _unpack(widget.snapshot())
+        scenes[detail] = unpack_commands(widget.snapshot())
     full, light = scenes["full"], scenes["light"]
     assert [c["path"] for c in full] == [c["path"] for c in light], "the same nodes"
     geometry = {"full": [], "light": []}

@@ -40,7 +40,7 @@ from nlo_lab.errors import NloLabError
 from nlo_lab.viz.export import RecordingWindow, scene_commands, viewer_js
 from nlo_lab.viz.tracks import DETAILS
 
-__all__ = ["SceneWidget", "WidgetWindow", "MeshcatBundle", "meshcat_bundle", "pack_commands"]
+__all__ = ["SceneWidget", "WidgetWindow", "MeshcatBundle", "meshcat_bundle", "pack_commands", "unpack_commands"]
 
 _ESM = Path(__file__).with_name("scene_widget.js")
 
@@ -48,6 +48,20 @@ _ESM = Path(__file__).with_name("scene_widget.js")
 def pack_commands(commands: list[bytes]) -> bytes:
     """Commands framed as (uint32 little-endian length, msgpack bytes)... for one binary buffer."""
     return b"".join(struct.pack("<I", len(c)) + c for c in commands)
+
+
+def unpack_commands(data: bytes) -> list[dict]:
+    """The commands of a :func:`pack_commands` buffer (a message, a widget's saved ``_scene``) as meshcat dicts."""
+    import umsgpack
+
+    commands, at = [], 0
+    while at + 4 <= len(data):
+        (n,) = struct.unpack_from("<I", data, at)
+        if at + 4 + n > len(data):
+            raise NloLabError(f"a framed command runs past the end of the buffer (at byte {at}, length {n})")
+        commands.append(umsgpack.unpackb(bytes(data[at + 4:at + 4 + n])))
+        at += 4 + n
+    return commands
 
 
 class MeshcatBundle(ipywidgets.Widget):
