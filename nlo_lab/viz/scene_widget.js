@@ -24,7 +24,7 @@ function loadMeshCat(code) {
 }
 
 // The WebGL renderer's name, and whether it draws on the CPU (SwiftShader, llvmpipe: a browser without a GPU,
-// or with GPU access off). Asked once per page, from a throwaway context.
+// or with GPU access off; Windows' WARP is the "Basic Render Driver"). Asked once per page, from a throwaway context.
 function webglRenderer() {
   if (!globalThis.__nloLabRenderer) {
     let name = "unknown";
@@ -35,7 +35,7 @@ function webglRenderer() {
       const lose = gl.getExtension("WEBGL_lose_context");
       if (lose) lose.loseContext();  // browsers allow only a few live contexts per page
     } catch (err) { /* no WebGL: the viewer's own error says so */ }
-    globalThis.__nloLabRenderer = { name, software: /swiftshader|llvmpipe|softpipe|software/i.test(name) };
+    globalThis.__nloLabRenderer = { name, software: /swiftshader|llvmpipe|softpipe|software|basic render/i.test(name) };
   }
   return globalThis.__nloLabRenderer;
 }
