@@ -259,6 +259,20 @@ def _readouts_visible(page: LabPage, cell: int) -> list[str]:
     )
 
 
+def _joint_panel_moves_nao(page: LabPage, view: int, pictures: Path) -> None:
+    """The page's ``JointPanel(`` cell on NAO, drawn in 3-D view ``view``: every control visible at 1280 px, NAO
+    drawn, and its first slider moved to the end changes the picture in one message under the bound."""
+    panel_cell = page.cell_with("JointPanel(")
+    assert _readouts_visible(page, panel_cell) == [], "controls covered at 1280 px"
+    before = page.canvas_image(view, pictures.with_name(pictures.name + "-before.png"))
+    assert _robot_colours(before)["arm"] > 0.002, "NAO is not drawn"
+    move = page.move_slider(page.slider_handles(panel_cell).first, key="End")
+    after = page.canvas_image(view, pictures.with_name(pictures.name + "-after.png"))
+    assert move["messages"] == 1, move
+    assert move["bytes"] < MOVE_BYTES, move
+    assert _changed(before, after) > 0.002, "the joint slider did not change the picture"
+
+
 def test_notebook_01_views_and_sliders_in_jupyterlab(lab_page):
     page, tmp = lab_page
     page.open_notebook("01_robots_and_kinematics.ipynb")
@@ -273,15 +287,7 @@ def test_notebook_01_views_and_sliders_in_jupyterlab(lab_page):
     colours = _robot_colours(yumi)
     assert colours["arm"] > 0.01 and colours["hand"] > 0.002 and colours["torso"] > 0.005, colours  # YuMi, hands and all
     cells = page.cells()
-    panel_cell = page.cell_with("JointPanel(")
-    assert _readouts_visible(page, panel_cell) == [], "controls covered at 1280 px"
-    before = page.canvas_image(1, tmp / "01-nao-before.png")
-    assert _robot_colours(before)["arm"] > 0.002, "NAO is not drawn"
-    move = page.move_slider(page.slider_handles(panel_cell).first, key="End")
-    after = page.canvas_image(1, tmp / "01-nao-after.png")
-    assert move["messages"] == 1, move
-    assert move["bytes"] < MOVE_BYTES, move
-    assert _changed(before, after) > 0.002, "the joint slider did not change the picture"
+    _joint_panel_moves_nao(page, 1, tmp / "01-nao")
     # YuMi's own view still shows YuMi (its hands are green; NAO has none)
     assert _robot_colours(page.canvas_image(0, tmp / "01-yumi-again.png"))["hand"] > 0.002
     # the interact slider (reads only its own arguments now)
@@ -386,14 +392,7 @@ def test_the_view_and_a_panel_in_notebook_7(tmp_path, browser):
             _check_clean(page)
             yumi = _robot_colours(page.canvas_image(0, tmp_path / "nb7-yumi.png"))
             assert yumi["arm"] > 0.01 and yumi["hand"] > 0.002, yumi
-            panel_cell = page.cell_with("JointPanel(")
-            assert _readouts_visible(page, panel_cell) == [], "controls covered at 1280 px"
-            before = page.canvas_image(1, tmp_path / "nb7-nao-before.png")
-            assert _robot_colours(before)["arm"] > 0.002, "NAO is not drawn"
-            move = page.move_slider(page.slider_handles(panel_cell).first, key="End")
-            after = page.canvas_image(1, tmp_path / "nb7-nao-after.png")
-            assert move["messages"] == 1 and move["bytes"] < MOVE_BYTES, move
-            assert _changed(before, after) > 0.002, "the joint slider did not change the picture"
+            _joint_panel_moves_nao(page, 1, tmp_path / "nb7-nao")
             _check_clean(page)
             # Saved, its kernel shut down, opened again (a new kernel, which never made these views): each view
             # draws its saved scene and says that no kernel answers, instead of a blank canvas in silence.

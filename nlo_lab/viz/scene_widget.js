@@ -29,7 +29,8 @@ function webglRenderer() {
   if (!globalThis.__nloLabRenderer) {
     let name = "unknown";
     try {
-      const gl = document.createElement("canvas").getContext("webgl2") || document.createElement("canvas").getContext("webgl");
+      const canvas = document.createElement("canvas");
+      const gl = canvas.getContext("webgl2") || canvas.getContext("webgl");
       const info = gl.getExtension("WEBGL_debug_renderer_info");
       name = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
       const lose = gl.getExtension("WEBGL_lose_context");
