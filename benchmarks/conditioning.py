@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+from nlo_lab.corpus import sign_corpus
 from nlo_lab.human import Demonstration
 from nlo_lab.human import conditioning as cond
-from nlo_lab.corpus import sign_corpus
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "pose"
 

@@ -63,20 +63,20 @@ def main() -> None:
     for batch in (1, 32, 256):
         q0 = robot.lower_limits + torch.rand(batch, robot.n_joints, generator=g) * (robot.upper_limits - robot.lower_limits)
 
-        def ours_fwd():
+        def ours_fwd(q0=q0):  # this batch's poses
             with torch.no_grad():
                 robot.forward_kinematics(q0)
 
-        def pk_fwd():
+        def pk_fwd(q0=q0):  # this batch's poses
             with torch.no_grad():
                 pk_fk(q0)
 
-        def ours_fb():
+        def ours_fb(q0=q0):  # this batch's poses
             q = q0.clone().requires_grad_(True)
             T = robot.forward_kinematics_tensor(q)
             T[..., :3, 3].square().sum().backward()
 
-        def pk_fb():
+        def pk_fb(q0=q0):  # this batch's poses
             q = q0.clone().requires_grad_(True)
             out = pk_fk(q)
             sum(t.get_matrix()[..., :3, 3].square().sum() for t in out.values()).backward()

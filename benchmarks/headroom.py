@@ -42,11 +42,11 @@ import results_doc  # noqa: E402
 
 from nlo_lab.evaluation import BaselineSettings, run_method  # noqa: E402
 from nlo_lab.human import map_to_robot, sign_corpus  # noqa: E402
-from nlo_lab.objective import collision_loss, robot_points, targets_from_demonstration  # noqa: E402
-from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.inference import JointOptimizeSettings, optimize_joints  # noqa: E402
-from nlo_lab.robot import load_robot  # noqa: E402
+from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
+from nlo_lab.objective import collision_loss, robot_points, targets_from_demonstration  # noqa: E402
+from nlo_lab.robot import load_robot  # noqa: E402
 
 COLUMNS = ("encoder_only", "latent_encoder", "objective optimum", "metric oracle")
 LR = 0.01  # rad per Adam step for both joint-space refinements

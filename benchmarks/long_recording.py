@@ -32,8 +32,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
 
-from nlo_lab.human import Demonstration, save_npz  # noqa: E402
 from nlo_lab.corpus import sign_corpus  # noqa: E402
+from nlo_lab.human import Demonstration, save_npz  # noqa: E402
 
 _RUN = """
 import resource, sys

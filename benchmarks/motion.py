@@ -30,12 +30,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from results_doc import stamp, update_section  # noqa: E402
 
-from nlo_lab.human import load_demonstration  # noqa: E402
 from nlo_lab.corpus import sign_corpus  # noqa: E402
-from nlo_lab.objective import LossWeights  # noqa: E402
+from nlo_lab.human import load_demonstration  # noqa: E402
 from nlo_lab.inference import retarget  # noqa: E402
-from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
+from nlo_lab.objective import LossWeights  # noqa: E402
+from nlo_lab.robot import load_robot  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_POSE = ROOT.parent / "shared" / "data" / "pose"

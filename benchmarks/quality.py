@@ -42,13 +42,13 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
 
-from nlo_lab.evaluation import BaselineSettings, evaluate, format_table  # noqa: E402
-from nlo_lab.errors import CheckpointError  # noqa: E402
 from nlo_lab.corpus import sign_corpus  # noqa: E402
-from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
+from nlo_lab.errors import CheckpointError  # noqa: E402
+from nlo_lab.evaluation import BaselineSettings, evaluate, format_table  # noqa: E402
 from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetInputs, optimize_joints, optimize_latent  # noqa: E402
-from nlo_lab.robot import load_robot  # noqa: E402
+from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
+from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.training import (  # noqa: E402
     SupervisedSettings,
     TrainSettings,
@@ -136,7 +136,7 @@ def init_ablation(robot, model, demos, budgets=BUDGETS):
         fr = {b: [] for b in budgets}
         secs = {b: 0.0 for b in budgets}
         hist = np.zeros(top + 1)
-        for demo, x in zip(demos, inputs):
+        for demo, x in zip(demos, inputs, strict=True):
             for b in budgets:
                 r = optimize_latent(model, robot, x.targets, OptimizeSettings(iterations=b, patience=NO_STOP, **kw), encoder_input=x.encoder)
                 fr[b].append(_frechet(robot, demo, r.q))
@@ -150,7 +150,7 @@ def init_ablation(robot, model, demos, budgets=BUDGETS):
     joint = {}
     for b in budgets:
         vals, t = [], 0.0
-        for demo, tg in zip(demos, targets):
+        for demo, tg in zip(demos, targets, strict=True):
             r = optimize_joints(robot, tg, JointOptimizeSettings(iterations=b, patience=NO_STOP))
             vals.append(_frechet(robot, demo, r.q))
             t += r.seconds

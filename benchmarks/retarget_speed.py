@@ -22,11 +22,11 @@ import torch
 
 from nlo_lab.corpus import sign_corpus
 from nlo_lab.human.demonstration import Demonstration
-from nlo_lab.objective import Targets
-from nlo_lab.metrics import tracking_errors
 from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetInputs, optimize_joints, optimize_latent
-from nlo_lab.robot import load_robot
+from nlo_lab.metrics import tracking_errors
 from nlo_lab.model import EncoderInput, load_checkpoint, load_pretrained
+from nlo_lab.objective import Targets
+from nlo_lab.robot import load_robot
 
 
 def concat_demos(demos: list[Demonstration], frames: int) -> Demonstration:
@@ -46,8 +46,8 @@ def latent(model, robot, demo: Demonstration, settings: OptimizeSettings, **opti
 
 def profile_iteration(model, robot, targets: Targets, features: EncoderInput, reps: int = 20) -> dict[str, float]:
     """Median wall time [ms] of each stage of one latent-optimisation iteration (the optimiser's own path)."""
-    from nlo_lab.objective import Objective
     from nlo_lab.inference import Adam as _Adam
+    from nlo_lab.objective import Objective
 
     z = model.encode(features.node_features, features.edge_features).detach().requires_grad_(True)
     for p in model.parameters():
@@ -68,7 +68,7 @@ def profile_iteration(model, robot, targets: Targets, features: EncoderInput, re
         t4 = time.perf_counter()
         adam.update(z, g)
         t5 = time.perf_counter()
-        for k, dt in zip(parts, (t1 - t0, t2 - t1, (t3 - t2) - (t2 - t1), t4 - t3, t5 - t4)):
+        for k, dt in zip(parts, (t1 - t0, t2 - t1, (t3 - t2) - (t2 - t1), t4 - t3, t5 - t4), strict=True):
             parts[k].append(dt * 1000)
     for p in model.parameters():
         p.requires_grad_(True)
@@ -124,12 +124,12 @@ def main() -> None:
     for demo in test[: args.clips]:
         x = RetargetInputs.from_demonstration(demo)
         t = x.targets
-        runs = {
-            "encoder only": lambda: optimize_latent(model, robot, t, OptimizeSettings(iterations=0), encoder_input=x.encoder),
-            "encoder + latent opt": lambda: optimize_latent(model, robot, t, OptimizeSettings(), encoder_input=x.encoder),
-            "zeros + latent opt": lambda: optimize_latent(model, robot, t, OptimizeSettings(init="zeros")),
-            "random + latent opt": lambda: optimize_latent(model, robot, t, OptimizeSettings(init="random")),
-            "joint space (clamp)": lambda: optimize_joints(robot, t, JointOptimizeSettings()),
+        runs = {  # each run binds this clip's targets and inputs
+            "encoder only": lambda t=t, x=x: optimize_latent(model, robot, t, OptimizeSettings(iterations=0), encoder_input=x.encoder),
+            "encoder + latent opt": lambda t=t, x=x: optimize_latent(model, robot, t, OptimizeSettings(), encoder_input=x.encoder),
+            "zeros + latent opt": lambda t=t: optimize_latent(model, robot, t, OptimizeSettings(init="zeros")),
+            "random + latent opt": lambda t=t: optimize_latent(model, robot, t, OptimizeSettings(init="random")),
+            "joint space (clamp)": lambda t=t: optimize_joints(robot, t, JointOptimizeSettings()),
         }
         if not args.all:
             runs = {k: runs[k] for k in ("encoder only", "encoder + latent opt")}

@@ -41,14 +41,20 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
 
-from nlo_lab.evaluation import mean_objective  # noqa: E402
-from nlo_lab.errors import CheckpointError  # noqa: E402
-from nlo_lab.human import Demonstration  # noqa: E402
 from nlo_lab.corpus import sign_corpus  # noqa: E402
-from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetInputs, optimize_joints, optimize_latent  # noqa: E402
-from nlo_lab.inference import retarget  # noqa: E402
-from nlo_lab.robot import load_robot  # noqa: E402
+from nlo_lab.errors import CheckpointError  # noqa: E402
+from nlo_lab.evaluation import mean_objective  # noqa: E402
+from nlo_lab.human import Demonstration  # noqa: E402
+from nlo_lab.inference import (  # noqa: E402
+    JointOptimizeSettings,
+    OptimizeSettings,
+    RetargetInputs,
+    optimize_joints,
+    optimize_latent,
+    retarget,  # noqa: E402
+)
 from nlo_lab.model import load_pretrained  # noqa: E402
+from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.training import TrainSettings, train_model  # noqa: E402
 
 LENGTHS = (30, 50, 100, 170, 250, 350, 500)

@@ -31,10 +31,9 @@ import warnings
 from results_doc import ROOT, stamp, update_section
 
 from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration, video_info
-from nlo_lab.inference import OptimizeSettings
-from nlo_lab.inference import retarget
-from nlo_lab.robot import load_robot
+from nlo_lab.inference import OptimizeSettings, retarget
 from nlo_lab.model import load_pretrained
+from nlo_lab.robot import load_robot
 
 SAMPLE = ROOT / "assets" / "recordings" / "signer_webcam_58f.mp4"
 

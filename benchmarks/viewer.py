@@ -197,7 +197,7 @@ def main(argv: list[str] | None = None) -> int:
                 ms = status_ms(page, panel_cell)
                 if ms is not None:
                     results["reopt_ms"].append(ms)
-            for i in range(args.moves):
+            for _ in range(args.moves):
                 results["frame_bytes"].append(page.move_slider(frame_slider, key="ArrowRight", settle=0.3)["bytes"])
             joint = page.slider_handles(joint_cell).nth(1)
             for i in range(args.moves):

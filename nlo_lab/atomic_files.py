@@ -16,8 +16,8 @@ import secrets
 import shutil
 import signal
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 from nlo_lab.errors import OutputError
 

@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import dataclasses
 import threading
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Iterator
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.settings import check_int

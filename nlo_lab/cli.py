@@ -196,8 +196,8 @@ def _print_summary(summary: dict) -> None:
 
 def cmd_retarget(args) -> int:
     from nlo_lab.atomic_files import check_output_place
-    from nlo_lab.objective import LossWeights
     from nlo_lab.inference import OptimizeSettings, RetargetConfig
+    from nlo_lab.objective import LossWeights
     from nlo_lab.robot import load_robot
 
     if args.out:
@@ -239,9 +239,9 @@ def cmd_train(args) -> int:
 
     import torch
 
+    from nlo_lab.model import checkpoint_path, save_checkpoint
     from nlo_lab.paths import is_editable_checkout
     from nlo_lab.robot import load_robot
-    from nlo_lab.model import checkpoint_path, save_checkpoint
     from nlo_lab.training import TrainSettings, train_model
 
     flags = {"epochs": args.epochs, "max_seconds": args.max_seconds, "batch_size": args.batch_size, "lr": args.lr,
@@ -298,7 +298,7 @@ def cmd_demo(args) -> int:
         robot = load_robot(name)
         print(f"\n{name}: {robot.n_joints} actuated joints")
         print(f"  {'joint':<40} {'lower':>9} {'upper':>9}")
-        for joint, lo, hi in zip(robot.joint_names, robot.lower_limits.tolist(), robot.upper_limits.tolist()):
+        for joint, lo, hi in zip(robot.joint_names, robot.lower_limits.tolist(), robot.upper_limits.tolist(), strict=True):
             print(f"  {joint:<40} {lo:>9.4f} {hi:>9.4f}")
     out = Path("out/demo")
     print(f"\nretargeting {DEMO_CLIP} to yumi ...")

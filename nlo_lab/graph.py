@@ -54,7 +54,7 @@ class Graph:
     def num_edges(self) -> int:
         return int(self.edge_index.shape[1])
 
-    def to(self, device=None, dtype=None) -> "Graph":
+    def to(self, device=None, dtype=None) -> Graph:
         """A copy on ``device``; ``dtype`` applies to the float edge features only."""
         return Graph(
             self.node_names,

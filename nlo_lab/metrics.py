@@ -230,7 +230,7 @@ def _forward(robot, q: np.ndarray) -> dict[str, np.ndarray]:
     return {k: v.detach().cpu().double().numpy() for k, v in _poses_torch(robot, q).items()}
 
 
-def _mapped_human(demo: "Demonstration", robot) -> np.ndarray:
+def _mapped_human(demo: Demonstration, robot) -> np.ndarray:
     from nlo_lab.human import map_to_robot
 
     mapped = np.asarray(map_to_robot(demo, robot), dtype=np.float64)
@@ -239,7 +239,7 @@ def _mapped_human(demo: "Demonstration", robot) -> np.ndarray:
     return mapped
 
 
-def tracking_errors(demo: "Demonstration", robot, angles: Any) -> dict[str, float]:
+def tracking_errors(demo: Demonstration, robot, angles: Any) -> dict[str, float]:
     """Tracking error of a robot trajectory against a human demonstration.
 
     Args:

@@ -15,7 +15,7 @@ axes with Rodrigues' formula, see :mod:`nlo_lab.robot.kinematics`).
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from scipy.spatial.transform import Rotation

@@ -12,8 +12,8 @@ A test module may still define a fixture of the same name; pytest then uses the 
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import pytest
 import torch
@@ -42,7 +42,7 @@ def shared_pose() -> Callable[[str], Path]:
     return lambda name: _shared(SHARED_POSE / name)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _robot64(name: str) -> Robot:
     return load_robot(name).to(dtype=torch.float64)
 

@@ -125,7 +125,7 @@ class Lab:
                 self.proc.wait(timeout=5)
         self._log.close()
 
-    def __enter__(self) -> "Lab":
+    def __enter__(self) -> Lab:
         return self
 
     def __exit__(self, *exc) -> None:

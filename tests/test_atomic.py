@@ -11,8 +11,8 @@ import pytest
 
 from nlo_lab.atomic_files import atomic_path, atomic_write_bytes, current_umask
 from nlo_lab.human import Demonstration, save_npz
-from nlo_lab.robot import load_robot
 from nlo_lab.inference import RobotTrajectory
+from nlo_lab.robot import load_robot
 from nlo_lab.viz import export_html
 
 

@@ -44,7 +44,7 @@ def fast_and_reference(f, x):
 
 
 def assert_same(fast, ref, atol=1e-10):
-    for a, b in zip(fast, ref):
+    for a, b in zip(fast, ref, strict=True):
         torch.testing.assert_close(a, b, atol=atol, rtol=1e-10)
 
 
@@ -154,8 +154,9 @@ def test_reference_collision_runs_in_torch(robot, monkeypatch):
 # ----------------------------------------------------------------- objective
 def _objective_case(robot, frames=4):
     """Targets the robot meets at one pose, and other (random, some colliding) poses to score."""
-    from nlo_lab.objective import targets_from_demonstration
     from robot_targets import demonstration_from_robot
+
+    from nlo_lab.objective import targets_from_demonstration
 
     t = targets_from_demonstration(demonstration_from_robot(robot, random_q(robot, frames, seed=9)), dtype=torch.float64)
     return t, random_q(robot, frames, seed=7)
@@ -166,16 +167,16 @@ def test_objective_numpy_terms_equal_torch_ops(robot):
 
     t, q = _objective_case(robot)
     for form in ("hinge", "paper"):
-        fast = value_and_grad(lambda x: Objective(robot, t, collision_form=form)(x)[1], q)
+        fast = value_and_grad(lambda x, form=form: Objective(robot, t, collision_form=form)(x)[1], q)
         with backend.reference():
-            ref = value_and_grad(lambda x: Objective(robot, t, collision_form=form)(x)[1], q)
+            ref = value_and_grad(lambda x, form=form: Objective(robot, t, collision_form=form)(x)[1], q)
         assert_same(fast, ref, atol=1e-9)
 
 
 def test_reference_objective_runs_the_term_functions(robot, monkeypatch):
     """Under reference() every term function of nlo_lab.objective.terms runs, and the numpy terms do not."""
-    from nlo_lab.objective import total as module
     from nlo_lab.objective import terms
+    from nlo_lab.objective import total as module
 
     names = ("end_effector_loss", "orientation_loss", "elbow_loss", "finger_loss", "collision_loss", "capsule_distances")
     calls = []
@@ -197,9 +198,9 @@ def test_objective_culling_far_pairs_equals_every_pair(robot):
 
     t, q = _objective_case(robot, frames=48)
     for form in ("hinge", "paper"):
-        fast = value_and_grad(lambda x: Objective(robot, t, collision_form=form, fused=False)(x)[1], q)
+        fast = value_and_grad(lambda x, form=form: Objective(robot, t, collision_form=form, fused=False)(x)[1], q)
         with backend.reference():
-            ref = value_and_grad(lambda x: Objective(robot, t, collision_form=form)(x)[1], q)
+            ref = value_and_grad(lambda x, form=form: Objective(robot, t, collision_form=form)(x)[1], q)
         assert_same(fast, ref, atol=1e-9)
         assert float(ref[0][:, 4].max()) > 0, "some random poses should bring capsules within their margin"
 

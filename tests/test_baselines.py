@@ -7,15 +7,15 @@ import dataclasses
 import numpy as np
 import pytest
 import torch
+from robot_targets import demonstration_from_robot, random_feasible_pose
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.inference import RetargetInputs
-from nlo_lab.model import encoder_input
-from nlo_lab.metrics import limit_violations
-from nlo_lab.robot import load_robot
 from nlo_lab.evaluation import METHODS, BaselineSettings, ik_wrists, run_method, wrist_positions
+from nlo_lab.inference import RetargetInputs
+from nlo_lab.metrics import limit_violations
+from nlo_lab.model import encoder_input
+from nlo_lab.robot import load_robot
 from nlo_lab.training import SupervisedSettings, new_model, train_supervised_model, train_supervised_net
-from robot_targets import demonstration_from_robot, random_feasible_pose
 
 FAST = BaselineSettings(iterations=3, ik_iterations=5, supervised=SupervisedSettings(epochs=2, hidden=(16,)))
 
@@ -90,7 +90,7 @@ def test_supervised_network_is_deterministic_from_its_seed():
     a = train_supervised_net(robot, x, q, s)
     b = train_supervised_net(robot, x, q, s)
     c = train_supervised_net(robot, x, q, dataclasses.replace(s, seed=12))
-    for (ka, va), (kb, vb) in zip(a.state_dict().items(), b.state_dict().items()):
+    for (ka, va), (kb, vb) in zip(a.state_dict().items(), b.state_dict().items(), strict=True):
         assert ka == kb and torch.equal(va, vb)
     assert not torch.equal(a(x), c(x))
     assert a.info["history"][-1] < a.info["history"][0]  # it learns

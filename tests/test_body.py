@@ -7,11 +7,11 @@ import itertools
 import numpy as np
 import pytest
 
-from nlo_lab.errors import SettingsError
 from nlo_lab.corpus import (
     ARM_RANGES,
     BODY_RANGES,
     FINGER_RANGES,
+    HANDSHAPES,
     BodyParams,
     arm_fk,
     arm_ik,
@@ -23,7 +23,7 @@ from nlo_lab.corpus import (
     torso_signed_distance,
     wrist_position,
 )
-from nlo_lab.corpus import HANDSHAPES
+from nlo_lab.errors import SettingsError
 
 SIDES = ("left", "right")
 
@@ -158,7 +158,7 @@ def test_float32_input_gives_the_same_pose():
 
 
 def test_body_params_are_validated_and_vary():
-    for name, (lo, hi) in BODY_RANGES.items():
+    for name, (_lo, hi) in BODY_RANGES.items():
         with pytest.raises(SettingsError, match=name):
             BodyParams(**{name: hi + 0.1})
         with pytest.raises(SettingsError, match=name):

@@ -24,13 +24,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from lab_browser import CHROMIUM_ARGS, Lab, LabPage, hue_mask
 
 from nlo_lab.human import Demonstration
 from nlo_lab.robot import load_robot
 from nlo_lab.viz import GROUP_COLOURS, RetargetScene, export_html, recording_visualizer, style_viewer
 from nlo_lab.viz.export import scene_html
-
-from lab_browser import CHROMIUM_ARGS, Lab, LabPage, hue_mask
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium is not installed (apt-get install -y chromium)")

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from lab_browser import CHROMIUM, CHROMIUM_ARGS, Lab, LabPage, browser_missing
 
 pytestmark = pytest.mark.skipif(browser_missing() is not None, reason=browser_missing() or "")

@@ -8,8 +8,8 @@ import sys
 
 import numpy as np
 import pytest
-
 from cli_errors import assert_one_line_error
+
 from nlo_lab.cli import main
 
 SUMMARY_KEYS = {
@@ -168,8 +168,7 @@ def test_retarget_progress_bar_on_a_terminal_unless_quiet(monkeypatch, capsys, q
 
 def test_retarget_progress_bar_leaves_the_result_unchanged(capsys):
     from nlo_lab.human import corpus_clip, corpus_names
-    from nlo_lab.inference import OptimizeSettings
-    from nlo_lab.inference import retarget
+    from nlo_lab.inference import OptimizeSettings, retarget
     from nlo_lab.robot import load_robot
 
     robot, demo = load_robot("nao"), corpus_clip(corpus_names("test")[1])

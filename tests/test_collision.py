@@ -38,7 +38,7 @@ def test_segment_distance_matches_brute_force():
     g = torch.Generator().manual_seed(0)
     cases = special_cases() + [tuple(torch.randn(4, 3, generator=g, dtype=torch.float64) * 0.3)]
     cases += [tuple(torch.randn(4, 3, generator=g, dtype=torch.float64) * 0.3) for _ in range(40)]
-    a0, a1, b0, b1 = (torch.stack(x) for x in zip(*cases))
+    a0, a1, b0, b1 = (torch.stack(x) for x in zip(*cases, strict=True))
     d = segment_distance(a0, a1, b0, b1)  # batched
     for i, case in enumerate(cases):
         ref, slack = brute_force(*case)
@@ -115,7 +115,7 @@ def test_numpy_and_torch_closed_forms_agree():
     E = ends.permute(1, 2, 0)  # (4, 3, n)
     ours = segment_closest_points(E.numpy())
     ref = segment_closest_points(E)
-    for a, b in zip(ours, ref):
+    for a, b in zip(ours, ref, strict=True):
         torch.testing.assert_close(torch.from_numpy(np.ascontiguousarray(a)), b, atol=1e-12, rtol=0)
 
 

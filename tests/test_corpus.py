@@ -7,7 +7,6 @@ import re
 import numpy as np
 import pytest
 
-from nlo_lab.errors import DemonstrationError
 from nlo_lab.corpus import (
     ARM_RANGES,
     FINGER_RANGES,
@@ -25,6 +24,7 @@ from nlo_lab.corpus import (
     is_test_combination,
     sign_corpus,
 )
+from nlo_lab.errors import DemonstrationError
 from nlo_lab.human import Demonstration, wrist_frame_from_hand
 
 WRIST_ACCEL_BOUND = 30.0  # [m/s^2] plausible peak wrist acceleration of signing
@@ -82,7 +82,7 @@ def test_timing(all_demos):
 
 def test_deterministic_and_cached_copies():
     a, b = sign_corpus("test"), sign_corpus("test", seed=0)
-    for x, y in zip(a, b):
+    for x, y in zip(a, b, strict=True):
         assert x is not y
         np.testing.assert_array_equal(x.arm_positions, y.arm_positions)
         np.testing.assert_array_equal(x.finger_positions, y.finger_positions)

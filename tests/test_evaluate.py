@@ -6,13 +6,13 @@ import json
 
 import pytest
 import torch
+from robot_targets import demonstration_from_robot, random_feasible_pose
 
 import nlo_lab.evaluation.scores as scores
 from nlo_lab.cli import main as cli_main
 from nlo_lab.evaluation import JSON_KEYS, METHODS, BaselineSettings, Evaluation, SequenceScore, evaluate, format_table, to_json
-from nlo_lab.training import SupervisedSettings, new_model, train_supervised_net
 from nlo_lab.model import encoder_input
-from robot_targets import demonstration_from_robot, random_feasible_pose
+from nlo_lab.training import SupervisedSettings, new_model, train_supervised_net
 
 FAST = BaselineSettings(iterations=2, ik_iterations=3)
 

@@ -23,7 +23,6 @@ from pathlib import Path
 import nbformat
 import numpy as np
 import pytest
-
 from lab_browser import CHROMIUM, CHROMIUM_ARGS, browser_missing, hue_mask
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -100,8 +99,8 @@ def test_exported_notebook_shows_the_robot_in_chromium(exported, tmp_path):
             canvas = page.locator(".nlo-lab-view canvas").first
             try:
                 canvas.wait_for(timeout=90_000)
-            except Exception:
-                raise AssertionError(f"no 3-D view in the exported page; served {served}, refused {refused}, errors {errors}")
+            except Exception as e:
+                raise AssertionError(f"no 3-D view in the exported page; served {served}, refused {refused}, errors {errors}") from e
             page.wait_for_function("() => (globalThis.__nloLabView || {}).commands > 0", timeout=30_000)
             canvas.scroll_into_view_if_needed()
             page.wait_for_timeout(500)

@@ -24,6 +24,9 @@ import h5py
 import numpy as np
 import pytest
 import torch
+from test_human_io import write_authors_h5
+from test_pose_reader import write_pose
+from test_transforms import make_demo
 
 from nlo_lab import cli
 from nlo_lab.atomic_files import TEMP_TAG
@@ -32,9 +35,6 @@ from nlo_lab.errors import CheckpointError, DemonstrationError, SettingsError
 from nlo_lab.human import save_npz
 from nlo_lab.inference import retarget
 from nlo_lab.robot import load_robot
-from test_human_io import write_authors_h5
-from test_pose_reader import write_pose
-from test_transforms import make_demo
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -391,8 +391,8 @@ def test_the_largest_weights_in_range_still_give_a_finite_result(work, demo_npz,
 
 
 def test_a_nan_loss_is_an_error_not_an_output():
-    from nlo_lab.objective import LossWeights
     from nlo_lab.inference import OptimizeSettings
+    from nlo_lab.objective import LossWeights
 
     with pytest.raises(Exception, match="NaN"):  # the command line's range check keeps such weights out
         retarget(make_demo(T=6), load_robot("nao"), weights=LossWeights(ee=1e39), settings=OptimizeSettings(iterations=2))
@@ -535,7 +535,7 @@ def test_warnings_are_one_line_each_and_quiet_silences_them(work, demo_npz, caps
     real = Retargeter.__call__
 
     def noisy(*args, **kwargs):
-        warnings.warn("first line\nsecond line", UserWarning)
+        warnings.warn("first line\nsecond line", UserWarning, stacklevel=1)
         return real(*args, **kwargs)
 
     monkeypatch.setattr(Retargeter, "__call__", noisy)

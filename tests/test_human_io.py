@@ -8,12 +8,11 @@ import os
 import h5py
 import numpy as np
 import pytest
+from test_transforms import make_demo
 
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human import Demonstration, load_demonstration, load_h5_sequences, save_npz
 from nlo_lab.human.transforms import quat_to_matrix
-
-from test_transforms import make_demo
 
 
 def _files(folder):
@@ -180,7 +179,7 @@ def write_authors_h5(path, groups=("word_b", "word_a", "sentence_1"), T=12, yaw=
                 el = sh + np.concatenate([0.05 * np.sin(t / 3), 0.05 * sign + 0 * t, -0.19 + 0 * t], 1)
                 wr = el + np.concatenate([0.2 + 0 * t, 0.02 * np.cos(t / 2), 0.1 + 0 * t], 1)
                 body[s] = (sh, el, wr)
-                for part, p in zip(("up", "fr", "hd"), (sh, el, wr)):
+                for part, p in zip(("up", "fr", "hd"), (sh, el, wr), strict=True):
                     grp[f"{s}_{part}_pos"] = p @ R.T + np.array(offset)
                     grp[f"{s}_{part}_quat"] = np.tile([0, 0, np.sin(0.1 * g), np.cos(0.1 * g)], (T, 1))
                 grp[f"{s}_glove_angle"] = rng.uniform(0, 90, size=(T, 14))

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import torch
 
-from nlo_lab.rotations import matrix_to_rpy, rpy_to_matrix
 from nlo_lab.robot import Robot, load_robot
+from nlo_lab.rotations import matrix_to_rpy, rpy_to_matrix
 
 yourdfpy = pytest.importorskip("yourdfpy")
 
@@ -78,7 +78,7 @@ def yourdfpy_poses(robot: Robot, q: np.ndarray) -> list[dict[str, np.ndarray]]:
     assert set(model.actuated_joint_names) == set(robot.joint_names)
     out = []
     for row in q:
-        model.update_cfg({n: float(v) for n, v in zip(robot.joint_names, row)})
+        model.update_cfg({n: float(v) for n, v in zip(robot.joint_names, row, strict=True)})
         out.append({link: model.get_transform(link, robot.spec.base_link) for link in robot.link_names})
     return out
 

@@ -7,15 +7,14 @@ import tracemalloc
 import numpy as np
 import pytest
 import umsgpack
+from test_transforms import make_demo
 
-from nlo_lab.objective import LossWeights
+from nlo_lab.inference import OptimizeSettings, retarget
 from nlo_lab.metrics import frechet_distance, frechet_distance_reference
-from nlo_lab.inference import OptimizeSettings
-from nlo_lab.inference import retarget
+from nlo_lab.objective import LossWeights
 from nlo_lab.robot import load_robot
 from nlo_lab.viz import _packing
 from nlo_lab.viz.export import VIEWER_MAX_FRAMES, decimate, recording_visualizer, static_html
-from test_transforms import make_demo
 
 
 @pytest.mark.parametrize("n,m", [(2, 2), (63, 64), (64, 65), (65, 200), (130, 129), (300, 7), (1, 90), (90, 1)])
@@ -117,8 +116,8 @@ def test_anchor_enters_the_smoothness_term():
     """optimize_latent(anchor=q) charges frame 0 its step from q: far from the anchor costs more."""
     import torch
 
-    from nlo_lab.objective import smoothness_loss, targets_from_demonstration
     from nlo_lab.inference import smoothness_term as _smoothness
+    from nlo_lab.objective import smoothness_loss, targets_from_demonstration
 
     robot = load_robot("nao")
     t = targets_from_demonstration(make_demo(T=4), dtype=robot.lower_limits.dtype)

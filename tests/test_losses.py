@@ -8,20 +8,20 @@ import math
 import numpy as np
 import pytest
 import torch
+from robot_targets import demonstration_from_robot, random_feasible_pose
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.objective import (
     TERMS,
     LossWeights,
     Targets,
-    point_plan,
     collision_loss,
     latent_loss,
     objective,
+    point_plan,
     targets_from_demonstration,
 )
 from nlo_lab.robot import load_robot
-from robot_targets import demonstration_from_robot, random_feasible_pose
 
 ROBOTS = ("yumi", "nao", "pepper")
 
@@ -240,9 +240,9 @@ def test_culling_far_capsule_pairs_changes_nothing(robot, dtype):
     """Objective(cull=True) (exact distances only where a pair may be within its margin)
     = every pair measured, values and gradients; and the bound it uses for the other
     pairs never exceeds the true surface distance."""
-    from nlo_lab.robot.collision import segment_distance_ends
     from nlo_lab.corpus import sign_corpus
     from nlo_lab.objective import Objective, near_pair_distances
+    from nlo_lab.robot.collision import segment_distance_ends
 
     r = robot.to(dtype=dtype)
     t = targets_from_demonstration(sign_corpus("test")[1], dtype=dtype)

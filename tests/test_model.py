@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-
 import pytest
 import torch
 from hypothesis import given, settings
@@ -179,7 +178,7 @@ def test_decoder_fast_path_equals_layer_by_layer(widths):
     # gradients of the parameters (training) agree too
     grads = torch.autograd.grad(dec(z).square().sum(), list(dec.parameters()))
     ref = torch.autograd.grad(_layer_by_layer_decoder(dec, z).square().sum(), list(dec.parameters()))
-    for a, b in zip(grads, ref):
+    for a, b in zip(grads, ref, strict=True):
         torch.testing.assert_close(a, b)
 
 

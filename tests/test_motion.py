@@ -15,14 +15,20 @@ import torch
 from nlo_lab.cli import main
 from nlo_lab.human import corpus_clip, load_demonstration
 from nlo_lab.human.conditioning import condition_demonstration, savgol
-from nlo_lab.objective import LossWeights, smoothness_loss, targets_from_demonstration
-from nlo_lab.metrics import joint_speed_ratios, max_joint_step, max_joint_speed_ratio, velocity_violations
-from nlo_lab.inference import OptimizeSettings, optimize_latent, sequence_start, initial_latent
-from nlo_lab.inference import retarget
-from nlo_lab.inference import retime_times, segment_durations
-from nlo_lab.robot import load_robot
+from nlo_lab.inference import (
+    OptimizeSettings,
+    RobotTrajectory,
+    initial_latent,
+    optimize_latent,
+    retarget,
+    retime_times,
+    segment_durations,
+    sequence_start,
+)
+from nlo_lab.metrics import joint_speed_ratios, max_joint_speed_ratio, max_joint_step, velocity_violations
 from nlo_lab.model import encoder_input, load_pretrained
-from nlo_lab.inference import RobotTrajectory
+from nlo_lab.objective import LossWeights, smoothness_loss, targets_from_demonstration
+from nlo_lab.robot import load_robot
 
 RECORDINGS = ["holistic_both_hands_47f.pose", "holistic_world_97f.pose", "mediapipe_right_hand_170f.pose"]
 
@@ -42,12 +48,12 @@ def test_published_velocity_limits_in_the_specs(robots):
         v = robot.velocity_limits
         assert v.shape == (robot.n_joints,) and torch.isfinite(v).all() and (v > 0).all(), robot.name
         assert robot.spec.velocity_limits_source
-    ys = dict(zip(yumi.joint_names, yumi.velocity_limits.tolist()))
+    ys = dict(zip(yumi.joint_names, yumi.velocity_limits.tolist(), strict=True))
     assert ys["yumi_joint_1_l"] == pytest.approx(3.1416) and ys["yumi_joint_4_r"] == pytest.approx(6.9813)
-    ns = dict(zip(nao.joint_names, nao.velocity_limits.tolist()))
+    ns = dict(zip(nao.joint_names, nao.velocity_limits.tolist(), strict=True))
     assert ns["LShoulderPitch"] == pytest.approx(8.26797) and ns["RElbowRoll"] == pytest.approx(7.19407)
     assert ns["LWristYaw"] == pytest.approx(24.6229)
-    ps = dict(zip(pepper.joint_names, pepper.velocity_limits.tolist()))
+    ps = dict(zip(pepper.joint_names, pepper.velocity_limits.tolist(), strict=True))
     assert ps["RShoulderRoll"] == pytest.approx(9.22756) and ps["LWristYaw"] == pytest.approx(17.3835)
 
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 import torch
+from robot_targets import demonstration_from_robot, random_feasible_pose
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.objective import LossWeights, latent_loss, objective, targets_from_demonstration
 from nlo_lab.inference import (
     JointOptimizeSettings,
     OptimizeSettings,
@@ -17,9 +17,9 @@ from nlo_lab.inference import (
     optimize_stream,
 )
 from nlo_lab.model import encoder_input
+from nlo_lab.objective import LossWeights, latent_loss, objective, targets_from_demonstration
 from nlo_lab.robot import load_robot
 from nlo_lab.training import new_model
-from robot_targets import demonstration_from_robot, random_feasible_pose
 
 
 @pytest.fixture(scope="module")

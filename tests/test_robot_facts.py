@@ -50,7 +50,7 @@ def tables(text: str) -> list[list[dict[str, str]]]:
             if header is None:
                 header = cells
             elif not set("".join(cells)) <= set("-: "):
-                rows.append(dict(zip(header, cells)))
+                rows.append(dict(zip(header, cells, strict=True)))
         elif header is not None:
             result.append(rows)
             header, rows = None, []
@@ -73,7 +73,7 @@ def test_joint_rows_match_the_robot_files(facts, name):
     urdf = yourdfpy.URDF.load(ROBOTS / f"{name}.urdf", build_scene_graph=False, load_meshes=False)
     spec = json.loads((ROBOTS / f"{name}.json").read_text())
     robot = load_robot(name)
-    limits = dict(zip(robot.joint_names, zip(robot.lower_limits.tolist(), robot.upper_limits.tolist())))
+    limits = dict(zip(robot.joint_names, zip(robot.lower_limits.tolist(), robot.upper_limits.tolist(), strict=True), strict=True))
     seen: list[str] = []
     for table in tables(facts[name]):
         for row in table:

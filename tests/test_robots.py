@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Callable
 import shutil
+from collections.abc import Callable
 
 import pytest
 import torch
@@ -200,7 +200,7 @@ def test_structure_graph(name, robot64):
     # without the root<->root edges the graph is a forest of parent -> child edges: one parent each
     roots = [robot.joint_names.index(n) for n in robot.joint_names if n.startswith(("yumi_joint_1_", "LShoulderPitch", "RShoulderPitch"))]
     assert len(roots) == 2
-    tree = [(int(s), int(d)) for s, d in zip(src, dst) if not (int(s) in roots and int(d) in roots)]
+    tree = [(int(s), int(d)) for s, d in zip(src, dst, strict=True) if not (int(s) in roots and int(d) in roots)]
     assert sorted(d for _, d in tree) == sorted(set(range(g.num_nodes)) - set(roots))
     hand = int((g.node_type == NODE_HAND).sum())
     assert hand == (12 if name == "yumi" else 0)
@@ -234,7 +234,7 @@ def test_collision_pairs_are_not_adjacent_and_clear_at_neutral_pose(name, robot6
     assert bool(((q >= robot.lower_limits) & (q <= robot.upper_limits)).all())
     d = robot.capsule_distances(robot.forward_kinematics(q[None]))
     assert d.shape == (1, len(robot.spec.collision_pairs))
-    bad = [p for p, v in zip(robot.spec.collision_pairs, d[0]) if v <= 0]
+    bad = [p for p, v in zip(robot.spec.collision_pairs, d[0], strict=True) if v <= 0]
     assert not bad, f"the neutral pose must be collision free; penetrating: {bad}"
 
 

@@ -26,12 +26,12 @@ from __future__ import annotations
 
 import pytest
 import torch
-
-from nlo_lab.objective import LossWeights, point_plan, robot_points, targets_from_demonstration
-from nlo_lab.inference import OptimizeSettings, optimize_latent
-from nlo_lab.robot import load_robot
-from nlo_lab.model import encoder_input, load_pretrained
 from robot_targets import demonstration_from_robot, random_feasible_pose
+
+from nlo_lab.inference import OptimizeSettings, optimize_latent
+from nlo_lab.model import encoder_input, load_pretrained
+from nlo_lab.objective import LossWeights, point_plan, robot_points, targets_from_demonstration
+from nlo_lab.robot import load_robot
 
 WRIST_TOL = 0.05  # fraction of the arm length, median over poses and arms
 ELBOW_TOL = 0.10

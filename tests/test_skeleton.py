@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import torch
+from test_transforms import make_demo
 
 from nlo_lab.graph import NODE_ARM, NODE_HAND
 from nlo_lab.human import NODE_NAMES, edge_features, node_features, skeleton_graph
 from nlo_lab.human.skeleton import EDGES, NODE_FEATURES
-
-from test_transforms import make_demo
 
 
 def test_graph_structure():
@@ -29,12 +28,12 @@ def test_graph_structure():
         assert (f"{side}_elbow", f"{side}_wrist") in edges
         assert (f"{side}_wrist", f"{side}_index_base") in edges
         assert (f"{side}_index_base", f"{side}_index_tip") in edges
-    types = dict(zip(names, g.node_type.tolist()))
+    types = dict(zip(names, g.node_type.tolist(), strict=True))
     assert types["torso"] == types["left_wrist"] == types["right_elbow"] == NODE_ARM
     assert types["left_thumb_tip"] == types["right_pinky_base"] == NODE_HAND
     assert g.edge_attr.shape == (26, 3) and g.edge_attr.dtype == torch.float32
     # nominal rest pose: left shoulder at +Y, right at -Y, upper arm hanging down, 0.20 / 0.44 long
-    attr = dict(zip([(names[p], names[c]) for p, c in g.edge_index.t().tolist()], g.edge_attr.numpy()))
+    attr = dict(zip([(names[p], names[c]) for p, c in g.edge_index.t().tolist()], g.edge_attr.numpy(), strict=True))
     assert attr[("torso", "left_shoulder")][1] > 0 > attr[("torso", "right_shoulder")][1]
     np.testing.assert_allclose(attr[("left_shoulder", "left_elbow")], [0, 0, -0.20 / 0.44], atol=1e-6)
 
@@ -45,7 +44,7 @@ def test_node_features_values():
     T = len(demo)
     assert f.shape == (T, 27, NODE_FEATURES) and f.dtype == np.float32
     i = {n: k for k, n in enumerate(NODE_NAMES)}
-    for s, side in enumerate(("left", "right")):
+    for side in ("left", "right"):
         L = sum(demo.arm_lengths(side))
         S = demo.position(side, "shoulder")
         np.testing.assert_allclose(f[:, i[f"{side}_elbow"], :3], (demo.position(side, "elbow") - S) / L, atol=1e-6)

@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import pytest
 import torch
+from robot_targets import demonstration_from_robot, random_feasible_pose
 
 import nlo_lab.model.checkpoint as checkpoint
 import nlo_lab.training.train as training_mod
 from nlo_lab.errors import CheckpointError, SettingsError
 from nlo_lab.inference import RetargetInputs
-from nlo_lab.robot import load_robot
 from nlo_lab.model import CHECKPOINT_FORMAT_VERSION, load_checkpoint, load_pretrained, save_checkpoint
+from nlo_lab.robot import load_robot
 from nlo_lab.training import TrainSettings, new_model, train_model
-from robot_targets import demonstration_from_robot, random_feasible_pose
 
 
 @pytest.fixture(scope="module")
@@ -135,8 +135,9 @@ def test_new_models_start_at_the_robot_neutral_pose_and_checkpoints_keep_it(tmp_
 
 
 def test_the_command_line_trains_with_its_flags_and_writes_a_loadable_checkpoint(tmp_path, monkeypatch, nao, capsys):
-    from nlo_lab.cli import main as cli_main
     from robot_targets import demonstration_from_robot as demo_of
+
+    from nlo_lab.cli import main as cli_main
 
     fit = [demo_of(nao, random_feasible_pose(nao, 24, seed=31))]
     val = [demo_of(nao, random_feasible_pose(nao, 8, seed=32))]

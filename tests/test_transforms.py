@@ -81,7 +81,7 @@ def test_fill_gaps_interpolates_short_interior_gaps_only():
 def test_normalize_arm_lengths_sets_lengths_keeps_directions():
     demo = make_demo()
     out = normalize_arm_lengths(demo, upper=0.2, fore=0.24)
-    for s, side in enumerate(("left", "right")):
+    for side in ("left", "right"):
         S, E, W = (out.position(side, j) for j in ("shoulder", "elbow", "wrist"))
         np.testing.assert_allclose(np.linalg.norm(E - S, axis=1), 0.2, atol=1e-12)
         np.testing.assert_allclose(np.linalg.norm(W - E, axis=1), 0.24, atol=1e-12)

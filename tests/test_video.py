@@ -18,6 +18,7 @@ pytest.importorskip("mediapipe", reason="the video extra (mediapipe) is not inst
 cv2 = pytest.importorskip("cv2", reason="the video extra (opencv) is not installed")
 
 from cli_errors import assert_one_line_error  # noqa: E402
+
 from nlo_lab.cli import main  # noqa: E402
 from nlo_lab.errors import DemonstrationError  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
@@ -110,9 +111,8 @@ def test_saved_pose_reads_back_to_the_same_demonstration(sample):
 
 
 def test_sample_retargets_feasibly(sample):
+    from nlo_lab.inference import OptimizeSettings, retarget
     from nlo_lab.metrics import limit_violations, max_joint_step, self_collision_frames, velocity_violations
-    from nlo_lab.inference import OptimizeSettings
-    from nlo_lab.inference import retarget
     from nlo_lab.robot import load_robot
 
     demo, _, _ = sample

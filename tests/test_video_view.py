@@ -7,8 +7,8 @@ import pytest
 
 from nlo_lab.errors import NloLabError
 from nlo_lab.human import sign_corpus
-from nlo_lab.robot import load_robot
 from nlo_lab.lab import VideoView, jpeg_bytes, save_upload
+from nlo_lab.robot import load_robot
 
 T = 6
 

@@ -499,7 +499,7 @@ def test_the_light_detail_draws_the_same_scene_with_fewer_triangles():
     full, light = scenes["full"], scenes["light"]
     assert [c["path"] for c in full] == [c["path"] for c in light], "the same nodes"
     geometry = {"full": [], "light": []}
-    for a, b in zip(full, light):
+    for a, b in zip(full, light, strict=True):
         if a["type"] != "set_object" or "geometries" not in a["object"]:
             assert a == b, "transforms, properties and animations are the same"
             continue

@@ -93,7 +93,7 @@ def test_widget_view_sends_only_transforms_per_move(demo):
     p.controls["collision"].value = 3.0  # same frame: the robot moves, the human does not
     p.controls["frame"].value = 2  # a new frame: robot and human move
     assert len(sent) == 2, "one message per move"
-    for content, (data,) in sent:
+    for _content, (data,) in sent:
         cmds, at = [], 0
         while at < len(data):
             n = int.from_bytes(data[at:at + 4], "little")

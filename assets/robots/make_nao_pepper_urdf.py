@@ -1,6 +1,7 @@
 """Generate nao.urdf and pepper.urdf (primitive geometry) in the current directory. Run: cd assets/robots && python make_nao_pepper_urdf.py"""
 import math
 
+
 def fmt(v):
     return " ".join(f"{x:.6g}" for x in v)
 

@@ -16,15 +16,58 @@ Modules, along the data's path: :mod:`~nlo_lab.corpus.body` (dimensions, joints,
 """
 
 from nlo_lab.corpus.arm_kinematics import ArmPose, arm_fk, arm_ik, hand_frame, knuckle_centre, rot_x, rot_y, rot_z, wrist_position
-from nlo_lab.corpus.body import (ARM_JOINT_NAMES, ARM_RANGES, BASE_INDEX, BODY_RANGES, FINGER_JOINT_NAMES, FINGER_RANGES, FINGER_SEGMENTS,
-                                 BodyParams, random_body)  # fmt: skip
+from nlo_lab.corpus.body import (
+                                 ARM_JOINT_NAMES,
+                                 ARM_RANGES,
+                                 BASE_INDEX,
+                                 BODY_RANGES,
+                                 FINGER_JOINT_NAMES,
+                                 FINGER_RANGES,
+                                 FINGER_SEGMENTS,
+                                 BodyParams,  # fmt: skip
+                                 random_body,
+)
 from nlo_lab.corpus.body_distance import body_gradient, body_signed_distance, head_signed_distance, torso_signed_distance
-from nlo_lab.corpus.corpus import N_SIGNERS, SCENARIOS, SPLITS, Scenario, corpus_angles, corpus_clip, corpus_lexicon, corpus_names, sign_corpus
-from nlo_lab.corpus.generate import (CLEARANCE, ELBOW_CLEARANCE, FINGERTIP_ACCEL_LIMIT, HAND_CLEARANCE, WRIST_ACCEL_LIMIT, WRIST_SPEED_LIMIT,
-                                     Clip, generate_sequence, plausible)  # fmt: skip
+from nlo_lab.corpus.corpus import (
+                                 N_SIGNERS,
+                                 SCENARIOS,
+                                 SPLITS,
+                                 Scenario,
+                                 corpus_angles,
+                                 corpus_clip,
+                                 corpus_lexicon,
+                                 corpus_names,
+                                 sign_corpus,
+)
+from nlo_lab.corpus.generate import (
+                                 CLEARANCE,
+                                 ELBOW_CLEARANCE,
+                                 FINGERTIP_ACCEL_LIMIT,
+                                 HAND_CLEARANCE,
+                                 WRIST_ACCEL_LIMIT,
+                                 WRIST_SPEED_LIMIT,
+                                 Clip,  # fmt: skip
+                                 generate_sequence,
+                                 plausible,
+)
 from nlo_lab.corpus.sign_motion import PATH_ACCEL, PUSH_CLEARANCE, Signer, sign_duration_floor, sign_segment
-from nlo_lab.corpus.signs import (CONTACT_LOCATIONS, HANDSHAPES, HELD_OUT_PAIRS, LOCATIONS, MOVEMENTS, PALMS, PATTERNS, Sign, handshape,
-                                  is_test_combination, location_normal, location_point, minimum_jerk, movement_path, random_sign)  # fmt: skip
+from nlo_lab.corpus.signs import (
+                                 CONTACT_LOCATIONS,
+                                 HANDSHAPES,
+                                 HELD_OUT_PAIRS,
+                                 LOCATIONS,
+                                 MOVEMENTS,
+                                 PALMS,
+                                 PATTERNS,
+                                 Sign,
+                                 handshape,
+                                 is_test_combination,  # fmt: skip
+                                 location_normal,
+                                 location_point,
+                                 minimum_jerk,
+                                 movement_path,
+                                 random_sign,
+)
 
 __all__ = [
     # corpus

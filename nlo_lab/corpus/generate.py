@@ -12,8 +12,8 @@ the two hands at least ``HAND_CLEARANCE`` apart, wrist speed and acceleration be
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
-from typing import Mapping, Sequence
 
 import numpy as np
 

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nlo_lab.errors import SettingsError
 from nlo_lab.corpus.body import BodyParams
+from nlo_lab.errors import SettingsError
 
 __all__ = [
     "HANDSHAPES",

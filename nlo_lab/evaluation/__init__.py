@@ -8,7 +8,6 @@
 The supervised baseline's network is trained by :mod:`nlo_lab.training.supervised`.
 """
 
-from nlo_lab.evaluation.scores import Evaluation, SequenceScore, check_methods, evaluate, evaluate_split
 from nlo_lab.evaluation.methods import (
     LATENT_METHODS,
     METHODS,
@@ -25,6 +24,7 @@ from nlo_lab.evaluation.methods import (
     run_method,
     wrist_positions,
 )
+from nlo_lab.evaluation.scores import Evaluation, SequenceScore, check_methods, evaluate, evaluate_split
 from nlo_lab.evaluation.tables import COLLISION_MARK, JSON_KEYS, format_table, to_json
 
 __all__ = [

@@ -23,8 +23,8 @@ training of a network excluded):
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable, Optional
 
 import numpy as np
 import torch
@@ -238,7 +238,7 @@ def ik(robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResu
     return MethodResult("ik", _numpy(q), time.perf_counter() - start, [], steps)
 
 
-def nn_supervised(robot, demo, settings: BaselineSettings | None = None, *, network: Optional[SupervisedNet] = None, **_) -> MethodResult:
+def nn_supervised(robot, demo, settings: BaselineSettings | None = None, *, network: SupervisedNet | None = None, **_) -> MethodResult:
     """The paper's 'NN': one forward pass of :func:`supervised_network` per frame.
 
     Args:

@@ -26,16 +26,16 @@ Command: ``nlo-lab evaluate --robot yumi [--split test] [--json] [--limit N] [--
 from __future__ import annotations
 
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 
+from nlo_lab.corpus import sign_corpus
 from nlo_lab.errors import SettingsError
 from nlo_lab.evaluation.methods import LATENT_METHODS, METHODS, BaselineSettings, mean_objective, run_method
-from nlo_lab.metrics import limit_violations, max_joint_speed_ratio, self_collision_frames, tracking_errors, velocity_violations
-from nlo_lab.corpus import sign_corpus
 from nlo_lab.inference import retime_times
+from nlo_lab.metrics import limit_violations, max_joint_speed_ratio, self_collision_frames, tracking_errors, velocity_violations
 from nlo_lab.model import load_pretrained
 from nlo_lab.training import supervised_network
 
@@ -166,7 +166,7 @@ def evaluate(
     from tqdm.auto import tqdm
 
     bar = tqdm(total=len(demos) * len(methods), desc=f"evaluate {robot.name}", disable=not progress, file=sys.stderr, leave=False)
-    for name, demo in zip(names, demos):
+    for name, demo in zip(names, demos, strict=True):
         for method in methods:
             bar.set_postfix_str(f"{name} {method}")
             r = run_method(method, robot, demo, settings, model=model, network=network)

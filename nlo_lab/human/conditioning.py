@@ -76,7 +76,7 @@ def _runs(valid: np.ndarray):
     """``(start, stop)`` of each run of True."""
     v = np.concatenate([[False], np.asarray(valid, bool), [False]])
     edges = np.flatnonzero(np.diff(v.astype(np.int8)))
-    return zip(edges[::2], edges[1::2])
+    return zip(edges[::2], edges[1::2], strict=True)
 
 
 def _savgol_run(x: np.ndarray, window: int, order: int) -> np.ndarray:

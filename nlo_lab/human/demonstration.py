@@ -89,7 +89,7 @@ class Demonstration:
         name: str = "",
         meta: dict[str, Any] | None = None,
         path=None,
-    ) -> "Demonstration":
+    ) -> Demonstration:
         """Build and validate a demonstration; a validation error names ``path`` (the source file).
 
         Readers use this instead of the constructor so that an invalid field is
@@ -216,7 +216,7 @@ class Demonstration:
             raise DemonstrationError(f"the {side} arm is never fully observed", field=f"{side}/arm")
         return float(np.median(upper)), float(np.median(fore))
 
-    def slice(self, start: int, stop: int) -> "Demonstration":
+    def slice(self, start: int, stop: int) -> Demonstration:
         """Frames ``start:stop`` as a new demonstration."""
         sl = slice(start, stop)
         return Demonstration(

@@ -111,7 +111,7 @@ def _fps(group: h5py.Group, root: h5py.File, path) -> float:
 def _read_group(group: h5py.Group, root: h5py.File, path: Path) -> Demonstration:
     name = group.name.lstrip("/")
     data = {}
-    for side, s in _PREFIX.items():
+    for s in _PREFIX.values():
         for part in ("up", "fr", "hd"):
             data[f"{s}_{part}_pos"] = _dataset(group, f"{s}_{part}_pos", (3,), path, required=True)
             data[f"{s}_{part}_quat"] = _dataset(group, f"{s}_{part}_quat", (4,), path, required=False)
@@ -122,7 +122,7 @@ def _read_group(group: h5py.Group, root: h5py.File, path: Path) -> Demonstration
     for key, n in lengths.items():
         if n != T:
             raise DemonstrationError(f"has {n} frames but l_up_pos has {T}", path=path, field=f"{name}/{key}")
-    for side, s in _PREFIX.items():
+    for s in _PREFIX.values():
         q = data[f"{s}_hd_quat"]
         if q is not None:
             small = np.linalg.norm(q, axis=-1) < 1e-6
@@ -149,7 +149,7 @@ def _read_group(group: h5py.Group, root: h5py.File, path: Path) -> Demonstration
     wrist_mask = np.zeros((T, 2), dtype=bool)
     fingers = np.full((T, 2, 5, 2, 3), np.nan)
     finger_mask = np.zeros((T, 2, 5), dtype=bool)
-    for si, (side, s) in enumerate(_PREFIX.items()):
+    for si, s in enumerate(_PREFIX.values()):
         for j, part in enumerate(("up", "fr", "hd")):
             arms[:, si, j] = to_body(data[f"{s}_{part}_pos"])
         glove = data[f"{s}_glove_pos"]

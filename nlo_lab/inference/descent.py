@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import contextlib
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable, Optional
 
 import torch
 
@@ -40,7 +40,7 @@ class OptimizeResult:
     """
 
     q: torch.Tensor
-    z: Optional[torch.Tensor]
+    z: torch.Tensor | None
     history: list[float]
     terms: dict[str, torch.Tensor]
     loss: torch.Tensor
@@ -61,7 +61,7 @@ def join_results(parts: list[OptimizeResult], init: str, seconds: float, frames_
     n = max(len(r.history) for r in parts)
     weight = [len(r.q) if frames_weighted else 1 for r in parts]
     total = sum(weight)
-    history = [sum(r.history[min(i, len(r.history) - 1)] * w for r, w in zip(parts, weight)) / total for i in range(n)]
+    history = [sum(r.history[min(i, len(r.history) - 1)] * w for r, w in zip(parts, weight, strict=True)) / total for i in range(n)]
     steps = [r.iterations for r in parts]
     return OptimizeResult(
         q=torch.cat([r.q for r in parts]),
@@ -86,7 +86,7 @@ def frozen(module: torch.nn.Module):
     try:
         yield module
     finally:
-        for p, f in zip(module.parameters(), flags):
+        for p, f in zip(module.parameters(), flags, strict=True):
             p.requires_grad_(f)
         module.train(was_training)
 

@@ -4,7 +4,7 @@ latent optimisation (:mod:`nlo_lab.inference.latent`), no network."""
 from __future__ import annotations
 
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import torch
 
@@ -65,5 +65,5 @@ def optimize_joints(
         q0.to(dtype), evaluate, project, settings.iterations, settings.patience, settings.lr, callback,
         per_sample=smooth is None,
     )
-    terms = dict(zip(TERMS, terms.unbind(1)))
+    terms = dict(zip(TERMS, terms.unbind(1), strict=True))
     return OptimizeResult(q, None, history, terms, loss, steps, time.perf_counter() - start, f"joints-{settings.init}")

@@ -25,7 +25,7 @@ to the other, the start does.
 from __future__ import annotations
 
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import torch
 
@@ -191,7 +191,7 @@ def optimize_latent(
             z0.to(_model_dtype(model)), evaluate, None, settings.iterations, settings.patience, lr, callback,
             per_sample=smooth is None,
         )
-    return OptimizeResult(q, z, history, dict(zip(TERMS, terms.unbind(1))), loss, steps, time.perf_counter() - start, init)
+    return OptimizeResult(q, z, history, dict(zip(TERMS, terms.unbind(1), strict=True)), loss, steps, time.perf_counter() - start, init)
 
 
 def optimize_stream(model, robot, targets: Targets, settings: OptimizeSettings | None = None, *, weights: LossWeights | None = None,

@@ -84,21 +84,21 @@ class RetargetInputs:
     def __len__(self) -> int:
         return len(self.targets)
 
-    def index(self, idx) -> "RetargetInputs":
+    def index(self, idx) -> RetargetInputs:
         """Frames ``idx`` (a slice, index tensor or boolean mask)."""
         return RetargetInputs(self.targets.index(idx), self.encoder.index(idx))
 
-    def to(self, device=None, dtype=None) -> "RetargetInputs":
+    def to(self, device=None, dtype=None) -> RetargetInputs:
         """A copy on ``device``; ``dtype`` applies to the float tensors only."""
         return RetargetInputs(self.targets.to(device=device, dtype=dtype), self.encoder.to(device=device, dtype=dtype))
 
     @staticmethod
-    def cat(items: "list[RetargetInputs]") -> "RetargetInputs":
+    def cat(items: list[RetargetInputs]) -> RetargetInputs:
         """Concatenate along frames."""
         return RetargetInputs(Targets.cat([x.targets for x in items]), EncoderInput.cat([x.encoder for x in items]))
 
     @staticmethod
-    def from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.float32, device=None) -> "RetargetInputs":
+    def from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.float32, device=None) -> RetargetInputs:
         """Targets in ``dtype`` on ``device``; the encoder's input in float32 (the models' dtype) on ``device``."""
         return RetargetInputs(targets_from_demonstration(demo, dtype=dtype, device=device), encoder_input(demo, device=device))
 
@@ -128,7 +128,7 @@ class RetargetConfig:
     retime: bool = True
     progress: bool = False
 
-    def build(self) -> "Retargeter":
+    def build(self) -> Retargeter:
         """Check the configuration, load the model if none was given, and return the retargeter.
 
         Raises:
@@ -208,7 +208,7 @@ class Retargeter:
         """How many chunks :meth:`optimize` splits ``frames`` frames into."""
         return len(self._bounds(frames))
 
-    def __call__(self, demo: Demonstration) -> "RetargetResult":
+    def __call__(self, demo: Demonstration) -> RetargetResult:
         demo.validate()  # again: the arrays may have changed since the demonstration was built
         robot, settings = self.robot, self.settings
         with single_thread():

@@ -116,7 +116,7 @@ class RobotTrajectory:
         """Length in seconds: the last frame's time plus one frame period (``T / fps`` when not retimed)."""
         return float(self.times[-1]) + 1.0 / self.fps
 
-    def at_frame_rate(self) -> "RobotTrajectory":
+    def at_frame_rate(self) -> RobotTrajectory:
         """The same samples ``1/fps`` apart, as recorded (a retimed trajectory without its retiming)."""
         return RobotTrajectory(self.robot, self.joint_names, self.angles, self.fps)
 
@@ -168,13 +168,13 @@ class RobotTrajectory:
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
         writer.writerow(["time_s", *self.joint_names])
-        for t, row in zip(self.times, self.angles):
+        for t, row in zip(self.times, self.angles, strict=True):
             writer.writerow([repr(float(t)), *(repr(float(v)) for v in row)])
         return _atomic_write(path, buf.getvalue().encode("utf-8"))
 
     # ---------------------------------------------------------------- readers
     @classmethod
-    def from_dict(cls, data: dict[str, Any], *, source: str = "<dict>") -> "RobotTrajectory":
+    def from_dict(cls, data: dict[str, Any], *, source: str = "<dict>") -> RobotTrajectory:
         """Build from :meth:`to_dict`'s layout; errors name ``source``."""
         if not isinstance(data, dict):
             raise TrajectoryError(f"{source}: expected a JSON object, got {type(data).__name__}")
@@ -191,7 +191,7 @@ class RobotTrajectory:
             raise TrajectoryError(f"{source}: {exc}") from None
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "RobotTrajectory":
+    def load(cls, path: str | os.PathLike) -> RobotTrajectory:
         """Read a trajectory written by :meth:`save_npz` (.npz) or :meth:`save_json` (.json).
 
         Raises:

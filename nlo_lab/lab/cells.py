@@ -13,8 +13,8 @@ from __future__ import annotations
 import html
 import os
 import random
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -168,7 +168,7 @@ def joint_table(robot):
     from IPython.display import HTML
 
     rows = []
-    for i, (name, lo, hi) in enumerate(zip(robot.joint_names, robot.lower_limits.tolist(), robot.upper_limits.tolist())):
+    for i, (name, lo, hi) in enumerate(zip(robot.joint_names, robot.lower_limits.tolist(), robot.upper_limits.tolist(), strict=True)):
         rows.append(
             f"<tr><td>{i}</td><td><code>{html.escape(name)}</code></td><td>{lo:+.3f}</td><td>{hi:+.3f}</td>"
             f"<td>{np.degrees(lo):+.1f}</td><td>{np.degrees(hi):+.1f}</td></tr>"

@@ -49,7 +49,7 @@ class JointPanel:
         layout = W.Layout(width="420px")
         self.sliders = {
             name: W.FloatSlider(value=float(v), min=a, max=b, step=0.01, description=name, style=style, layout=layout, continuous_update=True)
-            for name, v, a, b in zip(robot.joint_names, q0.tolist(), lo, hi)
+            for name, v, a, b in zip(robot.joint_names, q0.tolist(), lo, hi, strict=True)
         }
         links = sorted(robot.forward_kinematics(q0[None]).keys())
         default = link or robot.arm("left").wrist

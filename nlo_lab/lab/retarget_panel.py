@@ -24,14 +24,15 @@ goes below them when the notebook is too narrow for both side by side.
 from __future__ import annotations
 
 import time
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.lab.views import View, guarded, svg_convergence
 from nlo_lab.inference import INITS, OptimizeResult, OptimizeSettings, RetargetConfig, Retargeter, RetargetInputs, retime_times
+from nlo_lab.lab.views import View, guarded, svg_convergence
 from nlo_lab.objective import TERMS, LossWeights, Targets
 from nlo_lab.paths import BUNDLED_ROBOTS
 from nlo_lab.threads import single_thread

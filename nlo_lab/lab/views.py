@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import contextlib
 import html
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -56,7 +57,7 @@ def svg_convergence(curves, width: int = 480, height: int = 220, log: bool = Tru
                 continue
             px = left + w * np.arange(y.size) / n
             py = top + h * (1 - (f(y) - lo) / (hi - lo))
-            pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(px, py))
+            pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(px, py, strict=True))
             last = k == len(curves) - 1
             colour = _PALETTE[k % len(_PALETTE)]
             parts.append(f'<polyline points="{pts}" fill="none" stroke="{colour}" stroke-width="{2.2 if last else 1.2}" opacity="{1 if last else 0.5}"/>')

@@ -18,8 +18,8 @@ import torch
 from nlo_lab.errors import CheckpointError, NloLabError
 from nlo_lab.human.skeleton import skeleton_graph
 from nlo_lab.model.retarget_model import RetargetModel, build_model
-from nlo_lab.robot import load_robot
 from nlo_lab.paths import BUNDLED_ROBOTS, CHECKPOINTS_DIR, is_bundled, is_editable_checkout, repair_hint
+from nlo_lab.robot import load_robot
 
 __all__ = ["CHECKPOINT_FORMAT_VERSION", "save_checkpoint", "load_checkpoint", "checkpoint_path", "load_pretrained"]
 

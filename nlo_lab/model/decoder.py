@@ -66,7 +66,7 @@ class GraphDecoder(nn.Module):
         self.register_buffer("rest_pre", rest_preactivation(rest, self.lower, self.upper))  # (n,), saved in checkpoints
         edge_f = robot_graph.edge_attr.shape[-1]
         dims = (latent_per_node + 2, *widths)
-        self.layers = nn.ModuleList(GraphLayer(a, b, edge_f) for a, b in zip(dims[:-1], dims[1:]))
+        self.layers = nn.ModuleList(GraphLayer(a, b, edge_f) for a, b in zip(dims[:-1], dims[1:], strict=True))
 
     @property
     def latent_shape(self) -> tuple[int, int]:
@@ -113,7 +113,7 @@ class GraphDecoder(nn.Module):
 
     def _node_major_preactivation(self, z: torch.Tensor, w: dict) -> torch.Tensor:
         x = z.transpose(0, 1)  # (N_r, B, k): node-major, see GraphLayer.forward_node_major
-        for layer, wl in zip(self.layers, w["layers"]):
+        for layer, wl in zip(self.layers, w["layers"], strict=True):
             x = layer.forward_node_major(x, wl)
         return x[..., 0].T + w["rest_pre"]
 

@@ -49,7 +49,7 @@ class GraphEncoder(nn.Module):
         self.graph = GraphBuffers(human_graph)
         self.n_robot_nodes, self.latent_per_node = n_robot_nodes, latent_per_node
         dims = (in_features, *widths)
-        self.layers = nn.ModuleList(GraphLayer(a, b, edge_features) for a, b in zip(dims[:-1], dims[1:]))
+        self.layers = nn.ModuleList(GraphLayer(a, b, edge_features) for a, b in zip(dims[:-1], dims[1:], strict=True))
         self.to_latent = nn.Linear(human_graph.num_nodes * widths[-1], n_robot_nodes * latent_per_node)
 
     def forward(self, node_x: torch.Tensor, edge_x: torch.Tensor | None = None) -> torch.Tensor:

@@ -35,16 +35,16 @@ class EncoderInput:
     def __len__(self) -> int:
         return int(self.node_features.shape[0])
 
-    def to(self, device=None, dtype=None) -> "EncoderInput":
+    def to(self, device=None, dtype=None) -> EncoderInput:
         """A copy on ``device`` in ``dtype``."""
         return EncoderInput(self.node_features.to(device=device, dtype=dtype), self.edge_features.to(device=device, dtype=dtype))
 
-    def index(self, idx) -> "EncoderInput":
+    def index(self, idx) -> EncoderInput:
         """Frames ``idx`` (a slice, index tensor or boolean mask)."""
         return EncoderInput(self.node_features[idx], self.edge_features[idx])
 
     @staticmethod
-    def cat(items: "list[EncoderInput]") -> "EncoderInput":
+    def cat(items: list[EncoderInput]) -> EncoderInput:
         """Concatenate along frames."""
         if not items:
             raise DemonstrationError("no encoder inputs to concatenate")

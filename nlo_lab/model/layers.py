@@ -212,7 +212,7 @@ class GraphBuffers(nn.Module):
 def mlp(dims: tuple[int, ...]) -> nn.Sequential:
     """Linear layers ``dims[0] -> ... -> dims[-1]`` with a LeakyReLU between them (not after the last)."""
     mods: list[nn.Module] = []
-    for i, (a, b) in enumerate(zip(dims[:-1], dims[1:])):
+    for i, (a, b) in enumerate(zip(dims[:-1], dims[1:], strict=True)):
         mods.append(nn.Linear(a, b))
         if i < len(dims) - 2:
             mods.append(nn.LeakyReLU(LEAKY_SLOPE))

@@ -92,7 +92,7 @@ class DecoderPlan:
         inside = (pre >= self.lower) & (pre <= self.upper)  # torch.clamp passes the gradient there
         ga = np.where(inside, gq, 0.0) * self.half * (1.0 - t * t)  # (B, N)
         gy = np.ascontiguousarray(ga.T[..., None], dtype=self.dtype)  # (N, B, 1)
-        for L, (c_in, m) in zip(reversed(self.layers), reversed(saved)):
+        for L, (c_in, m) in zip(reversed(self.layers), reversed(saved), strict=True):
             E, B, O = m.shape
             gm = gy[L["dst"]] * np.where(m > 0, 1.0, self.slope).astype(self.dtype)  # (E, B, O)
             gx = gy if L["skip"] is None else np.matmul(gy, L["skip_t"])  # (N, B, C)

@@ -10,7 +10,6 @@
 """
 
 from nlo_lab.objective.near_pairs import CULL_SLACK, near_pair_distances
-from nlo_lab.objective.total import Objective, objective
 from nlo_lab.objective.points import PointPlan, RobotPoints, point_plan, robot_points
 from nlo_lab.objective.targets import Targets, targets_from_demonstration
 from nlo_lab.objective.terms import (
@@ -26,6 +25,7 @@ from nlo_lab.objective.terms import (
     smoothness_scale,
     step_cost,
 )
+from nlo_lab.objective.total import Objective, objective
 from nlo_lab.objective.weights import COLLISION_FORMS, SMOOTH_MAX_STEP, SMOOTH_SPEED_CAP, SMOOTH_STEP_WIDTH, TERMS, LossWeights
 
 __all__ = [

@@ -71,7 +71,7 @@ class PointTerms:
         self.scatter = scatter.astype(self.rows.dtype)
 
     @classmethod
-    def build(cls, plan: PointPlan, targets: Targets, form: str) -> "PointTerms":
+    def build(cls, plan: PointPlan, targets: Targets, form: str) -> PointTerms:
         """The terms of :mod:`nlo_lab.objective.terms` as rows over ``plan``'s points, for ``targets``.
 
         Residual rows (each a fixed combination of points, minus the human side):
@@ -97,7 +97,7 @@ class PointTerms:
             row([(k, 1.0)], 1)
         for s in range(2):
             row([(at["wrist"][s], 1.0 / l_fore[s]), (at["elbow"][s], -1.0 / l_fore[s])], 2)
-        for base, tip in zip(at["finger_base"], at["finger_tip"]):
+        for base, tip in zip(at["finger_base"], at["finger_tip"], strict=True):
             row([(tip, 1.0), (base, -1.0)], 3, is_finger=True)
         am = t.arm_mask
         with torch.no_grad():

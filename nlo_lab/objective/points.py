@@ -86,7 +86,7 @@ class PointPlan:
         group("elbow", [(arm.elbow, origin) for arm in arms])
         group("wrist", [(arm.wrist, origin) for arm in arms])
         align = [np.asarray(arm.wrist_alignment, dtype=np.float64) for arm in arms]
-        group("wrist_axes", [(arm.wrist, (*a[:, j], 0.0)) for arm, a in zip(arms, align) for j in range(3)])
+        group("wrist_axes", [(arm.wrist, (*a[:, j], 0.0)) for arm, a in zip(arms, align, strict=True) for j in range(3)])
         fingers = [(s, f, *arm.fingers[name]) for s, arm in enumerate(arms) if robot.has_fingers and arm.fingers
                    for f, name in enumerate(FINGERS) if name in arm.fingers]  # (side, finger, base link, tip link)
         group("finger_base", [(base, origin) for *_, base, _ in fingers])
@@ -116,7 +116,7 @@ class PointPlan:
     def map_poses(self, poses: dict) -> torch.Tensor:
         """The same from given link poses (``robot.forward_kinematics(q)``): ``(B, k, 3)``."""
         vec = torch.as_tensor(self.link_vectors, dtype=self.vectors.dtype, device=self.vectors.device)
-        return torch.stack([poses[link][..., :3, :] @ v for link, v in zip(self.links, vec)], dim=1)
+        return torch.stack([poses[link][..., :3, :] @ v for link, v in zip(self.links, vec, strict=True)], dim=1)
 
     def split(self, points: torch.Tensor) -> RobotPoints:
         """Mapped vectors ``(B, k, 3)`` -> :class:`RobotPoints`."""

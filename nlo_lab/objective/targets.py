@@ -9,7 +9,6 @@ NaN or depends on the masked value.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import Optional
 
 import numpy as np
 import torch
@@ -50,7 +49,7 @@ class Targets:
     finger_mask: torch.Tensor
     arm_length: torch.Tensor
     fore_length: torch.Tensor
-    fps: Optional[float] = None
+    fps: float | None = None
 
     def __len__(self) -> int:
         return int(self.shoulder.shape[0])
@@ -59,20 +58,20 @@ class Targets:
     def dtype(self) -> torch.dtype:
         return self.shoulder.dtype
 
-    def _map(self, fn) -> "Targets":
+    def _map(self, fn) -> Targets:
         out = {f.name: fn(f.name, getattr(self, f.name)) for f in fields(self) if f.name != "fps"}
         return Targets(**out, fps=self.fps)
 
-    def to(self, device=None, dtype=None) -> "Targets":
+    def to(self, device=None, dtype=None) -> Targets:
         """A copy on ``device``; ``dtype`` applies to the float tensors only."""
         return self._map(lambda n, t: t.to(device=device, dtype=dtype if t.is_floating_point() else None))
 
-    def index(self, idx) -> "Targets":
+    def index(self, idx) -> Targets:
         """Frames ``idx`` (a slice, index tensor or boolean mask) as new targets."""
         return self._map(lambda n, t: t[idx])
 
     @staticmethod
-    def cat(items: "list[Targets]") -> "Targets":
+    def cat(items: list[Targets]) -> Targets:
         """Concatenate along frames."""
         if not items:
             raise DemonstrationError("no targets to concatenate")

@@ -119,4 +119,4 @@ def objective(robot, q: torch.Tensor, targets: Targets, weights: LossWeights | N
         loss = Objective(robot, targets, weights, collision_form, fused=False)
         terms = loss.terms(loss.plan.split(loss.plan.map_poses(poses)))
         total = terms @ loss.weights
-    return total, dict(zip(TERMS, terms.unbind(1)))
+    return total, dict(zip(TERMS, terms.unbind(1), strict=True))

@@ -55,7 +55,7 @@ class LossWeights:
         validate_fields(self, check_nonnegative, prefix="loss weight ")
 
     @classmethod
-    def from_string(cls, text: str) -> "LossWeights":
+    def from_string(cls, text: str) -> LossWeights:
         """Parse ``"ee=1000,ori=100"``; unnamed weights keep their defaults.
 
         Raises:

@@ -23,7 +23,7 @@ gather and one matmul after step 3.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import torch
@@ -159,8 +159,9 @@ class KinematicTree:
         # Level by level (large batches: every body is composed once). Bodies are
         # 0 = root, then the moving joints sorted by depth, so a level is a slice.
         parent_body = np.array([0] + [p + 1 for p in self.moving_parent], dtype=np.int64)  # root's parent: itself
+        previous = [(-1, 0)] + self.level_slices[:-1]  # each level with the one before it
         self._np["level_parent"] = [  # parent's index within the previous level
-            parent_body[1 + s : 1 + e] - (1 + ps) for (ps, _), (s, e) in zip([(-1, 0)] + self.level_slices, self.level_slices)
+            parent_body[1 + s : 1 + e] - (1 + ps) for (ps, _), (s, e) in zip(previous, self.level_slices, strict=True)
         ]
         # Pointer jumping (small batches: ceil(log2(depth + 1)) steps instead of
         # one per level). After step k, body i holds T_{anc}_i with anc its
@@ -248,7 +249,7 @@ class KinematicTree:
         """
         root, *moving = local.split([1] + [e - s for s, e in self.level_slices], 1)  # split: one cheap backward
         levels = [root, moving[0]]  # level 0 hangs from the root, whose frame is the identity
-        for A_l, parent in zip(moving[1:], c["level_parent"][1:]):
+        for A_l, parent in zip(moving[1:], c["level_parent"][1:], strict=True):
             levels.append(levels[-1].index_select(1, parent) @ A_l)
         return torch.cat(levels, 1)
 

@@ -10,8 +10,8 @@ joints exist in the URDF.
 from __future__ import annotations
 
 import copy
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import numpy as np
 import torch
@@ -231,7 +231,7 @@ class Robot:
             ``{link: T_world_link (..., 4, 4)}`` for every link of the URDF.
         """
         T = self.tree.forward(q)  # (..., L, 4, 4)
-        return dict(zip(self.link_names, T.unbind(-3)))
+        return dict(zip(self.link_names, T.unbind(-3), strict=True))
 
     def forward_kinematics_links(self, q: torch.Tensor, links: Sequence[str]) -> torch.Tensor:
         """World poses of some links only (cheaper than every link).
@@ -305,7 +305,7 @@ class Robot:
         """``(3,)`` shoulder link position [m] at the reference pose."""
         return self._ref_poses[self.arm(side).shoulder][:3, 3].to(dtype=self.dtype, device=self.device)
 
-    def to(self, device=None, dtype: torch.dtype | None = None) -> "Robot":
+    def to(self, device=None, dtype: torch.dtype | None = None) -> Robot:
         """A copy whose tensors are on ``device`` in ``dtype`` (either may be ``None`` = keep)."""
         out = copy.copy(self)
         out._set_tensors(dtype or self.dtype, torch.device(device) if device is not None else self.device)

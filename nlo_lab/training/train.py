@@ -24,9 +24,8 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import RetargetInputs
-from nlo_lab.model import EncoderInput
+from nlo_lab.model import MODEL_KINDS, EncoderInput, RetargetModel, build_model
 from nlo_lab.objective import COLLISION_FORMS, LossWeights, latent_loss, objective
-from nlo_lab.model import MODEL_KINDS, RetargetModel, build_model
 from nlo_lab.settings import check_choice, check_int, check_positive
 from nlo_lab.training.data import demos_inputs, train_validation_split
 

@@ -11,7 +11,17 @@
 from nlo_lab.viz.camera import CameraView, frame_points
 from nlo_lab.viz.export import export_html, recording_visualizer, static_html
 from nlo_lab.viz.plots import plot_convergence, plot_joint_trajectories, plot_loss_terms
-from nlo_lab.viz.scene import GROUP_COLOURS, HUMAN_COLOURS, HUMAN_SCALES, HumanScene, RetargetScene, RobotScene, link_groups, robot_visuals, style_viewer
+from nlo_lab.viz.scene import (
+    GROUP_COLOURS,
+    HUMAN_COLOURS,
+    HUMAN_SCALES,
+    HumanScene,
+    RetargetScene,
+    RobotScene,
+    link_groups,
+    robot_visuals,
+    style_viewer,
+)
 
 __all__ = [
     "export_html",

@@ -14,8 +14,8 @@ The body frame is X forward, Y left, Z up [m]; robots face +X.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 

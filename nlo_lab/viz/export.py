@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import html
 import os
+from collections.abc import Sequence
 from functools import lru_cache
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import umsgpack
 from meshcat import Visualizer

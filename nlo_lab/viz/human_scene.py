@@ -13,11 +13,11 @@ last valid position meanwhile, so nothing is drawn at a stale place.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
-
-import numpy as np
+from collections.abc import Sequence
+from typing import Any
 
 import meshcat.geometry as g
+import numpy as np
 from meshcat.animation import Animation
 
 from nlo_lab.errors import NloLabError
@@ -226,7 +226,7 @@ class HumanScene:
         return pts
 
     # ------------------------------------------------------------ meshcat
-    def draw(self) -> "HumanScene":
+    def draw(self) -> HumanScene:
         """Create spheres, bones, torso and head (sized by :attr:`scale`), then show frame 0."""
         root = self.vis[self.path]
         s = self.scale

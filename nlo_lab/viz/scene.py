@@ -13,13 +13,13 @@ meshcat is Z-up like the body frame (X forward, Y left, Z up) [m].
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
-
-import numpy as np
+from typing import Any
 
 import meshcat.geometry as g
+import numpy as np
 from meshcat.animation import Animation
 
 from nlo_lab.errors import NloLabError, RobotDescriptionError
@@ -207,7 +207,7 @@ class RobotScene:
         self.groups = link_groups(model, _robot_arms(robot))
         self.links = sorted({v.link for v in self.visuals})
 
-    def draw(self) -> "RobotScene":
+    def draw(self) -> RobotScene:
         """Create every primitive under ``path/link/i`` (coloured by link group)."""
         root = self.vis[self.path]
         detail = detail_of(self.vis)  # the live view draws lighter spheres and cylinders

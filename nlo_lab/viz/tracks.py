@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from typing import Sequence
-
-import numpy as np
+from collections.abc import Sequence
 
 import meshcat.geometry as g
+import numpy as np
 from meshcat.animation import Animation, AnimationClip, AnimationTrack
 
 from nlo_lab.rotations import matrix_to_quat as matrix_to_quaternion  # (x, y, z, w), three.js's order

@@ -28,8 +28,8 @@ from __future__ import annotations
 import contextlib
 import struct
 import weakref
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 import anywidget
 import ipywidgets
@@ -71,7 +71,7 @@ class MeshcatBundle(ipywidgets.Widget):
 
 
 _BUNDLE: list[MeshcatBundle] = []
-_LIVE: "weakref.WeakSet[SceneWidget]" = weakref.WeakSet()  # every scene widget of this kernel
+_LIVE: weakref.WeakSet[SceneWidget] = weakref.WeakSet()  # every scene widget of this kernel
 _HOOKED: list[object] = []  # the IPython shell whose post_run_cell syncs them (once per kernel)
 
 
@@ -110,7 +110,7 @@ def meshcat_bundle() -> MeshcatBundle:
 class WidgetWindow(RecordingWindow):
     """A meshcat window that records the scene tree and forwards every command to a :class:`SceneWidget`."""
 
-    def __init__(self, widget: "SceneWidget") -> None:
+    def __init__(self, widget: SceneWidget) -> None:
         super().__init__()
         self.widget = widget
         self.force = False  # send unchanged transforms too (see SceneWidget.resend)
@@ -205,7 +205,7 @@ class SceneWidget(anywidget.AnyWidget):
         self.bytes_sent += len(data)
 
     @contextlib.contextmanager
-    def hold(self) -> Iterator["SceneWidget"]:
+    def hold(self) -> Iterator[SceneWidget]:
         """Collect the commands issued inside the block and send them as one message at its end."""
         if self._held_depth == 0:
             self._held = []
@@ -219,7 +219,7 @@ class SceneWidget(anywidget.AnyWidget):
                 self._send_commands(held)
 
     @contextlib.contextmanager
-    def resend(self) -> Iterator["SceneWidget"]:
+    def resend(self) -> Iterator[SceneWidget]:
         """Send every transform set inside the block, changed or not (after an animation in the page moved things)."""
         window = self.vis.window
         window.force = True
@@ -230,9 +230,9 @@ class SceneWidget(anywidget.AnyWidget):
 
     def snapshot(self) -> bytes:
         """The whole current scene: a delete of meshcat's root, then every command of the tree."""
+        import umsgpack
         from meshcat.commands import Delete
         from meshcat.path import Path as MeshcatPath
-        import umsgpack
 
         reset = umsgpack.packb(Delete(MeshcatPath(("meshcat",))).lower())
         return pack_commands([reset] + scene_commands(self.vis.window.tree))

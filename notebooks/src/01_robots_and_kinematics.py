@@ -11,6 +11,7 @@
 
 # %%
 from nlo_lab.lab import TEST_MODE, budget, setup
+
 setup()
 
 # %% [markdown]
@@ -22,16 +23,19 @@ setup()
 
 # %%
 from nlo_lab.robot import load_robot
+
 robots = {name: load_robot(name) for name in ("yumi", "nao", "pepper")}
 for name, robot in robots.items():
     print(f"{name:7s} {robot.n_joints:2d} actuated joints, fingers: {robot.has_fingers}")
 
 # %%
 from nlo_lab.lab import joint_table
+
 joint_table(robots["nao"])
 
 # %%
 from nlo_lab.lab import show_robot
+
 yumi = robots["yumi"]
 show_robot(yumi)  # the neutral pose, in a 3-D view of its own: drag to turn, scroll to zoom
 
@@ -43,6 +47,7 @@ show_robot(yumi)  # the neutral pose, in a 3-D view of its own: drag to turn, sc
 
 # %%
 from nlo_lab.lab import JointPanel
+
 JointPanel(robots["nao"])
 
 # %% [markdown]
@@ -52,6 +57,7 @@ JointPanel(robots["nao"])
 
 # %%
 from ipywidgets import fixed, interact
+
 nao = robots["nao"]
 lo, hi = float(nao.lower_limits[0]), float(nao.upper_limits[0])
 
@@ -71,6 +77,7 @@ def wrist_height(angle=0.0, robot=None, j=0, link=""):
 
 # %%
 import torch
+
 q = yumi.neutral_q[None]                     # (1, n)
 poses = yumi.forward_kinematics(q)           # {link: (1, 4, 4)}
 wrist = yumi.arm("left").wrist
@@ -91,7 +98,9 @@ print(poses[wrist][0].numpy().round(3))
 
 # %%
 import inspect
+
 from nlo_lab.robot import KinematicTree
+
 print(inspect.getsource(KinematicTree.body_poses))
 print(inspect.getsource(KinematicTree._compose_by_levels))
 
@@ -102,6 +111,7 @@ print(inspect.getsource(KinematicTree._compose_by_levels))
 
 # %%
 from nlo_lab import backend
+
 with backend.reference():
     readable = yumi.forward_kinematics(q)
 print(f"largest difference to the fast path: {max(float((readable[k] - poses[k]).abs().max()) for k in poses):.1e}")
@@ -112,6 +122,7 @@ print(f"largest difference to the fast path: {max(float((readable[k] - poses[k])
 
 # %%
 import matplotlib.pyplot as plt
+
 B = budget(5000, 500)
 lo, hi = yumi.lower_limits, yumi.upper_limits
 q = lo + (hi - lo) * torch.rand(B, yumi.n_joints, dtype=lo.dtype)
@@ -132,6 +143,7 @@ fig.tight_layout()
 
 # %%
 from nlo_lab.robot.pk_chain import PKChain
+
 ref = PKChain(yumi)                              # ref.chain is the pytorch_kinematics.Chain
 print(f"{len(ref.joint_names)} joints in the chain, {yumi.n_joints} actuated angles")
 ours, theirs = yumi.forward_kinematics(q), ref.forward_kinematics(q)
@@ -148,16 +160,18 @@ print(f"{len(theirs)} links, largest difference {max(float((ours[k] - theirs[k])
 
 # %%
 import time
-def median_ms(fn, runs=budget(30, 5)):
+
+
+def median_ms(fn, *args):
     times = []
-    for _ in range(runs):
-        t0 = time.perf_counter(); fn(); times.append(time.perf_counter() - t0)
+    for _ in range(budget(30, 5)):
+        t0 = time.perf_counter(); fn(*args); times.append(time.perf_counter() - t0)
     return 1e3 * sorted(times)[len(times) // 2]
 
 with torch.no_grad():
     for B in (1, 256):
         qb = lo + (hi - lo) * torch.rand(B, yumi.n_joints, dtype=lo.dtype)
-        t_ours, t_pk = median_ms(lambda: yumi.forward_kinematics(qb)), median_ms(lambda: ref.forward_kinematics(qb))
+        t_ours, t_pk = median_ms(yumi.forward_kinematics, qb), median_ms(ref.forward_kinematics, qb)
         print(f"batch {B:3d}: ours {t_ours:6.2f} ms, pytorch-kinematics {t_pk:6.2f} ms, ratio {t_pk / t_ours:5.1f}")
 
 # %% [markdown]
@@ -177,6 +191,7 @@ print(f"random poses with a penetrating pair: {float((yumi.capsule_distances(yum
 
 # %%
 from nlo_lab.lab import plot_graph
+
 plot_graph(yumi.graph, yumi.joint_names, title="YuMi with two Inspire hands");
 plot_graph(nao.graph, nao.joint_names, title="NAO");
 

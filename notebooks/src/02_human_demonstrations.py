@@ -11,6 +11,7 @@
 
 # %%
 from nlo_lab.lab import TEST_MODE, budget, setup
+
 setup()
 
 # %% [markdown]
@@ -22,6 +23,7 @@ setup()
 
 # %%
 from nlo_lab.corpus import corpus_clip, corpus_names
+
 train, test = corpus_names("train"), corpus_names("test")
 print(f"{len(train)} train and {len(test)} test sequences, e.g. {train[:3]}")
 demo = corpus_clip(test[0])
@@ -33,6 +35,7 @@ print(demo.name, len(demo), "frames at", demo.fps, "fps; signs:", demo.meta["sig
 # %%
 import matplotlib.pyplot as plt
 import numpy as np
+
 fig, axes = plt.subplots(1, 3, figsize=(10, 3), sharey=True)
 for name in test[: budget(4, 2)]:
     d = corpus_clip(name)
@@ -40,7 +43,7 @@ for name in test[: budget(4, 2)]:
     t = np.arange(len(d)) / d.fps
     for k, ax in enumerate(axes):
         ax.plot(t, rel[:, k], label=name)
-for ax, c in zip(axes, "xyz"):
+for ax, c in zip(axes, "xyz", strict=True):
     ax.set(title=f"{c} [m]", xlabel="time [s]")
 axes[0].legend(fontsize="x-small"); fig.tight_layout()
 
@@ -51,15 +54,17 @@ axes[0].legend(fontsize="x-small"); fig.tight_layout()
 
 # %%
 from nlo_lab.corpus import HANDSHAPES
+
 names = list(HANDSHAPES)[:8]
 fig, axes = plt.subplots(1, len(names), figsize=(1.6 * len(names), 2.2), sharey=True)
-for ax, name in zip(axes, names):
+for ax, name in zip(axes, names, strict=True):
     ax.imshow(np.degrees(HANDSHAPES[name]), vmin=-30, vmax=110, cmap="viridis")
     ax.set(title=name, xticks=range(4), yticks=range(5))
 axes[0].set_yticklabels(["thumb", "index", "middle", "ring", "pinky"]); fig.tight_layout()
 
 # %%
 from nlo_lab.lab import show_human
+
 show_human(demo)
 
 # %% [markdown]
@@ -72,6 +77,7 @@ show_human(demo)
 # %%
 from nlo_lab.human import load_demonstration
 from nlo_lab.lab import recording_path
+
 real = load_demonstration(recording_path())
 print(real.name, len(real), "frames at", real.fps, "fps")
 print("arm points observed:   ", f"{real.arm_mask.mean():.0%}")
@@ -96,6 +102,7 @@ show_human(real)
 # %%
 from nlo_lab.human import NODE_NAMES, node_features, skeleton_graph
 from nlo_lab.lab import plot_graph
+
 plot_graph(skeleton_graph(), NODE_NAMES, title="human skeleton graph");
 print("node features of the real recording:", node_features(real).shape)
 
@@ -106,6 +113,7 @@ print("node features of the real recording:", node_features(real).shape)
 # %%
 from nlo_lab.human import map_to_robot
 from nlo_lab.robot import load_robot
+
 mapped = map_to_robot(demo, load_robot("nao"))     # (T, 2, 3, 3): side, (shoulder, elbow, wrist), xyz [m]
 print(mapped.shape, "left wrist at frame 0 in NAO's frame:", mapped[0, 0, 2].round(3))
 

@@ -12,14 +12,17 @@
 
 # %%
 from nlo_lab.lab import TEST_MODE, budget, setup
+
 setup()
 
 # %%
 import matplotlib.pyplot as plt
 import torch
+
 from nlo_lab.human import corpus_clip, corpus_names
 from nlo_lab.objective import LossWeights, objective, targets_from_demonstration
 from nlo_lab.robot import load_robot
+
 robot = load_robot("yumi")
 demo = corpus_clip(corpus_names("test")[0])
 targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
@@ -35,6 +38,7 @@ print(f"{demo.name}, frame {t}")
 
 # %%
 from nlo_lab.viz import plot_loss_terms
+
 q0 = robot.neutral_q[None]
 total, terms = objective(robot, q0, one)
 fig, axes = plt.subplots(1, 2, figsize=(10, 3))
@@ -50,8 +54,11 @@ plot_loss_terms(terms, ax=axes[1], weights=LossWeights().as_dict(), title=f"weig
 
 # %%
 import inspect
+
 from IPython.display import Markdown, display
+
 from nlo_lab.objective import terms as term_functions
+
 for fn in (term_functions.end_effector_loss, term_functions.orientation_loss, term_functions.elbow_loss,
            term_functions.finger_loss, term_functions.collision_loss):
     display(Markdown(f"**`{fn.__name__}`** reads the robot's {', '.join(fn.needs)}\n```python\n{inspect.getsource(fn)}```"))
@@ -64,6 +71,7 @@ for fn in (term_functions.end_effector_loss, term_functions.orientation_loss, te
 # %%
 from nlo_lab import backend
 from nlo_lab.objective import Objective
+
 print(inspect.getsource(Objective.terms))
 with backend.reference():
     reference_total, _ = objective(robot, q0, one)
@@ -77,6 +85,7 @@ print(f"fast path {float(total):.6f}, reference {float(reference_total):.6f}")
 
 # %%
 from ipywidgets import FloatLogSlider, interact
+
 sliders = {n: FloatLogSlider(value=getattr(LossWeights(), n), base=10, min=-1, max=4, description=n) for n in terms}
 
 @interact(**sliders)
@@ -94,6 +103,7 @@ def shares(**w):
 # %%
 from nlo_lab.inference import JointOptimizeSettings, optimize_joints
 from nlo_lab.viz import plot_convergence
+
 ITERS = budget(300, 30)
 res = optimize_joints(robot, one, JointOptimizeSettings(iterations=ITERS, patience=ITERS))
 print(f"loss {res.history[0]:.1f} -> {res.history[-1]:.2f} in {res.iterations} steps, {res.seconds * 1000:.0f} ms")
@@ -101,6 +111,7 @@ plot_convergence({"joint space, from the neutral pose": res.history});
 
 # %%
 from nlo_lab.lab import show_robot
+
 show_robot(robot, res.q[0])
 
 # %% [markdown]
@@ -127,6 +138,7 @@ plot_convergence(histories, title="joint space from random starts");
 
 # %%
 from nlo_lab.metrics import limit_violations
+
 for limits, penalty in (("clamp", 1e4), ("penalty", 1e4), ("penalty", 1.0)):
     r = optimize_joints(robot, one, JointOptimizeSettings(iterations=ITERS, patience=ITERS, limits=limits, penalty=penalty))
     print(f"{limits:8s} penalty {penalty:8.0f}: loss {r.history[-1]:8.2f}, joints outside their limits: {limit_violations(robot, r.q)}")

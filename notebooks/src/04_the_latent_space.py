@@ -11,14 +11,17 @@
 
 # %%
 from nlo_lab.lab import TEST_MODE, budget, setup
+
 setup()
 
 # %%
 import matplotlib.pyplot as plt
 import numpy as np
 import torch
-from nlo_lab.robot import load_robot
+
 from nlo_lab.model import load_pretrained
+from nlo_lab.robot import load_robot
+
 robot = load_robot("yumi")
 model = load_pretrained(robot)           # the shipped checkpoint: no training needed
 print("latent of one frame:", model.latent_shape, "(one k-vector per robot-graph node)")
@@ -50,6 +53,7 @@ print(f"angles outside the limits: {int(((q < lo) | (q > hi)).sum())} of {q.nume
 # %%
 from nlo_lab.human import corpus_clip, corpus_names
 from nlo_lab.objective import targets_from_demonstration
+
 demo = corpus_clip(corpus_names("test")[1])
 targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
 t = len(demo) // 2
@@ -64,6 +68,7 @@ one = targets.index(slice(t, t + 1))
 # %%
 from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, optimize_joints, optimize_latent
 from nlo_lab.viz import plot_convergence
+
 ITERS, SEEDS = budget(150, 20), budget(6, 3)
 latent, joints = {}, {}
 gen = torch.Generator().manual_seed(0)
@@ -87,6 +92,7 @@ print(f"final loss, joints: {np.mean(final_joints):.2f} ± {np.std(final_joints)
 
 # %%
 from nlo_lab.lab import show_view
+
 best = optimize_latent(model, robot, one, OptimizeSettings(init="random", seed=int(np.argmin(final_latent)), iterations=ITERS))
 show_view(robot, best.q, demo=demo.slice(t, t + 1))
 

@@ -10,14 +10,17 @@
 
 # %%
 from nlo_lab.lab import TEST_MODE, budget, setup
+
 setup()
 
 # %%
 import numpy as np
+
 from nlo_lab.human import corpus_clip, corpus_names
+from nlo_lab.model import encoder_input, load_pretrained
 from nlo_lab.objective import targets_from_demonstration
 from nlo_lab.robot import load_robot
-from nlo_lab.model import encoder_input, load_pretrained
+
 robot = load_robot("yumi")
 model = load_pretrained(robot)
 demo = corpus_clip(corpus_names("test")[0])
@@ -35,6 +38,7 @@ print(f"{demo.name}: {len(demo)} frames, unseen sign combinations (test split)")
 # %%
 from nlo_lab.inference import INITS, OptimizeSettings, optimize_latent
 from nlo_lab.viz import plot_convergence
+
 ITERS = budget(100, 10)
 runs = {init: optimize_latent(model, robot, targets, OptimizeSettings(init=init, iterations=ITERS, patience=ITERS), encoder_input=features)
         for init in INITS}
@@ -53,6 +57,7 @@ for init, r in runs.items():
 
 # %%
 from nlo_lab.metrics import tracking_errors
+
 for init, r in runs.items():
     e = tracking_errors(demo, robot, r.q)
     print(f"{init:12s} Fréchet {e['frechet_m'] * 100:6.2f} cm   (wrist {e['frechet_wrist_m'] * 100:.2f}, elbow {e['frechet_elbow_m'] * 100:.2f})")
@@ -70,6 +75,7 @@ for init, r in runs.items():
 
 # %%
 from nlo_lab.lab import RetargetPanel
+
 panel = RetargetPanel(demo, "yumi", model=model, iterations=ITERS)
 panel
 

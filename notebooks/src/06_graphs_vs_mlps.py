@@ -11,6 +11,7 @@
 
 # %%
 from nlo_lab.lab import TEST_MODE, budget, setup
+
 setup()
 
 # %% [markdown]
@@ -23,6 +24,7 @@ setup()
 # %%
 from nlo_lab.robot import load_robot
 from nlo_lab.training import TrainSettings, new_model
+
 robot = load_robot("yumi")
 for kind in ("graph", "mlp"):
     m = new_model(robot, TrainSettings(kind=kind))
@@ -43,7 +45,9 @@ for kind in ("graph", "mlp"):
 
 # %%
 import inspect
+
 from nlo_lab.model import GraphLayer
+
 print(inspect.getsource(GraphLayer.forward))
 
 # %% [markdown]
@@ -53,7 +57,9 @@ print(inspect.getsource(GraphLayer.forward))
 
 # %%
 import torch
+
 from nlo_lab import backend
+
 graph_model = new_model(robot, TrainSettings(kind="graph")).requires_grad_(False)
 z = torch.randn(4, *graph_model.latent_shape)
 fast = graph_model.decode(z)
@@ -71,6 +77,7 @@ print(f"largest difference {float((fast - paper).abs().max()):.1e} rad")
 
 # %%
 from nlo_lab.training import SupervisedSettings, supervised_dataset
+
 data, labels, label_seconds = supervised_dataset(robot, SupervisedSettings(frame_stride=budget(4, 64), label_iterations=budget(150, 20)))
 print(f"{len(data)} training frames, labels {tuple(labels.shape)} made in {label_seconds:.1f} s")
 
@@ -82,6 +89,7 @@ print(f"{len(data)} training frames, labels {tuple(labels.shape)} made in {label
 
 # %%
 from nlo_lab.training import VARIANTS, train_variant
+
 SECONDS = budget(60, 3)
 variants = {}
 for name in VARIANTS:
@@ -99,6 +107,7 @@ for name in VARIANTS:
 from nlo_lab.evaluation import BaselineSettings, run_method
 from nlo_lab.human import corpus_clip, corpus_names
 from nlo_lab.metrics import tracking_errors
+
 demos = [corpus_clip(n) for n in corpus_names("test")[: budget(4, 1)]]
 demos = [d.slice(0, budget(len(d), 20)) for d in demos]
 settings = BaselineSettings(iterations=budget(100, 10))
@@ -113,6 +122,7 @@ for name in variants:
 # %%
 import matplotlib.pyplot as plt
 import numpy as np
+
 fig, ax = plt.subplots(figsize=(6, 3.2))
 x = np.arange(len(variants))
 ax.bar(x - 0.2, [scores[(n, "Init")] for n in variants], 0.4, label="Init")

@@ -12,6 +12,7 @@
 
 # %%
 from nlo_lab.lab import TEST_MODE, budget, setup
+
 setup()
 
 # %% [markdown]
@@ -22,8 +23,9 @@ setup()
 
 # %%
 from nlo_lab.human import corpus_clip, corpus_names
-from nlo_lab.robot import load_robot
 from nlo_lab.model import load_pretrained
+from nlo_lab.robot import load_robot
+
 robot = load_robot("yumi")
 model = load_pretrained(robot)
 names = corpus_names("test")[: budget(6, 2)]
@@ -42,6 +44,7 @@ print([(d.name, len(d)) for d in demos])
 # %%
 from nlo_lab.evaluation import BaselineSettings, run_method
 from nlo_lab.training import SupervisedSettings, supervised_network
+
 settings = BaselineSettings(
     iterations=budget(100, 10),
     supervised=SupervisedSettings(frame_stride=budget(4, 64), label_iterations=budget(150, 20), epochs=budget(60, 5)),
@@ -62,6 +65,7 @@ print(r.method, r.angles.shape, f"{r.seconds:.2f} s")
 
 # %%
 from nlo_lab.evaluation import evaluate, format_table
+
 ev = evaluate(robot, demos, settings, model=model, network=network, progress=False)
 print(format_table(ev))
 
@@ -76,6 +80,7 @@ print(format_table(ev))
 
 # %%
 import matplotlib.pyplot as plt
+
 fig, ax = plt.subplots(figsize=(6, 3.5))
 for m in ev.methods:
     ax.scatter(ev.total(m, "seconds"), ev.mean(m), marker="*" if ev.collision_sequences(m) else "o")
@@ -91,7 +96,7 @@ ax.set_xscale("log"); ax.set_xlabel("wall time [s]"); ax.set_ylabel("mean Fréch
 
 # %%
 fig, axes = plt.subplots(1, 2, figsize=(8, 3))
-for ax, key, unit in zip(axes, ("velocity_error", "acceleration_error"), ("m/s", "m/s²")):
+for ax, key, unit in zip(axes, ("velocity_error", "acceleration_error"), ("m/s", "m/s²"), strict=True):
     ax.bar(range(len(ev.methods)), [ev.mean(m, key) for m in ev.methods])
     ax.set_xticks(range(len(ev.methods)), ev.methods, rotation=45, ha="right", fontsize=7)
     ax.set_title(f"{key.replace('_', ' ')} [{unit}]")
@@ -104,9 +109,11 @@ fig.tight_layout()
 # kinematics, for the method and for IK.
 
 # %%
+import torch
+
 from nlo_lab.evaluation import wrist_positions
 from nlo_lab.human import map_to_robot
-import torch
+
 demo = demos[0]
 human = map_to_robot(demo, robot)[:, :, 2]                      # (T, 2, 3) [m]
 fig, axes = plt.subplots(1, 3, figsize=(9, 2.8), sharex=True)
@@ -127,7 +134,9 @@ axes[0].legend(fontsize=7); axes[1].set_xlabel("frame");
 
 # %%
 import json
+
 from nlo_lab.evaluation import to_json
+
 obj = to_json(ev)
 print(sorted(obj["methods"]), sorted(obj["methods"]["latent_encoder"]))
 print(json.dumps(obj["methods"]["latent_encoder"], indent=1)[:400])

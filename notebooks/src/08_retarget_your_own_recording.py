@@ -12,6 +12,7 @@
 
 # %%
 from nlo_lab.lab import TEST_MODE, budget, setup
+
 setup()
 
 # %% [markdown]
@@ -24,6 +25,7 @@ setup()
 # %%
 from nlo_lab.human import load_demonstration
 from nlo_lab.lab import recording_path
+
 path = recording_path()                    # or: path = "my_signing.pose"
 demo = load_demonstration(path)
 print(f"{path.name}: {len(demo)} frames at {demo.fps} fps")
@@ -37,6 +39,7 @@ print(f"{path.name}: {len(demo)} frames at {demo.fps} fps")
 # %%
 from nlo_lab.inference import OptimizeSettings, retarget
 from nlo_lab.robot import load_robot
+
 robot = load_robot("yumi")                 # or "nao", "pepper"
 result = retarget(demo, robot, settings=OptimizeSettings(init="encoder", iterations=budget(100, 10)))
 for key, value in result.summary.items():
@@ -44,10 +47,12 @@ for key, value in result.summary.items():
 
 # %%
 from nlo_lab.lab import show_view
+
 show_view(robot, result.trajectory.angles, demo=demo)
 
 # %%
 from nlo_lab.viz import plot_joint_trajectories
+
 plot_joint_trajectories(result.trajectory.angles, robot.joint_names, robot.lower_limits, robot.upper_limits,
                         fps=demo.fps, joints=range(min(8, robot.n_joints)));
 
@@ -61,7 +66,9 @@ plot_joint_trajectories(result.trajectory.angles, robot.joint_names, robot.lower
 # %%
 import tempfile
 from pathlib import Path
+
 from nlo_lab.viz import export_html
+
 out = Path(tempfile.mkdtemp()) if TEST_MODE else Path("retargeted")
 out.mkdir(exist_ok=True)
 result.trajectory.save_npz(out / "trajectory.npz")
@@ -104,6 +111,7 @@ for name in budget(("yumi", "nao", "pepper"), ("nao",)):
 # %%
 from nlo_lab.objective import LossWeights
 from nlo_lab.viz.speed import plot_joint_speeds
+
 ITERS = budget(100, 10)
 rough = retarget(demo, robot, weights=LossWeights(smooth=0), settings=OptimizeSettings(iterations=ITERS))
 smooth = retarget(demo, robot, settings=OptimizeSettings(iterations=ITERS))
@@ -121,6 +129,8 @@ plot_joint_speeds(robot, {"smooth=0, not retimed": rough.trajectory.at_frame_rat
 # %%
 import ipywidgets as widgets
 import matplotlib.pyplot as plt
+
+
 def show_smoothness(smooth_weight=LossWeights().smooth):
     r = retarget(demo, robot, weights=LossWeights(smooth=smooth_weight), settings=OptimizeSettings(iterations=ITERS))
     s = r.summary
@@ -153,6 +163,7 @@ show_view(robot, smooth.trajectory.angles, demo=demo)
 # %%
 import subprocess
 import sys
+
 cmd = [sys.executable, "-m", "nlo_lab.cli", "retarget", str(path), "--robot", "nao", "--iters", str(budget(100, 5)), "--json"]
 print(subprocess.run(cmd, capture_output=True, text=True, check=True).stdout)
 

@@ -11,6 +11,7 @@
 
 # %%
 from nlo_lab.lab import TEST_MODE, budget, setup
+
 setup()
 
 # %% [markdown]
@@ -23,14 +24,16 @@ setup()
 
 # %%
 import ipywidgets as W
+
 upload = W.FileUpload(accept=".mp4,.mov,.webm,.avi", multiple=False, description="your video")
 upload
 
 # %%
 import tempfile
 from pathlib import Path
-from nlo_lab.lab import recording_path
-from nlo_lab.lab import save_upload
+
+from nlo_lab.lab import recording_path, save_upload
+
 work = Path(tempfile.mkdtemp()) if TEST_MODE else Path("my_video")
 path = save_upload(upload, work) or recording_path("signer_webcam_58f.mp4")
 print(path.name)
@@ -50,6 +53,7 @@ print(path.name)
 
 # %%
 from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration, read_video_frames
+
 video = estimate_pose(path, progress=True)
 demo = pose_to_demonstration(video)
 frames = read_video_frames(path, max_side=360)
@@ -66,6 +70,7 @@ for side, seen in demo.meta["hands"].items():
 # %%
 from nlo_lab.inference import OptimizeSettings, retarget
 from nlo_lab.robot import load_robot
+
 robot = load_robot("yumi")                 # or "nao", "pepper"
 result = retarget(demo, robot, settings=OptimizeSettings(iterations=budget(100, 10)))
 for key in ("frames", "seconds", "frechet_m", "self_collision_frames", "limit_violations"):
@@ -80,13 +85,16 @@ for key in ("frames", "seconds", "frechet_m", "self_collision_frames", "limit_vi
 
 # %%
 from nlo_lab.lab import VideoView
+
 view = VideoView(frames, robot, result.trajectory.angles, demo)
 view.frame = len(demo) // 2
 view
 
 # %%
 import numpy as np
+
 from nlo_lab.viz import plot_joint_trajectories
+
 plot_joint_trajectories(result.trajectory.angles, robot.joint_names, robot.lower_limits, robot.upper_limits,
                         fps=demo.fps, joints=range(min(8, robot.n_joints)));
 
@@ -100,6 +108,7 @@ plot_joint_trajectories(result.trajectory.angles, robot.joint_names, robot.lower
 # %%
 from nlo_lab.human import load_demonstration
 from nlo_lab.viz import export_html
+
 out = work / "retargeted"
 out.mkdir(parents=True, exist_ok=True)
 result.trajectory.save_npz(out / "trajectory.npz")
@@ -124,7 +133,10 @@ print("same demonstration from the .pose:", np.array_equal(again.arm_positions, 
 # above, which skips the pose estimation.)
 
 # %%
-import json, subprocess, sys
+import json
+import subprocess
+import sys
+
 source = budget(path, pose_file)
 cmd = [sys.executable, "-m", "nlo_lab.cli", "retarget", str(source), "--robot", "nao", "--iters", str(budget(100, 5)), "--json"]
 run = subprocess.run(cmd, capture_output=True, text=True, check=True)
