@@ -28,6 +28,7 @@ __all__ = [
     "check_output_place",
     "output_set",
     "stale_temp_folders",
+    "stale_temp_folders_in",
 ]
 
 
@@ -101,21 +102,25 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def stale_temp_folders(target: str | os.PathLike) -> list[Path]:
-    """Temporary folders of ``target`` whose writer is gone (killed, e.g. by SIGKILL)."""
-    target = Path(os.path.abspath(target))
+def stale_temp_folders_in(folder: str | os.PathLike) -> list[Path]:
+    """Temporary folders in ``folder``, of any target, whose writer is gone (killed, e.g. by SIGKILL)."""
     found = []
     try:
-        with os.scandir(target.parent) as it:
+        with os.scandir(folder) as it:
             entries = list(it)
     except OSError:
         return []
     for entry in entries:
         m = _TEMP_RE.match(entry.name)
-        if m and m["target"] == target.name and int(m["pid"]) != os.getpid() and not _alive(int(m["pid"])):
-            if entry.is_dir(follow_symlinks=False):
-                found.append(Path(entry.path))
+        if m and int(m["pid"]) != os.getpid() and not _alive(int(m["pid"])) and entry.is_dir(follow_symlinks=False):
+            found.append(Path(entry.path))
     return found
+
+
+def stale_temp_folders(target: str | os.PathLike) -> list[Path]:
+    """Temporary folders of ``target`` whose writer is gone (killed, e.g. by SIGKILL)."""
+    target = Path(os.path.abspath(target))
+    return [p for p in stale_temp_folders_in(target.parent) if _TEMP_RE.match(p.name)["target"] == target.name]
 
 
 def check_output_place(target: str | os.PathLike, names: tuple[str, ...]) -> Path:
@@ -180,7 +185,7 @@ def _exchange(a: Path, b: Path) -> bool:
 
 
 def _commit(tmp: Path, target: Path, names: tuple[str, ...]) -> None:
-    """Make ``tmp`` (holding the new set) the target folder, keeping the target's other files."""
+    """Make ``tmp`` (holding the new set) the target folder, keeping the target's files not in ``names``."""
     for name in os.listdir(tmp):
         with open(tmp / name, "rb") as fh:
             os.fsync(fh.fileno())
@@ -214,12 +219,13 @@ def _commit(tmp: Path, target: Path, names: tuple[str, ...]) -> None:
 
 
 @contextlib.contextmanager
-def output_set(target: str | os.PathLike, names: tuple[str, ...]) -> Iterator[Path]:
+def output_set(target: str | os.PathLike, names: tuple[str, ...], replaces: tuple[str, ...] = ()) -> Iterator[Path]:
     """Yield an empty temporary folder; on success its files replace the set in ``target``.
 
     Write every file of the set (``names``) into the yielded folder. On normal exit
     the folder is swapped in with renames: ``target`` then holds the new set and the
-    other plain files it held before. On any exception (including
+    other plain files it held before, except those named in ``replaces`` (files of an
+    older, larger set: ``batch`` without ``--viewer`` drops an older ``viewer.html``). On any exception (including
     ``KeyboardInterrupt``) the temporary folder is removed and nothing changes.
     Signals are blocked while the swap runs, so an interrupt lands before or after
     it, never half-way. Temporary folders of ``target`` left by a killed run are
@@ -229,7 +235,7 @@ def output_set(target: str | os.PathLike, names: tuple[str, ...]) -> Iterator[Pa
         OutputError: see :func:`check_output_place`.
         OSError: writing failed (full disk, permissions); nothing is left behind.
     """
-    target = check_output_place(target, names)
+    target = check_output_place(target, names + tuple(replaces))
     for stale in stale_temp_folders(target):
         shutil.rmtree(stale, ignore_errors=True)
     parent = target.parent
@@ -251,7 +257,7 @@ def output_set(target: str | os.PathLike, names: tuple[str, ...]) -> Iterator[Pa
             raise RuntimeError(f"the output set lacks {missing}")  # a bug of the caller
         blocked = _block_signals()
         try:
-            _commit(tmp, target, names)
+            _commit(tmp, target, names + tuple(n for n in replaces if n not in names))
         finally:
             _unblock_signals(blocked)
     finally:

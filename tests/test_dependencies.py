@@ -17,6 +17,7 @@ STAGES = {
     "training": ("nlo_lab.training", "nlo_lab.train"),
     "evaluation": ("nlo_lab.evaluation", "nlo_lab.baselines", "nlo_lab.evaluate"),
     "lab": ("nlo_lab.lab", "nlo_lab.notebook", "nlo_lab.widgets", "nlo_lab.video_view"),
+    "batch": ("nlo_lab.batch",),
     "cli": ("nlo_lab.cli", "nlo_lab.run_guard", "nlo_lab.flag_types"),
 }
 ORDER = list(STAGES)

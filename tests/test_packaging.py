@@ -252,8 +252,11 @@ def test_every_import_is_declared():
     # where the import name is not the distribution's (and the distribution may not be installed here)
     known = {"cv2": "opencv-contrib-python", "PIL": "pillow", "zmq": "pyzmq", "umsgpack": "u-msgpack-python", "IPython": "ipython"}
     installed = importlib.metadata.packages_distributions()
+    optional = {"pandas"}  # used when the user has it, never required (nlo_lab.batch's table as a DataFrame)
     missing = []
     for module, where in _imported_modules().items():
+        if module in optional:
+            continue
         candidates = [known[module]] if module in known else installed.get(module, [module])
         if not any(_canonical(c) in declared for c in candidates):
             missing.append(f"{module} (imported by {where})")

@@ -14,6 +14,11 @@ workers, frame by frame, in the video's order. The number of workers
 (:func:`pose_workers`) is the cores this process may use (``os.sched_getaffinity``,
 else ``os.cpu_count()``), never more than asked for (``threads``, ``--threads N``, or
 ``NLO_LAB_THREADS``), nor more than the video has segments.
+
+Segments can also be estimated apart, in other processes or on other machines
+(``nlo-lab batch`` does): :func:`segment_bounds` cuts the video at the same frames,
+:func:`estimate_segment` estimates one range (a seek, then its 30-frame segments) and
+:func:`join_segments` joins them, giving the same landmarks as :func:`estimate_pose`.
 """
 
 from __future__ import annotations
@@ -30,7 +35,17 @@ import numpy as np
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human.video_frames import VideoFrames, native_output_silenced, open_video, video_extra
 
-__all__ = ["MODEL_COMPLEXITY", "SEGMENT_FRAMES", "VideoPose", "pose_workers", "estimate_pose"]
+__all__ = [
+    "MODEL_COMPLEXITY",
+    "SEGMENT_FRAMES",
+    "VideoPose",
+    "SegmentPose",
+    "pose_workers",
+    "estimate_pose",
+    "segment_bounds",
+    "estimate_segment",
+    "join_segments",
+]
 
 # mediapipe 0.10.21 ships pose_landmark_full.tflite only: complexity 1. Complexity 0 (lite) and
 # 2 (heavy) would be downloaded on first use, which library code must never do.
@@ -146,6 +161,12 @@ def _join(poses: list):
     return Pose(poses[0].header, NumPyPoseBody(poses[0].body.fps, data, confidence))
 
 
+def _holistic(load_holistic, segment: list[np.ndarray], info):
+    """One segment's landmarks, by a fresh Holistic instance (reuse=False): it starts from a detection, whoever runs it."""
+    return load_holistic(segment, fps=info.fps, width=info.width, height=info.height, progress=False,
+                         additional_holistic_config={"model_complexity": MODEL_COMPLEXITY}, pose_workers=1, reuse=False)
+
+
 def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -> VideoPose:
     """MediaPipe Holistic on every frame of a video, through pose-format.
 
@@ -171,10 +192,7 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
     frames = VideoFrames(path, info)
 
     def segment_pose(segment: list[np.ndarray]):
-        # a fresh instance per segment (reuse=False): it starts from a detection, whoever runs it
-        return load_holistic(segment, fps=info.fps, width=info.width, height=info.height, progress=False,
-                             additional_holistic_config={"model_complexity": MODEL_COMPLEXITY},
-                             pose_workers=1, reuse=False)
+        return _holistic(load_holistic, segment, info)
 
     start = time.perf_counter()
     bar_stream = _stderr_stream() if progress else None
@@ -208,6 +226,86 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
         raise DemonstrationError("unreadable or damaged video: no frame decodes", path=path)
     result = VideoPose(path=path, pose=_join(poses), seconds=seconds, workers=workers, fps=info.fps,
                        width=info.width, height=info.height)
+    _check_person(result)
+    return result
+
+
+@dataclass
+class SegmentPose:
+    """The landmarks of frames ``first ...`` of a video (:func:`estimate_segment`).
+
+    Attributes:
+        first: the first frame.
+        pose: a ``pose_format.Pose`` of the range's frames.
+        seconds: wall time of its estimation [s] (decoding included).
+    """
+
+    first: int
+    pose: object
+    seconds: float
+
+    def __len__(self) -> int:
+        return int(self.pose.body.data.shape[0])
+
+
+def segment_bounds(path) -> list[tuple[int, int | None]]:
+    """The ranges ``(first, end)`` to estimate apart: the cut of :func:`estimate_pose`, one range a segment.
+
+    The last range has ``end`` None (to the video's end). One range ``(0, None)`` when the
+    container does not announce its length.
+
+    Raises:
+        DemonstrationError: missing, empty, not a video, or a video no decoder opens.
+    """
+    frames = open_video(Path(path)).frames
+    starts = list(range(0, max(frames, 1), SEGMENT_FRAMES))
+    return [(a, a + SEGMENT_FRAMES) for a in starts[:-1]] + [(starts[-1], None)]
+
+
+def estimate_segment(path, first: int = 0, end: int | None = None) -> SegmentPose:
+    """MediaPipe Holistic on frames ``[first, end)`` of a video (``end`` None: to its end), on one core.
+
+    ``first`` is a multiple of :data:`SEGMENT_FRAMES` (a range of :func:`segment_bounds`); the
+    frames are tracked in segments of that many, as :func:`estimate_pose` tracks them.
+
+    Raises:
+        DemonstrationError: the video is missing, not a video, cannot seek to ``first``, or
+            decodes fewer frames there than its header announces.
+    """
+    path = Path(path)
+    info = open_video(path)
+    load_holistic = video_extra(path, "pose_format.utils.holistic").load_holistic
+    frames = VideoFrames(path, info, first=first, count=None if end is None else end - first)
+    start = time.perf_counter()
+    with native_output_silenced():
+        poses = [_holistic(load_holistic, segment, info) for segment in _segments(frames, SEGMENT_FRAMES)]
+    frames.check_complete()
+    if not poses:
+        raise DemonstrationError(f"no frame decodes from frame {first} on", path=path, frame=first)
+    return SegmentPose(first, _join(poses), time.perf_counter() - start)
+
+
+def join_segments(path, segments: list[SegmentPose]) -> VideoPose:
+    """One :class:`VideoPose` of a video's ranges (:func:`estimate_segment` of each of :func:`segment_bounds`).
+
+    ``seconds`` is the ranges' total estimation time (their work, not the wall time of a run
+    that estimated them side by side); ``workers`` 1 (one Holistic instance at a time each).
+
+    Raises:
+        DemonstrationError: the ranges do not follow each other, or no person is found in any frame.
+    """
+    path = Path(path)
+    expected = 0
+    for segment in segments:
+        if segment.first != expected:
+            raise DemonstrationError(f"the pose estimation's ranges do not join: frame {expected} expected, got {segment.first}",
+                                     path=path)
+        expected += len(segment)
+    if not segments:
+        raise DemonstrationError("unreadable or damaged video: no frame decodes", path=path)
+    info = open_video(path)
+    result = VideoPose(path=path, pose=_join([s.pose for s in segments]), seconds=sum(s.seconds for s in segments), workers=1,
+                       fps=info.fps, width=info.width, height=info.height)
     _check_person(result)
     return result
 

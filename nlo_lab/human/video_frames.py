@@ -111,17 +111,24 @@ def open_video(path: Path) -> VideoInfo:
 
 
 class VideoFrames:
-    """Iterates a video's frames as RGB ``uint8`` arrays (what MediaPipe expects); counts them."""
+    """Iterates a video's frames as RGB ``uint8`` arrays (what MediaPipe expects); counts them.
 
-    def __init__(self, path: Path, info: VideoInfo, max_side: int | None = None):
+    ``first`` and ``count`` read a part: from frame ``first`` (a seek), at most ``count`` frames.
+    """
+
+    def __init__(self, path: Path, info: VideoInfo, max_side: int | None = None, first: int = 0, count: int | None = None):
         self.path, self.info, self.max_side = path, info, max_side
+        self.first, self.limit = int(first), count
         self.count = 0
 
     def __iter__(self) -> Iterator[np.ndarray]:
         cv2 = video_extra(self.path, "cv2")
         cap = cv2.VideoCapture(str(self.path))
         try:
-            while True:
+            if self.first and not (cap.set(cv2.CAP_PROP_POS_FRAMES, self.first)
+                                   and int(cap.get(cv2.CAP_PROP_POS_FRAMES)) == self.first):
+                raise DemonstrationError(f"cannot seek to frame {self.first} (a damaged or unusual container)", path=self.path)
+            while self.limit is None or self.count < self.limit:
                 ok, bgr = cap.read()
                 if not ok or bgr is None:
                     return
@@ -136,12 +143,14 @@ class VideoFrames:
 
     def check_complete(self) -> None:
         """A video that decodes to no frame, or to fewer than its header announces, is damaged."""
-        if self.count == 0:
+        if self.count == 0 and self.first == 0:
             raise DemonstrationError("unreadable or damaged video: no frame decodes", path=self.path)
-        if self.info.frames and self.count < self.info.frames:
+        expected = self.info.frames - self.first if self.limit is None else min(self.limit, self.info.frames - self.first)
+        if self.info.frames and self.count < expected:
+            decoded = self.first + self.count
             raise DemonstrationError(
-                f"truncated or damaged video: {self.count} of the {self.info.frames} frames its header announces decode",
-                path=self.path, frame=self.count,
+                f"truncated or damaged video: {decoded} of the {self.info.frames} frames its header announces decode",
+                path=self.path, frame=decoded,
             )
 
 

@@ -1,0 +1,247 @@
+"""``retarget_many``: a corpus to robot motion on a dask.distributed cluster.
+
+The engine is dask.distributed: by default a ``LocalCluster`` of worker processes (one
+thread each) on this machine, listening on 127.0.0.1 only, without a dashboard; or the
+user's cluster (``scheduler="tcp://HOST:PORT"``, or a ``Client`` of theirs), which is used as
+it is: never resized, never shut down. Each input is one task (:func:`~nlo_lab.batch.tasks.retarget_input`);
+a video's pose estimation is first split into 30-frame segments, one task each, so a long
+video spreads over every worker. Results arrive in any order; each fills its row of
+``results.csv`` (:class:`~nlo_lab.batch.table.ResultsTable`). A worker that dies has its
+tasks run again elsewhere by the scheduler; the output folders appear whole or not at all.
+
+Inputs and ``out`` must be reachable under the same paths from this process and from every
+worker (one machine, or a file system the cluster shares).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+import logging
+import os
+import secrets
+import shutil
+import socket
+from pathlib import Path
+from urllib.parse import urlsplit
+
+from nlo_lab.atomic_files import stale_temp_folders_in
+from nlo_lab.batch.inputs import RESULTS_FILE, find_inputs
+from nlo_lab.batch.lock import run_lock
+from nlo_lab.batch.plan import plan_run
+from nlo_lab.batch.progress import Progress
+from nlo_lab.batch.settings import BatchSettings
+from nlo_lab.batch.table import ResultsTable, failed_row
+from nlo_lab.errors import NloLabError, escape
+
+__all__ = ["SchedulerError", "CONNECT_TIMEOUT", "available_cores", "retarget_many", "to_frame"]
+
+CONNECT_TIMEOUT = 10.0  # seconds to reach a scheduler
+VIDEO_PRIORITY = 1  # a video's segments start before the single-task inputs: a long one must not end the run alone
+
+
+class SchedulerError(NloLabError):
+    """No dask scheduler answers at the address given, or the batch extra is missing."""
+
+
+def available_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the system has one)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+def _distributed():
+    try:
+        return importlib.import_module("distributed")
+    except ImportError as err:
+        raise SchedulerError(f"nlo-lab batch needs the batch extra: pip install \"nlo_lab[batch]\" ({err})") from None
+
+
+def _check_listening(address: str) -> None:
+    """Refuse an address where nothing listens at once, instead of waiting for dask's connect timeout."""
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme not in ("tcp", "tls"):
+        return  # another transport: let dask try
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host = port = None
+    if not host or not port:
+        raise SchedulerError(f"--scheduler {address!r}: expected tcp://HOST:PORT")
+    try:
+        socket.create_connection((host, port), timeout=CONNECT_TIMEOUT).close()
+    except OSError as exc:
+        raise SchedulerError(f"no dask scheduler at {address}: {exc.strerror or exc}") from None
+
+
+@contextlib.contextmanager
+def _cluster(client, scheduler: str | None, workers: int | None):
+    """The client to run on: the caller's, one connected to ``scheduler``, or one of a new LocalCluster."""
+    if client is not None:
+        yield client  # the caller's: left as it is
+        return
+    distributed = _distributed()
+    if scheduler:
+        _check_listening(scheduler)
+        try:
+            ours = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
+        except (OSError, TimeoutError) as exc:
+            raise SchedulerError(f"no dask scheduler answers at {scheduler}: {exc}") from None
+        try:
+            yield ours
+        finally:
+            ours.close()  # our connection only: the cluster and its workers keep running
+        return
+    cluster = distributed.LocalCluster(
+        n_workers=workers or available_cores(), threads_per_worker=1, processes=True, host="127.0.0.1",
+        dashboard_address=None, silence_logs=logging.ERROR,
+        env={"NLO_LAB_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"},  # torch: one thread per worker
+    )
+    try:
+        ours = distributed.Client(cluster, set_as_default=False)
+        try:
+            yield ours
+        finally:
+            ours.close()
+    finally:
+        cluster.close()
+
+
+def _run(client, jobs, table: ResultsTable, progress: Progress, on_row) -> None:
+    """Submit every job, collect the rows as they come (a video: plan, segments, then its job)."""
+    from distributed import as_completed
+
+    from nlo_lab.batch import tasks
+
+    token = secrets.token_hex(4)
+    pending: dict[str, tuple] = {}
+    queue = as_completed(loop=client.loop)
+
+    def submit(kind, job, fn, *args, **options):
+        future = client.submit(fn, *args, key=f"nlo-lab-{kind}-{token}-{len(pending)}-{job.item.name}", pure=False, **options)
+        pending[future.key] = (kind, job)
+        queue.add(future)
+
+    for job in jobs:
+        if job.item.is_video:
+            submit("plan", job, tasks.video_segments, str(job.item.path), priority=VIDEO_PRIORITY)
+        else:
+            submit("retarget", job, tasks.retarget_input, job)
+    try:
+        for future in queue:
+            kind, job = pending.pop(future.key)
+            try:
+                value = future.result()
+            except Exception as exc:  # noqa: BLE001 - the scheduler gave up on it (a worker died on it again and again)
+                value = failed_row(job.item.path, job.item.name, _lost_text(exc, job.item.path),
+                                   input_sha256=job.input_sha256, settings=job.fingerprint)
+            if kind == "plan" and not isinstance(value, dict):
+                if isinstance(value, tasks.Failure):
+                    segments = [value]
+                else:
+                    segments = [client.submit(tasks.video_segment, str(job.item.path), a, b, pure=False, priority=VIDEO_PRIORITY,
+                                              key=f"nlo-lab-segment-{token}-{len(pending)}-{a}-{job.item.name}")
+                                for a, b in value]
+                submit("retarget", job, tasks.retarget_input, job, segments, priority=VIDEO_PRIORITY)
+                continue
+            future.release()
+            table.set(value)
+            progress.update(value["status"] == "failed")
+            if on_row is not None:
+                on_row(value)
+    except BaseException:
+        client.cancel(list(queue.futures))
+        raise
+
+
+def _lost_text(exc: BaseException, path) -> str:
+    name = type(exc).__name__
+    if name == "KilledWorker":
+        return escape(f"{path}: the workers running it died again and again (out of memory?); giving up on it")
+    if name == "CancelledError":
+        return escape(f"{path}: cancelled (the cluster lost the task)")
+    return escape(f"{path}: internal error, please report it: {name}: {' '.join(str(exc).split())}")
+
+
+def _sweep(jobs) -> None:
+    """Remove the temporary folders that killed writers left beside the outputs of ``jobs``."""
+    for parent in sorted({Path(job.folder).parent for job in jobs}):
+        for folder in stale_temp_folders_in(parent):
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+def to_frame(rows: list[dict]):
+    """The rows as a pandas DataFrame when pandas is installed, else the list itself."""
+    try:
+        import pandas
+    except ImportError:
+        return rows
+    from nlo_lab.batch.table import COLUMNS
+
+    return pandas.DataFrame(rows, columns=list(COLUMNS))
+
+
+def retarget_many(inputs, robot, out, client=None, *, init: str = "encoder", iterations: int = 100, seed: int = 0,
+                  weights=None, viewer: bool = False, workers: int | None = None, scheduler: str | None = None,
+                  resume: bool = True, retry_failed: bool = False, progress: bool = False, on_row=None):
+    """Retarget every input to ``robot`` on a dask.distributed cluster; the results table.
+
+    Args:
+        inputs: files, folders (searched recursively for ``.pose .h5 .npz .mp4 .mov .webm .avi``)
+            and manifest ``.txt`` files (one path per line, relative to the manifest's folder).
+        robot: a bundled robot's name, a robot spec ``.json``, or a loaded ``Robot``.
+        out: the output folder: ``out/<input's path relative to the inputs' common folder,
+            without suffix>/`` gets ``trajectory.npz``, ``trajectory.csv``, ``summary.json`` (and
+            ``viewer.html`` with ``viewer``); ``out/results.csv`` one row per input.
+        client: a ``distributed.Client`` to run on (left open and as it is); default: a new
+            ``LocalCluster`` of ``workers`` processes, closed at the end, or ``scheduler``.
+        init, iterations, seed, weights: as ``nlo-lab retarget``'s ``--init``, ``--iters``,
+            ``--seed``, ``--weights`` (weights: ``"ee=1000,ori=100"``, a mapping or a ``LossWeights``).
+        viewer: also write each input's ``viewer.html``.
+        workers: worker processes of the LocalCluster (default: the cores available).
+        scheduler: the address of a running dask scheduler (``tcp://HOST:PORT``).
+        resume: skip inputs done before with the same content and settings, and keep the
+            ``failed`` rows of inputs that failed on unchanged content (see :mod:`nlo_lab.batch.plan`).
+        retry_failed: run inputs that failed before again.
+        progress: a progress bar on stderr.
+        on_row: called with each row as it is decided (in this process, in the order of arrival).
+
+    Returns:
+        The rows of ``results.csv`` in the inputs' order (:data:`nlo_lab.batch.COLUMNS`): a list
+        of dicts, or a pandas DataFrame when pandas is installed.
+
+    Raises:
+        InputError: an input path that does not exist, no input found, two inputs for one folder.
+        SchedulerError: no scheduler at ``scheduler``; the batch extra missing.
+        OutputError: ``out`` cannot be written; another batch is writing it.
+        NloLabError: an unknown robot, a bad setting (before anything runs).
+    """
+    if client is not None and scheduler:
+        raise SchedulerError("give a client or a scheduler address, not both")
+    if workers is not None and (scheduler or client is not None):
+        raise SchedulerError("workers sizes the local cluster; with a scheduler or a client, the cluster's own workers run")
+    settings = BatchSettings(robot, init, iterations, seed, weights, viewer)
+    out = Path(out).expanduser()
+    items = find_inputs(inputs, out)
+    with run_lock(out):
+        plan = plan_run(items, out, settings, resume=resume, retry_failed=retry_failed)
+        table = ResultsTable(out / RESULTS_FILE, [item.name for item in items])
+        for row in plan.rows:
+            table.set(row)
+            if on_row is not None:
+                on_row(row)
+        bar = Progress(len(plan.jobs), progress, skipped=len(plan.rows))
+        try:
+            if plan.jobs:
+                settings.build()  # an unknown robot or a bad setting: refused here, before any cluster starts
+                with _cluster(client, scheduler, workers) as ours:
+                    _run(ours, plan.jobs, table, bar, on_row)
+        finally:
+            bar.close()
+            table.flush()
+            if plan.jobs and client is None and not scheduler:
+                _sweep(plan.jobs)  # our workers are gone: what they left half-written goes
+    return to_frame(table.ordered())
+

@@ -1,0 +1,147 @@
+"""What runs on a worker: one input read, retargeted and written; a video's pose estimation by segments.
+
+Each task returns a value, never raises for a bad input: a row of ``results.csv`` (see
+:mod:`nlo_lab.batch.table`) or, for the pieces of a video, a :class:`Failure` that the input's
+row then carries. So a corrupt file is one ``failed`` row, not an exception in the worker's
+log, and only a worker's death makes the scheduler run a task again (elsewhere).
+
+A worker process builds the retargeter (robot, model) once per settings
+(:func:`cached_retargeter`) and reuses it for every input it is given.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+from nlo_lab.batch.inputs import BatchInput
+from nlo_lab.batch.output_folder import write_output_folder
+from nlo_lab.batch.settings import BatchSettings
+from nlo_lab.batch.table import failed_row, row_from_summary
+from nlo_lab.errors import NloLabError, escape
+
+__all__ = ["Job", "Failure", "failure_text", "cached_retargeter", "retarget_input", "video_segments", "video_segment"]
+
+_CACHE: dict[BatchSettings, object] = {}
+_CACHE_SIZE = 4  # settings kept per process (a notebook may try a few)
+_LOCK = threading.Lock()
+
+
+@dataclass(frozen=True)
+class Job:
+    """One input to retarget: where it goes, what it is, and the settings."""
+
+    item: BatchInput
+    folder: str  # the input's output folder (absolute)
+    input_sha256: str
+    settings: BatchSettings
+    fingerprint: str  # settings.fingerprint(), and what it is made of: computed once, on the client
+    settings_key: dict
+
+
+@dataclass(frozen=True)
+class Failure:
+    """A piece of an input that failed (a video's plan or segment): the one-line error."""
+
+    error: str
+
+
+def failure_text(exc: BaseException, path) -> str:
+    """One line saying what went wrong with the input ``path`` (escaped; names the file)."""
+    if isinstance(exc, NloLabError):
+        text = str(exc)
+    elif isinstance(exc, FileNotFoundError):
+        text = f"file not found: {exc.filename or path}"
+    elif isinstance(exc, MemoryError):
+        text = "out of memory (the input is too large for this worker)"
+    elif isinstance(exc, OSError):
+        text = f"{exc.strerror or exc}: {exc.filename}" if exc.filename else str(exc.strerror or exc)
+    else:  # a bug of nlo_lab: the row says so (the run goes on)
+        text = f"internal error, please report it: {type(exc).__name__}: {exc}"
+    text = " ".join(str(text).split())
+    if str(path) not in text:
+        text = f"{path}: {text}"
+    return escape(text)
+
+
+def cached_retargeter(settings: BatchSettings):
+    """The retargeter of ``settings``, built once per worker process (robot and model loaded once)."""
+    with _LOCK:
+        if settings not in _CACHE:
+            while len(_CACHE) >= _CACHE_SIZE:
+                _CACHE.pop(next(iter(_CACHE)))
+            _CACHE[settings] = settings.build()
+        return _CACHE[settings]
+
+
+def video_segments(path: str) -> list[tuple[int, int | None]] | Failure:
+    """The frame ranges of a video's pose estimation, one task each (:func:`nlo_lab.human.pose_estimation.segment_bounds`)."""
+    from nlo_lab.human.pose_estimation import segment_bounds
+
+    try:
+        return segment_bounds(path)
+    except Exception as exc:  # noqa: BLE001 - every fault becomes the input's row
+        return Failure(failure_text(exc, path))
+
+
+def video_segment(path: str, first: int, end: int | None):
+    """MediaPipe Holistic on frames ``[first, end)`` of a video (:func:`nlo_lab.human.pose_estimation.estimate_segment`)."""
+    from nlo_lab.human.pose_estimation import estimate_segment
+
+    try:
+        return estimate_segment(path, first, end)
+    except Exception as exc:  # noqa: BLE001
+        return Failure(failure_text(exc, path))
+
+
+def _read(job: Job, segments) -> tuple:
+    """The demonstration and, for a video, the pose estimation's seconds (None otherwise)."""
+    if not job.item.is_video:
+        from nlo_lab.human import load_demonstration
+
+        return load_demonstration(job.item.path), None
+    from nlo_lab.human.io_video import pose_to_demonstration
+    from nlo_lab.human.pose_estimation import join_segments
+
+    video = join_segments(job.item.path, segments or [])
+    return pose_to_demonstration(video), video.seconds
+
+
+def retarget_input(job: Job, segments=None) -> dict:
+    """Read ``job``'s input, retarget it, write its output folder; its row of ``results.csv``.
+
+    Args:
+        job: the input and settings.
+        segments: for a video, the results of :func:`video_segment` for every range of
+            :func:`video_segments`, in order.
+    """
+    path = job.item.path
+    start = time.perf_counter()
+    try:
+        failed = [s for s in segments or () if isinstance(s, Failure)]
+        if failed:
+            return failed_row(path, job.item.name, failed[0].error, input_sha256=job.input_sha256, settings=job.fingerprint)
+        retargeter = cached_retargeter(job.settings)
+        start = time.perf_counter()  # the input's own time: the worker's one-off model loading is not
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("ignore")
+            warnings.simplefilter("always", UserWarning)  # the readers' warnings go into the row
+            demo, pose_seconds = _read(job, segments)
+            result = retargeter(demo)
+        summary = dict(result.summary)
+        if pose_seconds is not None:
+            summary["pose_seconds"] = round(float(pose_seconds), 4)
+        seconds = time.perf_counter() - start + (pose_seconds or 0.0)  # the segments' own time counts too
+        summary["batch"] = {
+            "input": str(path), "output": job.item.name, "input_sha256": job.input_sha256, "settings": job.fingerprint,
+            "settings_key": job.settings_key, "seconds": round(seconds, 4),
+            "warnings": list(dict.fromkeys(escape(w.message) for w in caught)),
+        }
+        write_output_folder(Path(job.folder), result, demo, retargeter.robot, viewer=job.settings.viewer, summary=summary)
+        return row_from_summary(summary)
+    except Exception as exc:  # noqa: BLE001 - a bad input is a failed row, never a retried task
+        return failed_row(path, job.item.name, failure_text(exc, path), input_sha256=job.input_sha256,
+                          settings=job.fingerprint, seconds=round(time.perf_counter() - start, 4))

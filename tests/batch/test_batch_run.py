@@ -1,0 +1,132 @@
+"""retarget_many on a real LocalCluster: good and bad inputs, the outputs, the table, resuming, what listens.
+
+Kept short for CI: one worker, a few iterations, the bundled 47-frame recording.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import shutil
+import sys
+import types
+from pathlib import Path
+
+import numpy as np
+import psutil
+import pytest
+
+from nlo_lab.batch import COLUMNS, retarget_many
+from nlo_lab.batch import engine as batch_engine
+from nlo_lab.inference import RobotTrajectory
+from nlo_lab.paths import RECORDINGS_DIR
+
+POSE = RECORDINGS_DIR / "holistic_both_hands_47f.pose"
+ITERS = 3
+
+
+def _corpus(root: Path) -> Path:
+    folder = root / "corpus"
+    (folder / "sub").mkdir(parents=True)
+    (folder / "bad").mkdir()
+    shutil.copy(POSE, folder / "a.pose")
+    shutil.copy(POSE, folder / "sub" / "b.pose")
+    (folder / "bad" / "corrupt.pose").write_bytes(b"this is not a pose file")
+    (folder / "bad" / "empty.npz").write_bytes(b"")
+    (folder / "notes.md").write_text("not an input")
+    return folder
+
+
+def _listening(pid: int) -> list[str]:
+    """Addresses the process ``pid`` and its children listen on."""
+    out = []
+    for proc in [psutil.Process(pid), *psutil.Process(pid).children(recursive=True)]:
+        try:
+            out += [c.laddr.ip for c in proc.net_connections(kind="inet") if c.status == psutil.CONN_LISTEN]
+        except psutil.Error:
+            pass
+    return out
+
+
+def _hidden(folder: Path) -> list[Path]:
+    return [p for p in folder.rglob(".*") if p.name != ".nlo-lab-batch.lock"]
+
+
+def test_a_corpus_with_bad_files_on_a_local_cluster_then_resumed(tmp_path, monkeypatch):
+    corpus, out = _corpus(tmp_path), tmp_path / "out"
+    listening: list[str] = []
+    seen: list[dict] = []
+
+    def on_row(row):
+        if not listening:
+            listening.extend(_listening(os.getpid()))
+        seen.append(row)
+
+    rows = retarget_many([corpus], "nao", out, workers=1, iterations=ITERS, on_row=on_row)
+    assert isinstance(rows, list)  # no pandas in this environment
+    assert [r["output"] for r in rows] == ["a", "bad/corrupt", "bad/empty", "sub/b"]
+    assert sorted(r["output"] for r in seen) == sorted(r["output"] for r in rows)
+    by = {r["output"]: r for r in rows}
+    assert [by[k]["status"] for k in ("a", "sub/b", "bad/corrupt", "bad/empty")] == ["ok", "ok", "failed", "failed"]
+
+    # the security rule: the scheduler and the workers listen on the loopback only
+    assert listening and set(listening) == {"127.0.0.1"}, listening
+
+    # failures: one line naming the file; no folder
+    for name in ("bad/corrupt", "bad/empty"):
+        error = by[name]["error"]
+        assert str(corpus / f"{name}.{'pose' if 'corrupt' in name else 'npz'}") in error and "\n" not in error
+        assert not (out / name).exists()
+    assert "internal error" not in by["bad/corrupt"]["error"] + by["bad/empty"]["error"]
+
+    # good outputs: complete, and what the row says
+    for name in ("a", "sub/b"):
+        folder = out / name
+        assert sorted(os.listdir(folder)) == ["summary.json", "trajectory.csv", "trajectory.npz"]
+        traj = RobotTrajectory.load(folder / "trajectory.npz")
+        assert traj.robot == "nao" and traj.angles.shape[0] == 47 == by[name]["frames"]
+        assert np.isfinite(traj.angles).all()
+        assert by[name]["iterations"] <= ITERS and by[name]["frechet_m"] > 0 and by[name]["seconds"] > 0
+        assert by[name]["limit_violations"] == 0 and by[name]["input_sha256"] and by[name]["settings"]
+    a = RobotTrajectory.load(out / "a" / "trajectory.npz").angles
+    np.testing.assert_array_equal(a, RobotTrajectory.load(out / "sub" / "b" / "trajectory.npz").angles)
+    assert _hidden(out) == []  # no temporary folder left behind
+
+    # results.csv holds the same rows
+    with open(out / "results.csv", newline="") as fh:
+        table = list(csv.DictReader(fh))
+    assert tuple(table[0]) == COLUMNS
+    assert [(r["output"], r["status"], r["error"]) for r in table] == [(r["output"], r["status"], r["error"]) for r in rows]
+
+    # resumed: nothing to run, so no cluster at all; done inputs are skipped, failed ones keep their row
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("a cluster was started with nothing to run")
+
+    monkeypatch.setattr(batch_engine, "_cluster", no_cluster)
+    again = retarget_many([corpus], "nao", out, iterations=ITERS)
+    by2 = {r["output"]: r for r in again}
+    assert [by2[k]["status"] for k in ("a", "sub/b", "bad/corrupt", "bad/empty")] == ["skipped", "skipped", "failed", "failed"]
+    assert by2["bad/corrupt"]["error"] == by["bad/corrupt"]["error"]
+    assert by2["a"]["frechet_m"] == by["a"]["frechet_m"] and by2["a"]["seconds"] == by["a"]["seconds"]
+
+    # a changed input and changed settings run again (the cluster is asked for)
+    shutil.copy(POSE, corpus / "bad" / "corrupt.pose")  # the corrupt file was replaced by a good one
+    with pytest.raises(AssertionError, match="a cluster was started"):
+        retarget_many([corpus], "nao", out, iterations=ITERS)
+    with pytest.raises(AssertionError, match="a cluster was started"):
+        retarget_many([corpus / "a.pose"], "nao", out, iterations=ITERS + 1)
+
+
+def test_the_table_is_a_dataframe_when_pandas_is_there(tmp_path, monkeypatch):
+    made = {}
+
+    class DataFrame:
+        def __init__(self, rows, columns):
+            made.update(rows=rows, columns=columns)
+
+    monkeypatch.setitem(sys.modules, "pandas", types.SimpleNamespace(DataFrame=DataFrame))
+    manifest = tmp_path / "list.txt"
+    manifest.write_text("gone.pose\n")  # fails before any task: its file cannot be read
+    frame = retarget_many([manifest], "nao", tmp_path / "out")
+    assert isinstance(frame, DataFrame) and made["columns"] == list(COLUMNS)
+    assert [(r["status"], r["error"]) for r in made["rows"]] == [("failed", f"file not found: {tmp_path / 'gone.pose'}")]
