@@ -78,7 +78,7 @@ def objective_optimum(robot, demo, q0: np.ndarray, steps: int) -> np.ndarray:
     """The paper's objective, optimised on the angles for ``steps`` steps with no early stop."""
     lo = robot.lower_limits
     targets = targets_from_demonstration(demo, dtype=lo.dtype)
-    r = optimize_joints(robot, targets, JointOptimizeSettings(iterations=steps, patience=steps + 1, lr=LR), q0=torch.as_tensor(q0, dtype=lo.dtype))
+    r = optimize_joints(robot, targets, JointOptimizeSettings(iterations=steps, patience=steps + 1, lr=LR), q0=torch.as_tensor(q0, dtype=lo.dtype), fast=True)
     return r.q.detach().cpu().double().numpy()
 
 

@@ -138,7 +138,7 @@ def init_ablation(robot, model, demos, budgets=BUDGETS):
         hist = np.zeros(top + 1)
         for demo, x in zip(demos, inputs, strict=True):
             for b in budgets:
-                r = optimize_latent(model, robot, x.targets, OptimizeSettings(iterations=b, patience=NO_STOP, **kw), encoder_input=x.encoder)
+                r = optimize_latent(model, robot, x.targets, OptimizeSettings(iterations=b, patience=NO_STOP, **kw), encoder_input=x.encoder, fast=True)
                 fr[b].append(_frechet(robot, demo, r.q))
                 secs[b] += r.seconds
                 if b == top:
@@ -151,7 +151,7 @@ def init_ablation(robot, model, demos, budgets=BUDGETS):
     for b in budgets:
         vals, t = [], 0.0
         for demo, tg in zip(demos, targets, strict=True):
-            r = optimize_joints(robot, tg, JointOptimizeSettings(iterations=b, patience=NO_STOP))
+            r = optimize_joints(robot, tg, JointOptimizeSettings(iterations=b, patience=NO_STOP), fast=True)
             vals.append(_frechet(robot, demo, r.q))
             t += r.seconds
         joint[b] = (float(np.mean(vals)), t)
@@ -202,7 +202,7 @@ def table3(robot, demos, train_seconds: float, iterations: int):
         for demo in demos:
             x = RetargetInputs.from_demonstration(demo, dtype=robot.lower_limits.dtype)
             for col, iters in (("Init", 0), ("Optim", iterations)):
-                r = optimize_latent(model, robot, x.targets, OptimizeSettings(init="encoder", iterations=iters), encoder_input=x.encoder)
+                r = optimize_latent(model, robot, x.targets, OptimizeSettings(init="encoder", iterations=iters), encoder_input=x.encoder, fast=True)
                 q = r.q.detach().cpu().double().numpy()
                 per[col][demo.name] = (tracking_errors(demo, robot, q)["frechet_m"], self_collision_frames(robot, q) > 0, r.seconds)
         results[name] = per

@@ -41,7 +41,7 @@ def concat_demos(demos: list[Demonstration], frames: int) -> Demonstration:
 def latent(model, robot, demo: Demonstration, settings: OptimizeSettings, **options):
     """Targets and encoder input of ``demo`` (timed with the optimisation), then :func:`optimize_latent`."""
     x = RetargetInputs.from_demonstration(demo)
-    return optimize_latent(model, robot, x.targets, settings, encoder_input=x.encoder, **options)
+    return optimize_latent(model, robot, x.targets, settings, encoder_input=x.encoder, fast=True, **options)
 
 
 def profile_iteration(model, robot, targets: Targets, features: EncoderInput, reps: int = 20) -> dict[str, float]:
@@ -52,14 +52,17 @@ def profile_iteration(model, robot, targets: Targets, features: EncoderInput, re
     z = model.encode(features.node_features, features.edge_features).detach().requires_grad_(True)
     for p in model.parameters():
         p.requires_grad_(False)
-    loss_fn = Objective(robot, targets)
+    from nlo_lab.inference import FastPaths
+
+    paths = FastPaths.for_frames(len(targets))  # what the optimiser runs
+    loss_fn = Objective(robot, targets, **paths.objective_options())
     adam = _Adam(z, 0.01)
     parts: dict[str, list[float]] = {k: [] for k in ("decoder", "fk points", "loss terms", "backward", "adam")}
     for _ in range(reps):
         t0 = time.perf_counter()
-        q = model.decode(z)
+        q = model.decode(z, paths.decoder)
         t1 = time.perf_counter()
-        loss_fn.plan.map(q)  # FK + every point the terms need (timed alone)
+        loss_fn.plan.map(q, paths.analytic_fk)  # FK + every point the terms need (timed alone)
         t2 = time.perf_counter()
         total, _ = loss_fn(q)  # FK points again + the terms; the FK time is subtracted below
         loss = torch.add(total, z.pow(2).flatten(1).sum(1))
@@ -114,7 +117,7 @@ def main() -> None:
     ms = []
     for _ in range(20):
         t0 = time.perf_counter()
-        optimize_latent(model, robot, one, OptimizeSettings(iterations=30, patience=30), z0=z_prev)
+        optimize_latent(model, robot, one, OptimizeSettings(iterations=30, patience=30), z0=z_prev, fast=True)
         ms.append((time.perf_counter() - t0) * 1000)
     print(f"1 frame x 30 iterations: {statistics.median(ms):.1f} ms median of 20 (target <= 50 ms)")
 
@@ -125,11 +128,11 @@ def main() -> None:
         x = RetargetInputs.from_demonstration(demo)
         t = x.targets
         runs = {  # each run binds this clip's targets and inputs
-            "encoder only": lambda t=t, x=x: optimize_latent(model, robot, t, OptimizeSettings(iterations=0), encoder_input=x.encoder),
-            "encoder + latent opt": lambda t=t, x=x: optimize_latent(model, robot, t, OptimizeSettings(), encoder_input=x.encoder),
-            "zeros + latent opt": lambda t=t: optimize_latent(model, robot, t, OptimizeSettings(init="zeros")),
-            "random + latent opt": lambda t=t: optimize_latent(model, robot, t, OptimizeSettings(init="random")),
-            "joint space (clamp)": lambda t=t: optimize_joints(robot, t, JointOptimizeSettings()),
+            "encoder only": lambda t=t, x=x: optimize_latent(model, robot, t, OptimizeSettings(iterations=0), encoder_input=x.encoder, fast=True),
+            "encoder + latent opt": lambda t=t, x=x: optimize_latent(model, robot, t, OptimizeSettings(), encoder_input=x.encoder, fast=True),
+            "zeros + latent opt": lambda t=t: optimize_latent(model, robot, t, OptimizeSettings(init="zeros"), fast=True),
+            "random + latent opt": lambda t=t: optimize_latent(model, robot, t, OptimizeSettings(init="random"), fast=True),
+            "joint space (clamp)": lambda t=t: optimize_joints(robot, t, JointOptimizeSettings(), fast=True),
         }
         if not args.all:
             runs = {k: runs[k] for k in ("encoder only", "encoder + latent opt")}

@@ -106,7 +106,7 @@ def joint_space_race(robot, targets, target_loss: float, cap: int):
             raise _Reached
 
     try:
-        optimize_joints(robot, targets, JointOptimizeSettings(iterations=cap, patience=NO_STOP), callback=watch)
+        optimize_joints(robot, targets, JointOptimizeSettings(iterations=cap, patience=NO_STOP), callback=watch, fast=True)
     except _Reached:
         return timeline, timeline[-1][0]
     return timeline, None
@@ -173,7 +173,7 @@ def main(argv=None) -> int:
     one = []
     for i in idx:
         x = x_all.index(slice(int(i), int(i) + 1))
-        r = optimize_latent(model, robot, x.targets, OptimizeSettings(iterations=30, patience=NO_STOP), encoder_input=x.encoder)
+        r = optimize_latent(model, robot, x.targets, OptimizeSettings(iterations=30, patience=NO_STOP), encoder_input=x.encoder, fast=True)
         one.append(r.seconds)
     one_med, one_p90 = statistics.median(one), float(np.percentile(one, 90))
     print(f"one frame, 30 iterations: median {one_med * 1000:.1f} ms, p90 {one_p90 * 1000:.1f} ms")
@@ -183,7 +183,7 @@ def main(argv=None) -> int:
     for demo in demos[: args.sequences]:
         x = RetargetInputs.from_demonstration(demo, dtype=robot.lower_limits.dtype)
         tg = x.targets
-        r = optimize_latent(model, robot, tg, OptimizeSettings(init="encoder", iterations=100), encoder_input=x.encoder)
+        r = optimize_latent(model, robot, tg, OptimizeSettings(init="encoder", iterations=100), encoder_input=x.encoder, fast=True)
         target = mean_objective(robot, demo, r.q.detach().cpu().numpy())
         timeline, reached = joint_space_race(robot, tg, target, args.joint_cap)
         at_equal = next((m for t, m in timeline if t >= r.seconds), timeline[-1][1])

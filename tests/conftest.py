@@ -3,7 +3,9 @@
 - ``shared_file`` / ``shared_pose``: files of ``../shared`` beside the checkout (the real
   recordings and the founding reference). A user's clone does not have that folder: a test
   that needs it is skipped with the path it looked for.
-- ``robot64``: a robot loaded once per session in float64 (for gradient and agreement checks).
+- ``robot64``: a robot loaded once per session in float64 (for gradient and agreement checks);
+  ``each_robot64``: each shipped robot in float64 in turn (a module's tests run once per robot);
+  ``random_angles``: random angles inside a robot's limits.
 - ``nao``, ``robots``: robots as the package loads them (float32), once per module.
 
 A test module may still define a fixture of the same name; pytest then uses the module's.
@@ -51,6 +53,23 @@ def _robot64(name: str) -> Robot:
 def robot64() -> Callable[[str], Robot]:
     """``robot64("yumi")`` -> the robot in float64, loaded once per session (tests must not change it)."""
     return _robot64
+
+
+@pytest.fixture(scope="module", params=("yumi", "nao", "pepper"))
+def each_robot64(request) -> Robot:
+    """Each shipped robot in float64, one after the other."""
+    return _robot64(request.param)
+
+
+@pytest.fixture(scope="session")
+def random_angles() -> Callable[[Robot, int, int], torch.Tensor]:
+    """``random_angles(robot, batch, seed)`` -> ``(batch, n)`` angles drawn uniformly inside the limits."""
+
+    def draw(robot: Robot, batch: int, seed: int) -> torch.Tensor:
+        u = torch.rand(batch, robot.n_joints, generator=torch.Generator().manual_seed(seed), dtype=torch.float64)
+        return robot.lower_limits + u.to(robot.lower_limits.dtype) * (robot.upper_limits - robot.lower_limits)
+
+    return draw
 
 
 @pytest.fixture(scope="module")

@@ -135,7 +135,7 @@ def test_the_checker_finds_what_it_looks_for(tmp_path):
     src.write_text(
         "from nlo_lab.robot.collision import _DIFF\n"
         "from nlo_lab.robot import kinematics\n"
-        "import nlo_lab.backend as be\n"
+        "import nlo_lab.threads as be\n"
         "import nlo_lab.settings\n"
         "x = kinematics._x + be._current + nlo_lab.settings._number\n"
         "from nlo_lab.robot.collision import segment_distance, __all__\n",
@@ -145,6 +145,6 @@ def test_the_checker_finds_what_it_looks_for(tmp_path):
     assert found == {
         ("nlo_lab.elsewhere", "nlo_lab.robot.collision", "_DIFF"),
         ("nlo_lab.elsewhere", "nlo_lab.robot.kinematics", "_x"),
-        ("nlo_lab.elsewhere", "nlo_lab.backend", "_current"),
+        ("nlo_lab.elsewhere", "nlo_lab.threads", "_current"),
         ("nlo_lab.elsewhere", "nlo_lab.settings", "_number"),
     }

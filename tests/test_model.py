@@ -174,9 +174,9 @@ def test_decoder_fast_path_equals_layer_by_layer(widths):
     g = chain_graph()
     dec = GraphDecoder(g, LOWER, UPPER, latent_per_node=3, widths=widths).double()
     z = torch.randn(6, 5, 3, dtype=torch.float64)
-    torch.testing.assert_close(dec(z), _layer_by_layer_decoder(dec, z))
+    torch.testing.assert_close(dec(z, form="node-major"), _layer_by_layer_decoder(dec, z))
     # gradients of the parameters (training) agree too
-    grads = torch.autograd.grad(dec(z).square().sum(), list(dec.parameters()))
+    grads = torch.autograd.grad(dec(z, form="node-major").square().sum(), list(dec.parameters()))
     ref = torch.autograd.grad(_layer_by_layer_decoder(dec, z).square().sum(), list(dec.parameters()))
     for a, b in zip(grads, ref, strict=True):
         torch.testing.assert_close(a, b)
@@ -188,11 +188,11 @@ def test_frozen_decoder_cache_follows_in_place_updates():
     for p in dec.parameters():
         p.requires_grad_(False)
     z = torch.randn(2, 5, 3, dtype=torch.float64)
-    first = dec(z)
+    first = dec(z, form="numpy")
     assert dec._weights() is dec._weights()  # frozen: built once
     with torch.no_grad():
         dec.layers[0].bias.add_(0.5)  # an optimiser step or load_state_dict
-    second = dec(z)
+    second = dec(z, form="numpy")
     assert not torch.allclose(first, second)
     torch.testing.assert_close(second, _layer_by_layer_decoder(dec, z))
 
@@ -201,16 +201,16 @@ def test_frozen_decoder_cache_follows_in_place_updates():
 @pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
 def test_frozen_decoder_numpy_path_equals_torch_values_and_latent_gradients(widths, dtype):
     """The frozen decoder's numpy path (small batches, hand-written backward) = the torch ops."""
-    from nlo_lab import backend
+    from nlo_lab.inference.fast_paths import DECODER_NUMPY_MAX_BATCH
 
     torch.manual_seed(10)
     rest = LOWER + 0.3 * (UPPER - LOWER)  # a rest offset, as trained models have
     dec = GraphDecoder(chain_graph(), LOWER, UPPER, latent_per_node=3, widths=widths, rest=rest).to(dtype)
     for p in dec.parameters():
         p.requires_grad_(False)
-    z = (3 * torch.randn(backend.current().decoder_max_batch, 5, 3, dtype=dtype)).requires_grad_(True)  # 3σ: some joints near a limit
+    z = (3 * torch.randn(DECODER_NUMPY_MAX_BATCH, 5, 3, dtype=dtype)).requires_grad_(True)  # 3σ: some joints near a limit
     assert dec._weights().get("plan") is not None
-    q = dec(z)
+    q = dec(z, form="numpy")
     assert q.grad_fn is not None and "Decode" in type(q.grad_fn).__name__  # the numpy path ran
     w = torch.randn_like(q)
     (g,) = torch.autograd.grad((q * w).sum(), z)

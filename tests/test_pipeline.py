@@ -49,7 +49,7 @@ def test_the_pipeline_gives_the_numbers_of_its_parts(nao, model, demo):
     weights = LossWeights(ee=500.0)
     result = RetargetConfig(nao, SETTINGS, weights, model=model).build()(demo)
     targets = targets_from_demonstration(demo, dtype=nao.lower_limits.dtype)
-    by_hand = optimize_latent(model, nao, targets, SETTINGS, weights=weights, encoder_input=encoder_input(demo))
+    by_hand = optimize_latent(model, nao, targets, SETTINGS, weights=weights, encoder_input=encoder_input(demo), fast=True)
     angles = by_hand.q.detach().numpy().astype(np.float64)
     np.testing.assert_array_equal(result.trajectory.angles, angles)
     np.testing.assert_array_equal(result.trajectory.times, retime_times(angles, demo.fps, nao.velocity_limits.double().numpy()))
@@ -64,7 +64,7 @@ def test_chunks_are_anchored_and_joined(nao, model, demo):
     assert joined.q.shape == (30, nao.n_joints) and joined.z.shape[0] == 30
     # the third chunk is the direct optimisation of its frames, anchored at the second chunk's last angles
     part = inputs.index(slice(24, 30))
-    third = optimize_latent(model, nao, part.targets, SETTINGS, z0=initial_latent(model, part.encoder, SETTINGS), anchor=joined.q[23])
+    third = optimize_latent(model, nao, part.targets, SETTINGS, z0=initial_latent(model, part.encoder, SETTINGS), anchor=joined.q[23], fast=True)
     torch.testing.assert_close(joined.q[24:], third.q, rtol=0, atol=0)
 
 
@@ -73,12 +73,12 @@ def test_one_frame_warm_started(nao, model, demo):
     inputs = retargeter.inputs(demo)
     z = retargeter.start(inputs)
     warm = retargeter.optimize_frame(inputs, 7, z[7:8] + 0.1)
-    direct = optimize_latent(model, nao, inputs.targets.index(slice(7, 8)), OptimizeSettings(iterations=4), z0=z[7:8] + 0.1)
+    direct = optimize_latent(model, nao, inputs.targets.index(slice(7, 8)), OptimizeSettings(iterations=4), z0=z[7:8] + 0.1, fast=True)
     torch.testing.assert_close(warm.q, direct.q, rtol=0, atol=0)
     assert warm.init == "given"
     cold = retargeter.optimize_frame(inputs, 7)  # from the encoder's latent of that frame
     one = inputs.index(slice(7, 8))
-    direct = optimize_latent(model, nao, one.targets, OptimizeSettings(iterations=4), encoder_input=one.encoder)
+    direct = optimize_latent(model, nao, one.targets, OptimizeSettings(iterations=4), encoder_input=one.encoder, fast=True)
     assert cold.init == "encoder"
     torch.testing.assert_close(cold.q, direct.q, rtol=0, atol=0)
     torch.testing.assert_close(retargeter.start(one), z[7:8])
@@ -104,7 +104,7 @@ def test_the_evaluation_runs_the_pipeline(nao, model, demo, monkeypatch):
     ours = run_method("latent_encoder", nao, demo, s, model=model)
     targets = targets_from_demonstration(demo, dtype=nao.lower_limits.dtype)
     opt = OptimizeSettings(init="encoder", iterations=5, patience=s.patience, latent_sigma=s.random_sigma, seed=s.seed)
-    direct = optimize_latent(model, nao, targets, opt, encoder_input=encoder_input(demo))
+    direct = optimize_latent(model, nao, targets, opt, encoder_input=encoder_input(demo), fast=True)
     np.testing.assert_array_equal(ours.angles, direct.q.detach().double().numpy())
 
     def elsewhere(*args, **kwargs):

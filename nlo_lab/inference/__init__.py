@@ -1,6 +1,7 @@
 """Inference: from a demonstration to a robot trajectory with a trained, frozen model.
 
 - :mod:`~nlo_lab.inference.settings`: :class:`OptimizeSettings`, :class:`JointOptimizeSettings`, :data:`INITS`.
+- :mod:`~nlo_lab.inference.fast_paths`: :class:`FastPaths`, which evaluation of the decoder, objective and FK runs.
 - :mod:`~nlo_lab.inference.descent`: the one descent (Adam, best point, patience), :class:`OptimizeResult`.
 - :mod:`~nlo_lab.inference.latent`: latent optimisation (:func:`initial_latent`, :func:`sequence_start`,
   :func:`optimize_latent`, :func:`optimize_stream`).
@@ -12,6 +13,7 @@
 """
 
 from nlo_lab.inference.descent import Adam, OptimizeResult, descend, frozen, join_results, smoothness_term
+from nlo_lab.inference.fast_paths import FastPaths, fast_paths
 from nlo_lab.inference.joint_space import optimize_joints
 from nlo_lab.inference.latent import initial_latent, optimize_latent, optimize_stream, sequence_start
 from nlo_lab.inference.pipeline import CHUNK_FRAMES, RetargetConfig, Retargeter, RetargetInputs, RetargetResult, retarget, summary
@@ -22,6 +24,8 @@ from nlo_lab.inference.trajectory import FORMAT_VERSION, RobotTrajectory, Trajec
 __all__ = [
     # settings
     "INITS", "JOINT_INITS", "JOINT_LIMITS", "PAPER_LR", "SMOOTH_LR", "OptimizeSettings", "JointOptimizeSettings",
+    # fast paths
+    "FastPaths", "fast_paths",
     # descent
     "OptimizeResult", "Adam", "descend", "frozen", "smoothness_term", "join_results",
     # latent, joint_space

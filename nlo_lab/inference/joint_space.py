@@ -10,6 +10,7 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference.descent import OptimizeResult, descend, smoothness_term
+from nlo_lab.inference.fast_paths import FastPaths, fast_paths
 from nlo_lab.inference.settings import JointOptimizeSettings
 from nlo_lab.objective import TERMS, LossWeights, Objective, Targets
 
@@ -24,11 +25,13 @@ def optimize_joints(
     weights: LossWeights | None = None,
     q0: torch.Tensor | None = None,
     callback: Callable[[int, float], None] | None = None,
+    fast: bool | FastPaths = False,
 ) -> OptimizeResult:
     """The joint-space baseline: Adam on the angles themselves, same objective.
 
     Limits by projection (``clamp``) or a soft penalty (``penalty``); see
-    :class:`~nlo_lab.inference.JointOptimizeSettings`. Returns an
+    :class:`~nlo_lab.inference.JointOptimizeSettings`. ``fast``: the objective's forms, as
+    :func:`~nlo_lab.inference.optimize_latent`'s. Returns an
     :class:`~nlo_lab.inference.OptimizeResult` with ``z=None``.
     """
     settings = settings or JointOptimizeSettings()
@@ -45,7 +48,7 @@ def optimize_joints(
     elif q0.shape != (T, lo.shape[0]):
         raise SettingsError(f"q0 must be {(T, lo.shape[0])}, got {tuple(q0.shape)}")
 
-    loss_fn = Objective(robot, targets, weights, settings.collision_form)
+    loss_fn = Objective(robot, targets, weights, settings.collision_form, **fast_paths(fast, T, lo.device).objective_options())
     smooth = smoothness_term(robot, targets, weights)
 
     def evaluate(q):

@@ -31,6 +31,7 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference.descent import OptimizeResult, descend, frozen, join_results, smoothness_term
+from nlo_lab.inference.fast_paths import FastPaths, fast_paths
 from nlo_lab.inference.settings import PAPER_LR, SMOOTH_LR, OptimizeSettings
 from nlo_lab.model import EncoderInput
 from nlo_lab.objective import TERMS, LossWeights, Objective, Targets, step_cost
@@ -75,7 +76,8 @@ def initial_latent(model, inputs, settings: OptimizeSettings) -> torch.Tensor:
 
 @torch.no_grad()
 def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: LossWeights | None = None,
-                   window: int = 2, collision_form: str = "hinge", anchor: torch.Tensor | None = None) -> torch.Tensor:
+                   window: int = 2, collision_form: str = "hinge", anchor: torch.Tensor | None = None,
+                   fast: bool | FastPaths = False) -> torch.Tensor:
     """Warm start along the sequence: per frame, its own start latent or a neighbour's.
 
     Frame t's candidates are ``z0[t - window .. t + window]``. Each candidate costs its
@@ -83,6 +85,7 @@ def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: Lo
     smoothness term between their decoded angles (frame 0 also its step from the fixed
     ``anchor (n,)`` when given). The cheapest sequence of choices
     is found exactly by dynamic programming (Viterbi), ``O(T (2 window + 1)²)``.
+    ``fast``: the decoder's and the objective's forms (:func:`~nlo_lab.inference.fast_paths.fast_paths`).
 
     Returns:
         ``(T, N_r, k)`` start latents (``z0`` itself when smoothing does not apply).
@@ -94,14 +97,15 @@ def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: Lo
         return z0
     dtype = robot.lower_limits.dtype
     targets = targets.to(dtype=dtype)
-    loss_fn = Objective(robot, targets, weights, collision_form)
+    paths = fast_paths(fast, T, targets.shoulder.device)
+    loss_fn = Objective(robot, targets, weights, collision_form, **paths.objective_options())
     K = 2 * window + 1
     idx = (torch.arange(T)[:, None] + torch.arange(-window, window + 1)[None]).clamp(0, T - 1)  # (T, K)
     unary, angles = [], []
     with frozen(model):
         for k in range(K):
             z = z0[idx[:, k]]
-            q = model.decode(z).to(dtype)
+            q = model.decode(z, paths.decoder).to(dtype)
             total, _ = loss_fn(q)
             unary.append(total + weights.latent * z.pow(2).flatten(1).sum(1).to(dtype))
             angles.append(q)
@@ -138,6 +142,7 @@ def optimize_latent(
     callback: Callable[[int, float], None] | None = None,
     anchor: torch.Tensor | None = None,
     encoder_input: EncoderInput | None = None,
+    fast: bool | FastPaths = False,
 ) -> OptimizeResult:
     """Optimise the latent of every frame of ``targets`` at once, decoder frozen.
 
@@ -155,6 +160,9 @@ def optimize_latent(
             the warm start, so a sequence optimised in chunks has no seam.
         encoder_input: the encoder's input of the same T frames; needed for
             ``init="encoder"`` without ``z0``.
+        fast: which evaluations run: False (the default) the readable forms (the paper's
+            decoder, the term functions, autograd through FK), True the fastest for T frames
+            (:meth:`FastPaths.for_frames`), or a :class:`FastPaths`. Same numbers either way.
 
     Returns:
         :class:`OptimizeResult` with ``q (T, n)`` in the robot's dtype.
@@ -170,15 +178,16 @@ def optimize_latent(
     elif z0.shape != (len(targets), *model.latent_shape):
         raise SettingsError(f"z0 must be {(len(targets), *model.latent_shape)}, got {tuple(z0.shape)}")
 
-    loss_fn = Objective(robot, targets, weights, settings.collision_form)
+    paths = fast_paths(fast, len(targets), targets.shoulder.device)
+    loss_fn = Objective(robot, targets, weights, settings.collision_form, **paths.objective_options())
     if anchor is not None and anchor.shape != robot.lower_limits.shape:
         raise SettingsError(f"anchor must be {tuple(robot.lower_limits.shape)}, got {tuple(anchor.shape)}")
     smooth = smoothness_term(robot, targets, weights, anchor)
     if smooth is not None and settings.warm_start:
-        z0 = sequence_start(model, robot, targets, z0, weights, settings.warm_window, settings.collision_form, anchor)
+        z0 = sequence_start(model, robot, targets, z0, weights, settings.warm_window, settings.collision_form, anchor, paths)
 
     def evaluate(z):
-        q = model.decode(z).to(dtype)
+        q = model.decode(z, paths.decoder).to(dtype)
         total, terms = loss_fn(q)
         if smooth is not None:
             total = total + smooth(q)
@@ -196,7 +205,7 @@ def optimize_latent(
 
 def optimize_stream(model, robot, targets: Targets, settings: OptimizeSettings | None = None, *, weights: LossWeights | None = None,
                     z0: torch.Tensor | None = None, callback: Callable[[int, float], None] | None = None,
-                    encoder_input: EncoderInput | None = None) -> OptimizeResult:
+                    encoder_input: EncoderInput | None = None, fast: bool | FastPaths = False) -> OptimizeResult:
     """Frame by frame, as a live stream: with ``settings.warm_start`` frame t starts
     from frame t-1's best latent (frame 0 from ``z0`` or ``settings.init``).
 
@@ -212,7 +221,7 @@ def optimize_stream(model, robot, targets: Targets, settings: OptimizeSettings |
     parts: list[OptimizeResult] = []
     for t in range(len(targets)):
         start_z = prev if (settings.warm_start and prev is not None) else inits[t : t + 1]
-        parts.append(optimize_latent(model, robot, targets.index(slice(t, t + 1)), settings, weights=weights, z0=start_z))
+        parts.append(optimize_latent(model, robot, targets.index(slice(t, t + 1)), settings, weights=weights, z0=start_z, fast=fast))
         prev = parts[-1].z
         if callback is not None:
             callback(t, parts[-1].history[-1])

@@ -25,6 +25,7 @@ import torch
 from nlo_lab.errors import SettingsError
 from nlo_lab.human import Demonstration
 from nlo_lab.inference.descent import OptimizeResult, join_results
+from nlo_lab.inference.fast_paths import FastPaths, fast_paths
 from nlo_lab.inference.latent import initial_latent, optimize_latent
 from nlo_lab.inference.retime import retime_times
 from nlo_lab.inference.settings import OptimizeSettings
@@ -118,6 +119,11 @@ class RetargetConfig:
         retime: slow the trajectory down where a joint would exceed its velocity limit
             (:mod:`nlo_lab.inference.retime`); the trajectory's ``time`` then says when each frame plays.
         progress: show a progress bar of the optimisation's iterations on stderr.
+        fast: which evaluations the optimisation runs (same numbers either way): True (the
+            default) the fastest for each chunk's batch size
+            (:meth:`~nlo_lab.inference.FastPaths.for_frames`), False the readable forms (the
+            paper's decoder, the term functions, autograd through FK), or a
+            :class:`~nlo_lab.inference.FastPaths` for every chunk.
     """
 
     robot: Robot
@@ -127,17 +133,20 @@ class RetargetConfig:
     chunk_frames: int | None = CHUNK_FRAMES
     retime: bool = True
     progress: bool = False
+    fast: bool | FastPaths = True
 
     def build(self) -> Retargeter:
         """Check the configuration, load the model if none was given, and return the retargeter.
 
         Raises:
-            SettingsError: ``chunk_frames`` is not a whole number >= 1 or None.
+            SettingsError: ``chunk_frames`` is not a whole number >= 1 or None; ``fast`` is
+                not True, False or a FastPaths.
             CheckpointError: no shipped checkpoint for this robot (``model`` omitted).
         """
         chunk = self.chunk_frames
         if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1):
             raise SettingsError(f"chunk_frames must be a whole number >= 1 or None, got {chunk!r}")
+        fast_paths(self.fast, 1)  # checked here, before any work
         model = self.model if self.model is not None else load_pretrained(self.robot)
         return Retargeter(self, model, self.settings or OptimizeSettings(), self.weights or LossWeights())
 
@@ -149,7 +158,7 @@ class Retargeter:
     callers that need one of them: :meth:`inputs` (targets and encoder input of a
     demonstration), :meth:`start` (the start latents), :meth:`optimize` (the latent
     optimisation of some frames), :meth:`optimize_frame` (one frame, e.g. warm-started from
-    its current latent).
+    its current latent), :meth:`fast_paths` (which evaluations run at a batch size).
     """
 
     def __init__(self, config: RetargetConfig, model, settings: OptimizeSettings, weights: LossWeights):
@@ -196,8 +205,14 @@ class Retargeter:
         start) or from ``settings.init`` (the lab's panel re-optimising the frame a slider shows)."""
         return self.optimize(inputs.index(slice(t, t + 1)), z0=z0)
 
+    def fast_paths(self, frames: int) -> FastPaths:
+        """The evaluations an optimisation of ``frames`` frames runs (the config's ``fast``):
+        the one place the pipeline chooses them."""
+        return fast_paths(self.config.fast, frames, self.robot.lower_limits.device)
+
     def _optimize(self, targets: Targets, **options) -> OptimizeResult:
-        return optimize_latent(self.model, self.robot, targets, self.settings, weights=self.weights, **options)
+        return optimize_latent(self.model, self.robot, targets, self.settings, weights=self.weights,
+                               fast=self.fast_paths(len(targets)), **options)
 
     def _bounds(self, frames: int) -> list[tuple[int, int]]:
         """The ``(first, end)`` frame ranges :meth:`optimize` optimises together (one when ``frames`` is 0)."""
@@ -239,10 +254,11 @@ def retarget(
     progress: bool = False,
     chunk_frames: int | None = CHUNK_FRAMES,
     retime: bool = True,
+    fast: bool | FastPaths = True,
 ) -> RetargetResult:
     """Retarget a whole demonstration to ``robot`` by neural latent optimisation.
 
-    ``RetargetConfig(robot, settings, weights, model, chunk_frames, retime, progress).build()(demo)``.
+    ``RetargetConfig(robot, settings, weights, model, chunk_frames, retime, progress, fast).build()(demo)``.
 
     Args:
         demo: the human demonstration.
@@ -256,6 +272,7 @@ def retarget(
             see :data:`CHUNK_FRAMES`); None for the whole recording in one batch.
         retime: slow the trajectory down where a joint would exceed its velocity limit
             (:mod:`nlo_lab.inference.retime`); the trajectory's ``time`` then says when each frame plays.
+        fast: the evaluations the optimisation runs (see :class:`RetargetConfig`); False: the readable forms.
 
     Returns:
         A :class:`RetargetResult` with the trajectory and the quality figures.
@@ -265,7 +282,7 @@ def retarget(
             says valid, a wrist rotation that is not a rotation, fps out of range.
         SettingsError: the loss became NaN or infinite (e.g. absurd weights).
     """
-    config = RetargetConfig(robot, settings, weights, model, chunk_frames, retime, progress)
+    config = RetargetConfig(robot, settings, weights, model, chunk_frames, retime, progress, fast)
     return config.build()(demo)
 
 

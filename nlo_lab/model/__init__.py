@@ -4,14 +4,14 @@
 - :mod:`~nlo_lab.model.encoder`: human features -> latent ``z`` (:class:`GraphEncoder`, :class:`MLPEncoder`).
 - :mod:`~nlo_lab.model.decoder`: ``z`` -> joint angles inside the limits (:class:`GraphDecoder`, :class:`MLPDecoder`).
 - :mod:`~nlo_lab.model.numpy_backend`: the frozen graph decoder in numpy, a faster evaluation
-  of the same map for small batches (chosen by :mod:`nlo_lab.backend`).
+  of the same map for small batches (``decoder(z, form="numpy")``).
 - :mod:`~nlo_lab.model.retarget_model`: :class:`RetargetModel` (encoder + decoder), :func:`build_model`.
 - :mod:`~nlo_lab.model.encoder_input`: :class:`EncoderInput`, what the encoder reads of a demonstration.
 - :mod:`~nlo_lab.model.checkpoint`: save, load, and the shipped checkpoints (:func:`load_pretrained`).
 """
 
 from nlo_lab.model.checkpoint import CHECKPOINT_FORMAT_VERSION, checkpoint_path, load_checkpoint, load_pretrained, save_checkpoint
-from nlo_lab.model.decoder import GraphDecoder, MLPDecoder
+from nlo_lab.model.decoder import DECODER_FORMS, GraphDecoder, MLPDecoder
 from nlo_lab.model.encoder import GraphEncoder, MLPEncoder
 from nlo_lab.model.encoder_input import EncoderInput, encoder_input
 from nlo_lab.model.layers import LEAKY_SLOPE, GraphLayer, remap_to_limits, rest_preactivation
@@ -20,7 +20,7 @@ from nlo_lab.model.retarget_model import MODEL_KINDS, RetargetModel, build_model
 __all__ = [
     # layers, encoder, decoder, the model
     "GraphLayer", "remap_to_limits", "rest_preactivation", "LEAKY_SLOPE",
-    "GraphEncoder", "MLPEncoder", "GraphDecoder", "MLPDecoder",
+    "GraphEncoder", "MLPEncoder", "GraphDecoder", "MLPDecoder", "DECODER_FORMS",
     "RetargetModel", "build_model", "MODEL_KINDS",
     # the encoder's input
     "EncoderInput", "encoder_input",

@@ -6,13 +6,14 @@
   :func:`~nlo_lab.model.layers.remap_to_limits`.
 * :class:`MLPDecoder`: the plain fully connected variant of the ablation.
 
-The graph decoder's readable form is :meth:`GraphDecoder.paper_preactivation`
-(the layers' :meth:`~nlo_lab.model.layers.GraphLayer.forward` one after the
-other). Latent optimisation calls the frozen decoder every iteration, so by
-default it runs the same map on node-major weights with the constant inputs
-folded in (cached while the weights do not change), and for small CPU batches
-in numpy (:mod:`nlo_lab.model.numpy_backend`); ``nlo_lab.backend.reference()``
-runs the readable form instead.
+Called as ``decoder(z)`` the graph decoder runs the paper's form,
+:meth:`GraphDecoder.paper_preactivation` (the layers'
+:meth:`~nlo_lab.model.layers.GraphLayer.forward` one after the other): a debugger steps
+into the equations. Latent optimisation calls the frozen decoder every iteration, so
+the pipeline asks for a faster evaluation of the same map (``decoder(z, form=...)``,
+chosen by :class:`nlo_lab.inference.FastPaths`): ``"node-major"``, node-major weights
+with the constant inputs folded in (cached while the weights do not change), or
+``"numpy"``, the same in numpy with a written-out gradient (:mod:`nlo_lab.model.numpy_backend`).
 """
 
 from __future__ import annotations
@@ -20,13 +21,15 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from nlo_lab import backend
 from nlo_lab.errors import SettingsError
 from nlo_lab.graph import Graph
 from nlo_lab.model.layers import LEAKY_SLOPE, GraphBuffers, GraphLayer, mlp, remap, remap_to_limits, rest_preactivation
 from nlo_lab.model.numpy_backend import DecoderPlan, decode_numpy
+from nlo_lab.settings import check_choice
 
-__all__ = ["GraphDecoder", "MLPDecoder"]
+__all__ = ["GraphDecoder", "MLPDecoder", "DECODER_FORMS"]
+
+DECODER_FORMS = ("paper", "node-major", "numpy")  # the evaluations of one map; see GraphDecoder.forward
 
 
 class GraphDecoder(nn.Module):
@@ -73,13 +76,24 @@ class GraphDecoder(nn.Module):
         """``(N_r, k)``: the shape of one sample's latent."""
         return (self.graph.node_type.shape[0], self.latent_per_node)
 
-    def forward(self, z: torch.Tensor) -> torch.Tensor:
-        """``z (B, N_r, k)`` -> ``q (B, n)`` [rad]: ``remap(preactivation(z))``."""
-        if not backend.current().enabled:
+    def forward(self, z: torch.Tensor, form: str = "paper") -> torch.Tensor:
+        """``z (B, N_r, k)`` -> ``q (B, n)`` [rad]: ``remap(preactivation(z))``.
+
+        Args:
+            z: the latent.
+            form: which evaluation of the same map runs (:data:`DECODER_FORMS`):
+                ``"paper"`` (the default): :meth:`paper_preactivation`, the layers as the
+                paper writes them; ``"node-major"``: node-major weights with the constant
+                inputs folded in (fewer, larger ops); ``"numpy"``: that in numpy with a
+                written-out gradient to ``z`` (fastest at small batch), for frozen weights
+                with ``z`` on the CPU in the weights' dtype, else ``"node-major"`` runs.
+        """
+        if form == "paper":
             return self.remap(self.paper_preactivation(z))
+        check_choice("decoder form", form, DECODER_FORMS)
         w = self._weights()
         plan = w.get("plan")  # frozen weights on the CPU: numpy with a written-out backward
-        if plan is not None and backend.numpy_decoder(z.shape[0]) and z.device.type == "cpu" and z.dtype == w["mid"].dtype:
+        if form == "numpy" and plan is not None and z.device.type == "cpu" and z.dtype == w["mid"].dtype:
             return decode_numpy(z, plan)
         return remap(self._node_major_preactivation(z, w), w["mid"], w["half"], w["lower"], w["upper"])
 
@@ -97,14 +111,16 @@ class GraphDecoder(nn.Module):
             x = layer(x, g.edge_index, g.edge_attr, g.node_type)
         return x[..., 0] + self.rest_pre
 
-    def preactivation(self, z: torch.Tensor) -> torch.Tensor:
+    def preactivation(self, z: torch.Tensor, form: str = "paper") -> torch.Tensor:
         """``z (B, N_r, k)`` -> ``a (B, n)``, the values before tanh (``q = remap(a)``).
 
         Useful to see saturation: a joint whose ``a`` sits in tanh's flat tail is
         pinned at its limit and passes no gradient, in training or to the latent.
+        ``form``: as :meth:`forward` (``"numpy"`` runs ``"node-major"`` here).
         """
-        if not backend.current().enabled:
+        if form == "paper":
             return self.paper_preactivation(z)
+        check_choice("decoder form", form, DECODER_FORMS)
         return self._node_major_preactivation(z, self._weights())
 
     def remap(self, a: torch.Tensor) -> torch.Tensor:
@@ -177,12 +193,13 @@ class MLPDecoder(nn.Module):
         """``(N_r, k)``."""
         return (self.n_nodes, self.latent_per_node)
 
-    def forward(self, z: torch.Tensor) -> torch.Tensor:
-        """``z (B, N_r, k)`` -> ``q (B, n)`` [rad]."""
-        return self.remap(self.preactivation(z))
+    def forward(self, z: torch.Tensor, form: str = "paper") -> torch.Tensor:
+        """``z (B, N_r, k)`` -> ``q (B, n)`` [rad]; one form (``form`` is checked, for the graph decoder's interface)."""
+        return self.remap(self.preactivation(z, form))
 
-    def preactivation(self, z: torch.Tensor) -> torch.Tensor:
+    def preactivation(self, z: torch.Tensor, form: str = "paper") -> torch.Tensor:
         """``z (B, N_r, k)`` -> ``a (B, n)`` before tanh (see :meth:`GraphDecoder.preactivation`)."""
+        check_choice("decoder form", form, DECODER_FORMS)
         B = z.shape[0]
         lim = torch.stack([self.lower, self.upper], dim=-1).expand(B, -1, -1)
         return self.net(torch.cat([z, lim], dim=-1).flatten(1)) + self.rest_pre

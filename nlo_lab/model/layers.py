@@ -13,8 +13,8 @@ Root nodes have no incoming edge, so their update is the skip alone.
 
 :meth:`GraphLayer.forward` is that equation, written as it reads. The frozen
 decoder evaluates the same map faster (:meth:`GraphLayer.node_major_weights`,
-:meth:`GraphLayer.forward_node_major`, and :mod:`nlo_lab.model.numpy_backend`);
-``nlo_lab.backend.reference()`` makes it run this form.
+:meth:`GraphLayer.forward_node_major`, and :mod:`nlo_lab.model.numpy_backend`) when
+asked for it (``GraphDecoder.forward(z, form=...)``); called as ``decoder(z)`` it runs this form.
 """
 
 from __future__ import annotations

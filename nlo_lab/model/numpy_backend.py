@@ -13,10 +13,10 @@ Per layer, on node-major features ``x (N, B, C)``:
 receiving node); the last layer's ``y`` plus the rest offset goes through tanh. Backward: ``g_m = (A_dstᵀ g_y) * LeakyReLU'(m)``,
 ``g_x = g_y Sᵀ + A_dst (g_m W_selfᵀ) + A_src (g_m W_nbrᵀ)``.
 
-:class:`~nlo_lab.model.decoder.GraphDecoder` takes this path for frozen weights
-on the CPU at batches up to ``nlo_lab.backend.Backend.decoder_max_batch``; the
-tests compare it with the paper's form (``backend.reference()``), values and
-gradients.
+:class:`~nlo_lab.model.decoder.GraphDecoder` takes this path when asked for it
+(``form="numpy"``) for frozen weights on the CPU; the pipeline asks at small batches
+(:class:`nlo_lab.inference.FastPaths`). The tests compare it with the paper's form,
+values and gradients.
 """
 
 from __future__ import annotations

@@ -47,14 +47,14 @@ class RetargetModel(nn.Module):
         """Human features ``(B, N_h, F)`` (+ ``(B, E_h, 3)``) -> ``z (B, N_r, k)``."""
         return self.encoder(node_x, edge_x)
 
-    def decode(self, z: torch.Tensor) -> torch.Tensor:
-        """``z (B, N_r, k)`` -> ``q (B, n)`` inside the joint limits."""
-        return self.decoder(z)
+    def decode(self, z: torch.Tensor, form: str = "paper") -> torch.Tensor:
+        """``z (B, N_r, k)`` -> ``q (B, n)`` inside the joint limits (``form``: see :meth:`GraphDecoder.forward`)."""
+        return self.decoder(z, form=form)
 
-    def forward(self, node_x: torch.Tensor, edge_x: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-        """Encoder then decoder; returns ``(q, z)``."""
+    def forward(self, node_x: torch.Tensor, edge_x: torch.Tensor | None = None, form: str = "paper") -> tuple[torch.Tensor, torch.Tensor]:
+        """Encoder then decoder (``form``: the decoder's, :meth:`GraphDecoder.forward`); returns ``(q, z)``."""
         z = self.encode(node_x, edge_x)
-        return self.decode(z), z
+        return self.decode(z, form), z
 
 
 def build_model(

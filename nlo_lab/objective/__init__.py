@@ -6,7 +6,7 @@
 - :mod:`~nlo_lab.objective.terms`: one function per term, each with the paper's equation.
 - :mod:`~nlo_lab.objective.total`: :class:`Objective` weights and sums the terms; :func:`objective`.
 - :mod:`~nlo_lab.objective.numpy_backend`, :mod:`~nlo_lab.objective.near_pairs`: faster
-  evaluations of the same terms, chosen by :mod:`nlo_lab.backend` (off under ``backend.reference()``).
+  evaluations of the same terms, taken only when asked for (``Objective(fused=True, cull=True)``).
 """
 
 from nlo_lab.objective.near_pairs import CULL_SLACK, near_pair_distances

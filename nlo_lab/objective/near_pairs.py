@@ -2,8 +2,8 @@
 
 A fast path of :func:`nlo_lab.objective.terms.capsule_distances` for many frames
 (the collision term is exactly 0, with 0 gradient, for a pair at least its margin
-apart, so the far pairs need no exact distance). ``Objective`` uses it unless
-``nlo_lab.backend.reference()``; tests compare the two, values and gradients.
+apart, so the far pairs need no exact distance). ``Objective(cull=True)`` uses it;
+tests compare the two, values and gradients.
 """
 
 from __future__ import annotations

@@ -19,9 +19,9 @@ arithmetic. This module does the same arithmetic in numpy inside one
 
 Every term is linear in the points up to the finger normalisation and the
 squares, so the point plan becomes a few constant matrices (:meth:`PointTerms.build`).
-``Objective`` takes this path on the CPU for at most
-``nlo_lab.backend.Backend.objective_max_frames`` frames; ``nlo_lab.backend.reference()``
-turns it off. The tests compare both, values and gradients, on every robot.
+``Objective(fused=True)`` takes this path (the pipeline asks for it on the CPU for few
+frames, :class:`nlo_lab.inference.FastPaths`). The tests compare both, values and
+gradients, on every robot.
 First derivatives only (no double backward).
 """
 

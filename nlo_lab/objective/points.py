@@ -109,9 +109,10 @@ class PointPlan:
         self.pair_radii = robot.pair_radii.to(device=device, dtype=dtype)
         self.margins = torch.as_tensor(robot.collision_margins).to(device=device, dtype=dtype)
 
-    def map(self, q: torch.Tensor) -> torch.Tensor:
-        """``q (B, n)`` -> every vector in the world, ``(B, k, 3)`` (one FK)."""
-        return self.robot.map_points(q, self.body, self.vectors)
+    def map(self, q: torch.Tensor, analytic_gradient: bool = False) -> torch.Tensor:
+        """``q (B, n)`` -> every vector in the world, ``(B, k, 3)`` (one FK; ``analytic_gradient``:
+        its closed-form derivative, see ``Robot.map_points``)."""
+        return self.robot.map_points(q, self.body, self.vectors, analytic_gradient)
 
     def map_poses(self, poses: dict) -> torch.Tensor:
         """The same from given link poses (``robot.forward_kinematics(q)``): ``(B, k, 3)``."""

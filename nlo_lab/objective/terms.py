@@ -6,9 +6,9 @@ collision pairs. Robot quantities come from :class:`~nlo_lab.objective.points.Ro
 :class:`~nlo_lab.objective.targets.Targets`; a hat marks the human side.
 Positions are in metres in the robot / body frame; every term is unitless.
 
-These functions are what :class:`~nlo_lab.objective.total.Objective` runs
-(always under ``nlo_lab.backend.reference()``); for small CPU batches the same
-terms run in numpy with a written-out gradient (:mod:`nlo_lab.objective.numpy_backend`).
+These functions are what :class:`~nlo_lab.objective.total.Objective` runs by default;
+asked for it (``Objective(fused=True)``, as the pipeline does for small CPU batches) the
+same terms run in numpy with a written-out gradient (:mod:`nlo_lab.objective.numpy_backend`).
 
 Temporal coherence is not in the paper (it has "no mechanism to ensure smoothness"):
 :func:`smoothness_loss` couples consecutive frames and is added by the optimisers,

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import torch
 
-from nlo_lab import backend
 from nlo_lab.errors import SettingsError
 from nlo_lab.objective.near_pairs import near_pair_distances
 from nlo_lab.objective.numpy_backend import PointTerms, point_terms
@@ -35,28 +34,35 @@ class Objective:
     What does not depend on ``q`` is prepared once: the robot's point plan
     (:func:`~nlo_lab.objective.points.point_plan`, kept per robot) and the targets' masks. A call
     maps every point the terms need with one FK, then evaluates the terms
-    (:meth:`terms`). Fast paths, chosen by :mod:`nlo_lab.backend` (all off under
-    ``backend.reference()``, same numbers): the terms in numpy with a written-out
-    gradient for few frames on the CPU (:mod:`~nlo_lab.objective.numpy_backend`),
-    and exact capsule distances only for the pairs that may be near
-    (:mod:`~nlo_lab.objective.near_pairs`).
+    (:meth:`terms`: each term's function, as the paper writes it). That is what runs
+    unless the caller asks for a faster form (same numbers, tested equal): the terms
+    in numpy with a written-out gradient (``fused``, the CPU only,
+    :mod:`~nlo_lab.objective.numpy_backend`), exact capsule distances only for the pairs
+    that may be near (``cull``, :mod:`~nlo_lab.objective.near_pairs`), and the FK's
+    gradient in closed form (``analytic_fk``). The pipeline chooses them by batch size
+    (:class:`nlo_lab.inference.FastPaths`).
 
     Args:
         robot: a loaded :class:`nlo_lab.robot.Robot`.
         targets: :class:`~nlo_lab.objective.targets.Targets` (T frames); their dtype and device are used.
         weights: :class:`~nlo_lab.objective.weights.LossWeights` (defaults: the paper's).
         collision_form: ``"hinge"`` or ``"paper"`` (see :func:`~nlo_lab.objective.terms.collision_loss`).
-        fused: the numpy terms: None = as the backend decides, True/False = always / never.
-        cull: measure only the capsule pairs that may be near: None = as the backend decides.
+        fused: evaluate the terms in numpy with a written-out gradient (faster for few
+            frames; targets on the CPU only).
+        cull: in the torch terms, measure only the capsule pairs that may be within their margin.
+        analytic_fk: map the points with FK's closed-form gradient (``Robot.map_points``).
+
+    Raises:
+        SettingsError: ``fused`` with targets off the CPU.
     """
 
     def __init__(self, robot, targets: Targets, weights: LossWeights | None = None, collision_form: str = "hinge",
-                 fused: bool | None = None, cull: bool | None = None):
+                 fused: bool = False, cull: bool = False, analytic_fk: bool = False):
         check_choice("collision form", collision_form, COLLISION_FORMS)
         weights = weights or LossWeights()
         t = self.targets = targets
         self.robot, self.n_frames, self.collision_form = robot, len(targets), collision_form
-        self.cull = backend.cull_far_pairs() if cull is None else cull
+        self.cull, self.analytic_fk = bool(cull), bool(analytic_fk)
         device = t.shoulder.device
         self.plan = point_plan(robot, t.dtype, device)
         self.weights = torch.tensor([getattr(weights, n) for n in TERMS], dtype=t.dtype, device=device)  # (5,)
@@ -64,15 +70,15 @@ class Objective:
         self.ee_mask, self.elbow_mask = am[..., 0] & am[..., 2], am[..., 1] & am[..., 2]  # (T, 2): both points observed
         fingers = (slice(None), self.plan.finger_side, self.plan.finger_index)  # the human fingers the robot has
         self.finger_base, self.finger_tip, self.finger_mask = t.finger_base[fingers], t.finger_tip[fingers], t.finger_mask[fingers]
-        if fused is None:
-            fused = device.type == "cpu" and backend.numpy_objective(len(targets))
+        if fused and device.type != "cpu":
+            raise SettingsError(f"the numpy terms (fused=True) need targets on the CPU, not {device}")
         self.numpy_terms = PointTerms.build(self.plan, targets, collision_form) if fused else None
 
     def __call__(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``q (T, n)`` -> ``total (T,)`` and the unweighted terms ``(T, 5)`` in ``TERMS`` order."""
         if q.shape[0] != self.n_frames:
             raise SettingsError(f"q has {q.shape[0]} frames but the targets have {self.n_frames}")
-        points = self.plan.map(q)  # (T, k, 3): every point the terms need, one FK
+        points = self.plan.map(q, self.analytic_fk)  # (T, k, 3): every point the terms need, one FK
         if self.numpy_terms is not None:
             terms = point_terms(points, self.numpy_terms)
         else:
@@ -96,7 +102,8 @@ class Objective:
 
 
 def objective(robot, q: torch.Tensor, targets: Targets, weights: LossWeights | None = None, *,
-              poses: dict | None = None, collision_form: str = "hinge") -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+              poses: dict | None = None, collision_form: str = "hinge",
+              fused: bool = False, cull: bool = False, analytic_fk: bool = False) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
     """The weighted objective ``L(D, K(q))`` per sample (without the latent term).
 
     Args:
@@ -107,6 +114,8 @@ def objective(robot, q: torch.Tensor, targets: Targets, weights: LossWeights | N
         poses: FK of ``q`` (``robot.forward_kinematics(q)``) if already computed: the terms
             are then evaluated on the points those poses give.
         collision_form: see :func:`~nlo_lab.objective.terms.collision_loss`.
+        fused, cull, analytic_fk: faster forms, as :class:`Objective`'s (``cull`` only
+            with ``poses``); the default: the term functions.
 
     Returns:
         ``total (B,)`` and the unweighted terms ``{"ee","ori","elbow","finger","collision"}``, each ``(B,)``.
@@ -114,9 +123,9 @@ def objective(robot, q: torch.Tensor, targets: Targets, weights: LossWeights | N
     if len(targets) != q.shape[0]:
         raise SettingsError(f"q has {q.shape[0]} frames but the targets have {len(targets)}")
     if poses is None:
-        total, terms = Objective(robot, targets, weights, collision_form)(q)
+        total, terms = Objective(robot, targets, weights, collision_form, fused, cull, analytic_fk)(q)
     else:
-        loss = Objective(robot, targets, weights, collision_form, fused=False)
+        loss = Objective(robot, targets, weights, collision_form, cull=cull)
         terms = loss.terms(loss.plan.split(loss.plan.map_poses(poses)))
         total = terms @ loss.weights
     return total, dict(zip(TERMS, terms.unbind(1), strict=True))

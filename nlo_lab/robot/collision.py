@@ -14,14 +14,15 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from nlo_lab import backend
-
 __all__ = ["segment_distance", "segment_distance_ends", "closest_parameters", "capsule_distance", "segment_closest_points"]
 
 _EPS = 1e-12  # [m^2] denominators below this are treated as degenerate
 # rows d1 = a1 - a0, d2 = b1 - b0, r = a0 - b0 of the end points (a0, a1, b0, b1)
 _DIFF = np.array([[-1.0, 1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 1.0], [1.0, 0.0, -1.0, 0.0]])
 _DIFF_T: dict = {}  # device -> _DIFF as a float64 tensor
+# segment pairs up to which the closest points are computed in numpy (the same
+# function, segment_closest_points, in either library): crossover about 3000 pairs
+NUMPY_MAX_PAIRS = 4096
 
 
 # (clamp below, clamp to [0, 1]) per library; np.clip's Python wrapper costs
@@ -85,7 +86,7 @@ def _distance_parts(ends: torch.Tensor) -> tuple[torch.Tensor, ...]:
     pairs torch's kernels are faster.
     """
     flat = ends.detach().reshape(-1, 4, 3)
-    if flat.device.type == "cpu" and backend.numpy_collision(flat.shape[0]):
+    if flat.device.type == "cpu" and flat.shape[0] <= NUMPY_MAX_PAIRS:
         return _distance_parts_numpy(flat)
     return segment_closest_points(flat.to(torch.float64).permute(1, 2, 0))
 

@@ -10,14 +10,17 @@ in), its axis and its mimic rule. One forward pass (:meth:`KinematicTree.body_po
    from one matmul on ``[sin theta | cos theta]`` (Rodrigues is linear in sin
    and cos, so the constants ``pre``, ``pre K``, ``pre K^2`` are folded in),
 3. chaining, level by level ``T_root_body = T_root_parent @ T_parent_body`` (the
-   reference), or at small batch the same product by pointer jumping
-   (``ceil(log2(depth + 1))`` batched matmuls: per-op overhead dominates there;
-   :mod:`nlo_lab.backend` chooses),
+   readable form, the default), or the same product by pointer jumping
+   (``ceil(log2(depth + 1))`` batched matmuls; per-op overhead dominates at small
+   batch: ``body_poses(q, compose="jumps")``),
 4. links = (their body's world frame) @ (a constant), one batched matmul.
 
 The objective does not need every link: :meth:`KinematicTree.map_points` maps
 constant points and directions given in link frames to the world with one
-gather and one matmul after step 3.
+gather and one matmul after step 3; autograd differentiates it, or with
+``analytic_gradient=True`` the closed-form derivative of
+:class:`~nlo_lab.robot.point_gradient.MapPoints` (a faster evaluation of the same
+gradient, which also composes by pointer jumping at small sizes, see :data:`JUMP_MAX_WORK`).
 """
 
 from __future__ import annotations
@@ -28,12 +31,16 @@ from collections.abc import Sequence
 import numpy as np
 import torch
 
-from nlo_lab import backend
 from nlo_lab.errors import RobotDescriptionError
 from nlo_lab.robot.point_gradient import MapPoints
 from nlo_lab.robot.urdf import JointInfo, URDFModel
 
-__all__ = ["KinematicTree"]
+__all__ = ["KinematicTree", "COMPOSE_FORMS", "JUMP_MAX_WORK"]
+
+COMPOSE_FORMS = ("levels", "jumps")
+# batch x tree depth up to which the analytic-gradient path composes by pointer jumping
+# (few small matmuls; level by level composes each body once, which wins at large batch)
+JUMP_MAX_WORK = 128
 
 
 class KinematicTree:
@@ -221,11 +228,14 @@ class KinematicTree:
             q = q.to(torch.get_default_dtype())
         return q.reshape(-1, n)
 
-    def body_poses(self, q: torch.Tensor) -> torch.Tensor:
+    def body_poses(self, q: torch.Tensor, compose: str = "levels") -> torch.Tensor:
         """World frames of the root and of every moving joint's child frame.
 
         Args:
             q: ``(B, n)`` actuated angles [rad].
+            compose: ``"levels"`` (:meth:`_compose_by_levels`, the readable form) or
+                ``"jumps"`` (:meth:`_compose_by_jumps`, the same product in fewer,
+                larger matmuls: faster at small batch).
 
         Returns:
             ``(B, 1 + M, 4, 4)``; body 0 is the root, body ``k + 1`` the
@@ -236,11 +246,15 @@ class KinematicTree:
         # [sin theta | cos theta] as one sin of [theta | theta + pi/2]
         sc = torch.sin(torch.addmm(c["off2"], q, c["theta_map2"]))  # (B, 2M)
         local = torch.addmm(c["local_const"], sc, c["local_coef"]).view(B, -1, 4, 4)  # (B, 1+M, 4, 4) T_parent_body
-        # Few tiny matmuls cost less than many (per-op overhead) at small batch; at
-        # large batch the matrix count matters, and levels compose each body once.
-        if backend.fk_pointer_jumping(B * len(self.level_slices)):
+        if compose == "jumps":
             return self._compose_by_jumps(local, c)
+        if compose != "levels":
+            raise ValueError(f"compose must be one of {COMPOSE_FORMS}, got {compose!r}")
         return self._compose_by_levels(local, c)
+
+    def fast_compose(self, batch: int) -> str:
+        """The faster composition at ``batch``: pointer jumping while batch x depth <= :data:`JUMP_MAX_WORK`."""
+        return "jumps" if batch * len(self.level_slices) <= JUMP_MAX_WORK else "levels"
 
     def _compose_by_levels(self, local: torch.Tensor, c: dict) -> torch.Tensor:
         """The reference: ``T_root_body = T_root_parent @ T_parent_body``, one tree level at a time.
@@ -328,27 +342,27 @@ class KinematicTree:
         body = np.array([self.link_body[i] for i in idx], dtype=np.int64)
         return body, np.einsum("kij,kj->ki", self.link_const[idx], vectors)
 
-    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor, analytic: bool | None = None) -> torch.Tensor:
+    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor, analytic_gradient: bool = False) -> torch.Tensor:
         """World coordinates of vectors fixed in bodies (see :meth:`point_map`).
 
         Args:
             q: ``(B, n)`` actuated angles [rad].
             body: ``(k,)`` long body indices.
             vectors: ``(k, 4)`` homogeneous vectors in the body frames.
-            analytic: when ``q`` needs a gradient, compute it in closed form
-                (:class:`~nlo_lab.robot.point_gradient.MapPoints`, first derivatives only); False lets
-                autograd differentiate the FK (the reference, and for
-                higher derivatives); None = unless :func:`nlo_lab.backend.reference`.
+            analytic_gradient: the faster form: when ``q`` needs a gradient, it is
+                computed in closed form (:class:`~nlo_lab.robot.point_gradient.MapPoints`,
+                first derivatives only), and the bodies compose as :meth:`fast_compose`
+                says. False (the default, the readable form): level-by-level FK that
+                autograd differentiates (also for higher derivatives).
 
         Returns:
             ``(B, k, 3)``: points [m] (``w = 1``) or directions (``w = 0``) in the root frame.
         """
         q = self._flat_angles(q)
-        if analytic is None:
-            analytic = backend.analytic_fk_gradient()
-        if analytic and q.requires_grad and torch.is_grad_enabled():
+        if analytic_gradient and q.requires_grad and torch.is_grad_enabled():
             return MapPoints.apply(q, self, body, vectors)
-        T = self.body_poses(q).index_select(1, body)[..., :3, :]  # (B, k, 3, 4)
+        compose = self.fast_compose(q.shape[0]) if analytic_gradient else "levels"
+        T = self.body_poses(q, compose).index_select(1, body)[..., :3, :]  # (B, k, 3, 4)
         return (T * vectors[:, None, :]).sum(-1)  # not matmul: B*k tiny matmuls are slow
 
     def moved_by(self, body: torch.Tensor) -> torch.Tensor:

@@ -3,8 +3,8 @@
 :meth:`nlo_lab.robot.kinematics.KinematicTree.map_points` maps points and
 directions fixed in links to the world. Autograd differentiates that through
 every pose product; for revolute joints the derivative has a closed form (see
-:class:`MapPoints`), a dozen batched ops. :mod:`nlo_lab.backend` chooses; the
-tests hold the two equal.
+:class:`MapPoints`), a dozen batched ops. ``map_points(..., analytic_gradient=True)``
+chooses it; the tests hold the two equal.
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ class MapPoints(torch.autograd.Function):
     @staticmethod
     def forward(ctx, q, tree, body, vectors):
         with torch.no_grad():
-            poses = tree.body_poses(q)  # (B, 1+M, 4, 4)
+            poses = tree.body_poses(q, tree.fast_compose(q.shape[0]))  # (B, 1+M, 4, 4)
             pts = (poses.index_select(1, body)[..., :3, :] * vectors[:, None, :]).sum(-1)  # (B, k, 3)
         ctx.tree, ctx.body = tree, body
         ctx.save_for_backward(poses, pts, vectors)

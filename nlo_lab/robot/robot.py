@@ -176,13 +176,15 @@ class Robot:
             raise RobotDescriptionError(f"{self.name}: no link named {unknown[0]!r}")
         return self.tree.point_map(list(links), np.asarray(vectors, dtype=np.float64))
 
-    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor) -> torch.Tensor:
+    def map_points(self, q: torch.Tensor, body: torch.Tensor, vectors: torch.Tensor, analytic_gradient: bool = False) -> torch.Tensor:
         """``q (B, n)`` -> ``(B, k, 3)``: the vectors of :meth:`point_map` in the world [m].
 
         ``body`` and ``vectors`` are :meth:`point_map`'s results as tensors (long,
-        and the dtype of ``q``). Differentiable in ``q``.
+        and the dtype of ``q``). Differentiable in ``q``: by autograd through the FK
+        (the default), or with ``analytic_gradient=True`` in closed form (faster, same
+        numbers; :meth:`KinematicTree.map_points`).
         """
-        return self.tree.map_points(q, body, vectors)
+        return self.tree.map_points(q, body, vectors, analytic_gradient)
 
     @property
     def capsule_radii(self) -> torch.Tensor:

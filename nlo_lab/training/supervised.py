@@ -111,7 +111,7 @@ def supervised_labels(robot, targets: Targets, iterations: int, *, progress: boo
     chunk = 2048  # bounded memory; frames are independent
     out = []
     for i in range(0, len(targets), chunk):
-        r = optimize_joints(robot, targets.index(slice(i, i + chunk)), JointOptimizeSettings(iterations=iterations, patience=iterations + 1))
+        r = optimize_joints(robot, targets.index(slice(i, i + chunk)), JointOptimizeSettings(iterations=iterations, patience=iterations + 1), fast=True)
         out.append(r.q.detach())
     return torch.cat(out)
 

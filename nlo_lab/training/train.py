@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.inference import RetargetInputs
+from nlo_lab.inference import FastPaths, RetargetInputs, fast_paths
 from nlo_lab.model import MODEL_KINDS, EncoderInput, RetargetModel, build_model
 from nlo_lab.objective import COLLISION_FORMS, LossWeights, latent_loss, objective
 from nlo_lab.settings import check_choice, check_int, check_positive
@@ -124,19 +124,20 @@ def new_model(robot, settings: TrainSettings | None = None, in_features: int | N
     )
 
 
-def _batch_loss(model, robot, batch: RetargetInputs, weights: LossWeights, form: str) -> torch.Tensor:
+def _batch_loss(model, robot, batch: RetargetInputs, weights: LossWeights, form: str, fast: bool | FastPaths) -> torch.Tensor:
     """Per-frame Eq. 10: objective of the decoded encoder latent + ``||z||²/σ²`` -> ``(B,)``."""
-    q, z = model(batch.encoder.node_features, batch.encoder.edge_features)
-    total, _ = objective(robot, q.to(robot.lower_limits.dtype), batch.targets, weights, collision_form=form)
+    paths = fast_paths(fast, len(batch), batch.targets.shoulder.device)
+    q, z = model(batch.encoder.node_features, batch.encoder.edge_features, form=paths.decoder)
+    total, _ = objective(robot, q.to(robot.lower_limits.dtype), batch.targets, weights, collision_form=form, **paths.objective_options())
     return total + weights.latent * latent_loss(z)
 
 
 @torch.no_grad()
-def _evaluate(model, robot, data: RetargetInputs, weights: LossWeights, form: str, chunk: int = 512) -> float:
+def _evaluate(model, robot, data: RetargetInputs, weights: LossWeights, form: str, fast: bool | FastPaths = True, chunk: int = 512) -> float:
     model.eval()
     total = 0.0
     for i in range(0, len(data), chunk):
-        total += float(_batch_loss(model, robot, data.index(slice(i, i + chunk)), weights, form).sum())
+        total += float(_batch_loss(model, robot, data.index(slice(i, i + chunk)), weights, form, fast).sum())
     model.train()
     return total / len(data)
 
@@ -158,6 +159,7 @@ def train_model(
     train_data: RetargetInputs | None = None,
     val_data: RetargetInputs | None = None,
     model: RetargetModel | None = None,
+    fast: bool | FastPaths = True,
 ) -> TrainResult:
     """Train encoder and decoder for ``robot`` (paper Eq. 10).
 
@@ -168,6 +170,9 @@ def train_model(
         train_data, val_data: :class:`~nlo_lab.inference.RetargetInputs` (targets and encoder input); default the
             two parts of :func:`train_validation_split` (never the test split).
         model: a model to continue training; a new one otherwise.
+        fast: the evaluations each step runs (same numbers): True (the default) the fastest
+            for the batch size (:meth:`~nlo_lab.inference.FastPaths.for_frames`), False the
+            readable forms, or a :class:`~nlo_lab.inference.FastPaths`.
 
     Returns:
         :class:`TrainResult` with the best-validation model.
@@ -201,7 +206,7 @@ def train_model(
 
     bar = tqdm(total=total_steps, desc=f"train {robot.name}", disable=not settings.progress, leave=False)
     start = time.perf_counter()
-    best_val, best_state = _evaluate(model, robot, val_data, weights, settings.collision_form), None
+    best_val, best_state = _evaluate(model, robot, val_data, weights, settings.collision_form, fast), None
     best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
     history = [{"step": 0, "epoch": 0, "train": float("nan"), "val": best_val, "seconds": 0.0}]
     step, running, out_of_time = 0, [], False
@@ -209,7 +214,7 @@ def train_model(
         order = torch.randperm(n, generator=gen)
         for b in range(steps_per_epoch):
             batch = train_data.index(order[b * settings.batch_size : (b + 1) * settings.batch_size])
-            loss = _batch_loss(model, robot, batch, weights, settings.collision_form).mean()
+            loss = _batch_loss(model, robot, batch, weights, settings.collision_form, fast).mean()
             opt.zero_grad(set_to_none=True)
             loss.backward()
             torch.nn.utils.clip_grad_norm_(model.parameters(), settings.clip)
@@ -220,7 +225,7 @@ def train_model(
             out_of_time = time.perf_counter() - start > settings.max_seconds
             last_of_epoch = b == steps_per_epoch - 1
             if step % settings.val_every == 0 or last_of_epoch or out_of_time:
-                val = _evaluate(model, robot, val_data, weights, settings.collision_form)
+                val = _evaluate(model, robot, val_data, weights, settings.collision_form, fast)
                 train_mean = sum(running) / len(running)
                 running = []
                 history.append({"step": step, "epoch": epoch, "train": train_mean, "val": val, "seconds": time.perf_counter() - start})

@@ -105,16 +105,13 @@ print(inspect.getsource(KinematicTree.body_poses))
 print(inspect.getsource(KinematicTree._compose_by_levels))
 
 # %% [markdown]
-# At small batches a faster composition runs instead (pointer jumping, further below). `backend.reference()`
-# switches every fast path off, so the code above is what runs; the poses agree to float32 rounding
+# That is what `forward_kinematics` runs. The optimiser asks for a faster composition at small batches
+# (pointer jumping, further below: `body_poses(q, compose="jumps")`); the poses agree to float32 rounding
 # (the two compositions multiply the same matrices in another order).
 
 # %%
-from nlo_lab import backend
-
-with backend.reference():
-    readable = yumi.forward_kinematics(q)
-print(f"largest difference to the fast path: {max(float((readable[k] - poses[k]).abs().max()) for k in poses):.1e}")
+jumps = yumi.tree.body_poses(q, compose="jumps")
+print(f"largest difference to pointer jumping: {float((jumps - yumi.tree.body_poses(q)).abs().max()):.1e}")
 
 # %% [markdown]
 # FK is batched and differentiable: thousands of random poses inside the limits at once give a picture of
@@ -153,8 +150,8 @@ print(f"{len(theirs)} links, largest difference {max(float((ours[k] - theirs[k])
 # Same numbers, different cost. pytorch-kinematics walks the tree in a Python loop, one link after the
 # other, with a few 4×4 products and some bookkeeping per link (55 links on YuMi). Ours does the walk once
 # when the robot is loaded and keeps constants: every joint's local transform comes out of **one** matrix
-# product (Rodrigues' formula is linear in sin θ and cos θ), and the chain is composed by pointer jumping
-# in ⌈log₂(depth + 1)⌉ batched products over all links at once. At batch 1 nearly all the time is the
+# product (Rodrigues' formula is linear in sin θ and cos θ), and the chain is composed in one batched
+# product per tree level over all links at once (or, asked for, by pointer jumping in ⌈log₂(depth + 1)⌉). At batch 1 nearly all the time is the
 # per-operation overhead of torch, so fewer operations win by two orders of magnitude; at large batches
 # the arithmetic dominates and the gap shrinks (`benchmarks/fk.py` measures both, see `docs/RESULTS.md`).
 

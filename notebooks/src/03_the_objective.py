@@ -64,18 +64,16 @@ for fn in (term_functions.end_effector_loss, term_functions.orientation_loss, te
     display(Markdown(f"**`{fn.__name__}`** reads the robot's {', '.join(fn.needs)}\n```python\n{inspect.getsource(fn)}```"))
 
 # %% [markdown]
-# `Objective` assembles them: `terms @ weights`, one weight per term. For a few frames the same terms run
-# in numpy with a written-out gradient, which is faster at batch 1; `backend.reference()` switches every
-# such fast path off, and the numbers stay the same:
+# `Objective` assembles them: `terms @ weights`, one weight per term; that is what `objective` runs. The
+# optimiser asks for a faster form for a few frames, the same terms in numpy with a written-out gradient
+# (`fused=True`), and the numbers stay the same:
 
 # %%
-from nlo_lab import backend
 from nlo_lab.objective import Objective
 
 print(inspect.getsource(Objective.terms))
-with backend.reference():
-    reference_total, _ = objective(robot, q0, one)
-print(f"fast path {float(total):.6f}, reference {float(reference_total):.6f}")
+fused_total, _ = objective(robot, q0, one, fused=True)
+print(f"term functions {float(total):.6f}, numpy terms {float(fused_total):.6f}")
 
 # %% [markdown]
 # ## Weight sliders

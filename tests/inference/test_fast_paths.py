@@ -1,0 +1,106 @@
+"""Readable by default, fast by choice: FastPaths says which evaluation of the decoder, the
+objective and FK runs; the pipeline chooses by batch size (RetargetConfig(fast=True), the
+default) or takes an explicit choice, and the optimisation's result does not depend on it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from nlo_lab.errors import SettingsError
+from nlo_lab.human import corpus_clip
+from nlo_lab.inference import FastPaths, OptimizeSettings, RetargetConfig, RetargetInputs, fast_paths, optimize_joints, optimize_latent
+from nlo_lab.inference.fast_paths import DECODER_NUMPY_MAX_BATCH, OBJECTIVE_NUMPY_MAX_FRAMES
+from nlo_lab.model import load_pretrained
+
+
+@pytest.fixture(scope="module")
+def nao64(robot64):
+    return robot64("nao")
+
+
+@pytest.fixture(scope="module")
+def model64(nao64):
+    return load_pretrained(nao64).double()
+
+
+@pytest.fixture(scope="module")
+def inputs(nao64):
+    return RetargetInputs.from_demonstration(corpus_clip("introduction_12").slice(0, 12), dtype=torch.float64)
+
+
+def _raise(*args, **kwargs):
+    raise AssertionError("a fast path ran")
+
+
+def test_the_choice_by_batch_size():
+    assert FastPaths.readable() == FastPaths() == FastPaths("paper", False, False, False)
+    one, small, many = (FastPaths.for_frames(n) for n in (1, OBJECTIVE_NUMPY_MAX_FRAMES, OBJECTIVE_NUMPY_MAX_FRAMES + 1))
+    assert one == FastPaths("numpy", True, True, True)
+    assert FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH).decoder == "numpy" != FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH + 1).decoder
+    assert small.decoder == "node-major" and small.fused_objective
+    assert many == FastPaths("node-major", False, True, True)
+    assert FastPaths.for_frames(1, "meta") == FastPaths("node-major", False, True, True)  # numpy forms: the CPU only
+    assert fast_paths(True, 1) == one and fast_paths(False, 1) == FastPaths() and fast_paths(many, 1) is many
+    assert one.objective_options() == {"fused": True, "cull": True, "analytic_fk": True}
+
+
+@pytest.mark.parametrize("bad", [{"decoder": "fast"}, {"fused_objective": 1}, {"analytic_fk": "yes"}])
+def test_bad_choices_are_refused_in_one_line(bad):
+    with pytest.raises(SettingsError) as info:
+        FastPaths(**bad)
+    assert "\n" not in str(info.value)
+    with pytest.raises(SettingsError, match="fast"):
+        fast_paths("yes", 1)
+
+
+@pytest.mark.parametrize("frames", [1, 12])
+def test_latent_optimisation_gives_the_same_result_fast_or_readable(nao64, model64, inputs, frames):
+    """float64 end to end: every form agrees to rounding, so 15 Adam steps end at the same point."""
+    x = inputs.index(slice(0, frames))
+    settings = OptimizeSettings(iterations=15, patience=15)
+    runs = {fast: optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder, fast=fast) for fast in (True, False)}
+    torch.testing.assert_close(runs[True].q, runs[False].q, atol=1e-8, rtol=1e-8)
+    np.testing.assert_allclose(runs[True].history, runs[False].history, rtol=1e-9)
+    assert runs[True].iterations == runs[False].iterations == 15
+    assert min(runs[False].history) < runs[False].history[0]  # it did descend
+
+
+def test_joint_space_gives_the_same_result_fast_or_readable(nao64, inputs):
+    from nlo_lab.inference import JointOptimizeSettings
+
+    settings = JointOptimizeSettings(iterations=10, patience=10)
+    fast, readable = (optimize_joints(nao64, inputs.targets, settings, fast=f) for f in (True, False))
+    torch.testing.assert_close(fast.q, readable.q, atol=1e-9, rtol=1e-9)
+
+
+def test_optimisers_run_the_readable_forms_unless_asked(nao64, model64, inputs, monkeypatch):
+    from nlo_lab.model import decoder
+    from nlo_lab.objective import total
+
+    monkeypatch.setattr(decoder, "decode_numpy", _raise)
+    monkeypatch.setattr(total, "point_terms", _raise)
+    x = inputs.index(slice(0, 1))
+    settings = OptimizeSettings(iterations=2, patience=2)
+    optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder)
+    with pytest.raises(AssertionError, match="fast path"):
+        optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder, fast=True)
+
+
+def test_the_pipeline_chooses_by_batch_size_or_takes_the_choice(nao64, model64, monkeypatch):
+    demo = corpus_clip("introduction_12").slice(0, 3)
+    built = RetargetConfig(nao64, OptimizeSettings(iterations=2), model=model64).build()
+    assert built.fast_paths(1) == FastPaths.for_frames(1) and built.fast_paths(500) == FastPaths.for_frames(500)
+    readable = RetargetConfig(nao64, OptimizeSettings(iterations=2), model=model64, fast=False).build()
+    assert readable.fast_paths(1) == FastPaths.readable()
+    chosen = FastPaths(decoder="node-major")
+    assert RetargetConfig(nao64, model=model64, fast=chosen).build().fast_paths(1) is chosen
+    with pytest.raises(SettingsError, match="fast"):
+        RetargetConfig(nao64, model=model64, fast="always").build()
+    from nlo_lab.model import decoder
+
+    monkeypatch.setattr(decoder, "decode_numpy", _raise)
+    readable(demo)  # no fast path at all
+    with pytest.raises(AssertionError, match="fast path"):
+        built(demo)

@@ -1,0 +1,82 @@
+"""The objective's faster forms (numpy terms, culled capsule pairs, FK's closed-form gradient)
+equal the term functions, values and gradients; called without asking, Objective runs the
+term functions (what a learner reads), every capsule pair, autograd through FK."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from nlo_lab.objective import Objective, targets_from_demonstration
+
+
+@pytest.fixture(scope="module")
+def robot(each_robot64):
+    return each_robot64
+
+
+@pytest.fixture(scope="module")
+def case(robot, random_angles):
+    """``case(frames)``: targets the robot meets at one pose, and other (random, some colliding) poses to score."""
+    from robot_targets import demonstration_from_robot
+
+    def make(frames: int):
+        t = targets_from_demonstration(demonstration_from_robot(robot, random_angles(robot, frames, seed=9)), dtype=torch.float64)
+        return t, random_angles(robot, frames, seed=7)
+
+    return make
+
+
+def _terms_and_grad(objective: Objective, q: torch.Tensor):
+    x = q.detach().clone().requires_grad_(True)
+    terms = objective(x)[1]
+    w = torch.linspace(0.5, 1.5, terms.numel(), dtype=terms.dtype).view_as(terms)  # every term counts, differently
+    (g,) = torch.autograd.grad((terms * w).sum(), x)
+    return terms.detach(), g
+
+
+@pytest.mark.parametrize("options", [
+    {"fused": True}, {"cull": True}, {"analytic_fk": True}, {"fused": True, "cull": True, "analytic_fk": True},
+], ids=lambda o: "+".join(o))
+def test_each_faster_form_equals_the_term_functions(robot, case, options):
+    t, q = case(48)
+    for form in ("hinge", "paper"):
+        fast = _terms_and_grad(Objective(robot, t, collision_form=form, **options), q)
+        ref = _terms_and_grad(Objective(robot, t, collision_form=form), q)
+        for a, b in zip(fast, ref, strict=True):
+            torch.testing.assert_close(a, b, atol=1e-9, rtol=1e-10)
+        assert float(ref[0][:, 4].max()) > 0, "some random poses should bring capsules within their margin"
+
+
+def test_objective_called_directly_runs_the_term_functions(robot, case, monkeypatch):
+    """Without an argument every term function of nlo_lab.objective.terms runs (all capsule
+    pairs measured, autograd through FK); asked for, the numpy terms run instead."""
+    from nlo_lab.objective import terms, total
+    from nlo_lab.robot import point_gradient
+
+    def _raise(*args, **kwargs):
+        raise AssertionError("a fast path ran")
+
+    names = ("end_effector_loss", "orientation_loss", "elbow_loss", "finger_loss", "collision_loss", "capsule_distances")
+    calls = []
+    for name in names:
+        fn = getattr(terms, name)
+        monkeypatch.setattr(total, name, lambda *a, _fn=fn, **k: calls.append(_fn.__name__) or _fn(*a, **k))
+    for name in ("point_terms", "near_pair_distances"):
+        monkeypatch.setattr(total, name, _raise)
+    monkeypatch.setattr(point_gradient.MapPoints, "apply", _raise)
+    t, q = case(4)
+    total.Objective(robot, t)(q.requires_grad_(True))[0].sum().backward()
+    assert sorted(calls) == sorted(names)
+    for options in ({"fused": True}, {"cull": True}, {"analytic_fk": True}):
+        with pytest.raises(AssertionError, match="fast path"):
+            total.Objective(robot, t, **options)(q)
+
+
+def test_objective_function_passes_the_faster_forms_on(robot, case):
+    from nlo_lab.objective import objective
+
+    t, q = case(6)
+    fast = objective(robot, q, t, fused=True, cull=True, analytic_fk=True)
+    ref = objective(robot, q, t)
+    torch.testing.assert_close(fast[0], ref[0], atol=1e-9, rtol=1e-10)
