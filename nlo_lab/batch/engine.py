@@ -95,7 +95,7 @@ def _cluster(client, scheduler: str | None, workers: int | None):
             ours.close()  # our connection only: the cluster and its workers keep running
         return
     cluster = distributed.LocalCluster(
-        n_workers=workers or available_cores(), threads_per_worker=1, processes=True, host="127.0.0.1",
+        n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
         dashboard_address=None, silence_logs=logging.ERROR,
         env={"NLO_LAB_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"},  # torch: one thread per worker
     )
@@ -200,7 +200,8 @@ def retarget_many(inputs, robot, out, client=None, *, init: str = "encoder", ite
         init, iterations, seed, weights: as ``nlo-lab retarget``'s ``--init``, ``--iters``,
             ``--seed``, ``--weights`` (weights: ``"ee=1000,ori=100"``, a mapping or a ``LossWeights``).
         viewer: also write each input's ``viewer.html``.
-        workers: worker processes of the LocalCluster (default: the cores available).
+        workers: worker processes of the LocalCluster (default: the cores available, at most one per input
+            unless there is a video, whose segments spread over every worker).
         scheduler: the address of a running dask scheduler (``tcp://HOST:PORT``).
         resume: skip inputs done before with the same content and settings, and keep the
             ``failed`` rows of inputs that failed on unchanged content (see :mod:`nlo_lab.batch.plan`).
@@ -236,6 +237,9 @@ def retarget_many(inputs, robot, out, client=None, *, init: str = "encoder", ite
         try:
             if plan.jobs:
                 settings.build()  # an unknown robot or a bad setting: refused here, before any cluster starts
+                if workers is None:  # one per core, but not more than there are tasks (a video: one per segment)
+                    videos = any(job.item.is_video for job in plan.jobs)
+                    workers = available_cores() if videos else min(available_cores(), len(plan.jobs))
                 with _cluster(client, scheduler, workers) as ours:
                     _run(ours, plan.jobs, table, bar, on_row)
         finally:
