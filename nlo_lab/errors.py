@@ -2,10 +2,29 @@
 
 Every error raised for bad input derives from :class:`NloLabError`, so callers
 (and the command line, which turns them into exit status 2) can catch one type.
-Messages name what is wrong and where: file, frame, field, link or joint.
+Each class ALSO derives from the built-in exception a Python user would expect
+there, so an ``except ValueError`` (or ``TypeError``, ``OSError``, ``LookupError``)
+written before nlo_lab had its own classes keeps working::
+
+    NloLabError
+    ├── SettingsError            ValueError   a setting or argument out of its range
+    │   └── SettingsTypeError    TypeError    ... or of the wrong type (LossWeights(ee="5"))
+    ├── DemonstrationError       ValueError   a recording that cannot be read or is not valid
+    ├── RobotDescriptionError    ValueError   a robot spec or URDF (and its meshes)
+    │   └── UnknownRobotError    LookupError  a name that is no bundled robot and no spec file
+    ├── CheckpointError          ValueError   a model checkpoint
+    ├── TrajectoryError          ValueError   a robot trajectory (nlo_lab.inference)
+    └── OutputError              OSError      an output place that cannot take the results
+
+Messages name what is wrong and where: file, frame, field, link or joint. An input
+file that is missing, not a regular file or too large is reported by the reader's own
+class (a bad ``.pose`` file is a :class:`DemonstrationError`, a bad URDF a
+:class:`RobotDescriptionError`): :mod:`nlo_lab.files` checks every input first.
 """
 
 from __future__ import annotations
+
+import os
 
 __all__ = [
     "NloLabError",
@@ -14,6 +33,7 @@ __all__ = [
     "DemonstrationError",
     "CheckpointError",
     "SettingsError",
+    "SettingsTypeError",
     "OutputError",
     "Interrupted",
     "escape",
@@ -21,50 +41,52 @@ __all__ = [
 
 
 class NloLabError(Exception):
-    """Base class of every error nlo_lab raises on purpose."""
-
-
-class RobotDescriptionError(NloLabError):
-    """A URDF or robot spec file is missing, malformed or inconsistent."""
-
-
-class UnknownRobotError(RobotDescriptionError):
-    """A robot name that is neither a bundled robot nor a spec file."""
-
-
-class DemonstrationError(NloLabError):
-    """A human demonstration that cannot be read or is not valid.
+    """Base class of every error nlo_lab raises on purpose.
 
     Args:
         message: what is wrong.
-        path: the file, when there is one.
+        path: the file it concerns, when there is one.
         frame: the first offending frame index, when it applies.
-        field: the offending field (e.g. ``"right/wrist"``), when it applies.
+        field: the offending field (``"right/wrist"``, an archive member, a dataset), when it applies.
+
+    The message ends with where, in parentheses: ``"NaN or inf (file x.npz, frame 7, field arm_positions)"``;
+    :attr:`path`, :attr:`frame` and :attr:`field` keep the parts.
     """
 
-    def __init__(self, message: str, *, path=None, frame: int | None = None, field: str | None = None):
+    def __init__(self, message: str = "", *, path: str | os.PathLike | None = None, frame: int | None = None,
+                 field: str | None = None):
+        where = [f"{label} {value}" for label, value in (("file", path), ("frame", frame), ("field", field)) if value is not None]
+        super().__init__(f"{message} ({', '.join(where)})" if where else message)
         self.path = None if path is None else str(path)
         self.frame = frame
         self.field = field
-        where = []
-        if self.path is not None:
-            where.append(f"file {self.path}")
-        if frame is not None:
-            where.append(f"frame {frame}")
-        if field is not None:
-            where.append(f"field {field}")
-        super().__init__(f"{message} ({', '.join(where)})" if where else message)
 
 
-class CheckpointError(NloLabError):
+class RobotDescriptionError(NloLabError, ValueError):
+    """A URDF, mesh or robot spec file is missing, malformed or inconsistent."""
+
+
+class UnknownRobotError(RobotDescriptionError, LookupError):
+    """A robot name that is neither a bundled robot nor a spec file."""
+
+
+class DemonstrationError(NloLabError, ValueError):
+    """A human demonstration that cannot be read or is not valid (file, frame and field named where they apply)."""
+
+
+class CheckpointError(NloLabError, ValueError):
     """A checkpoint that is missing, corrupt, or made for another robot or format."""
 
 
 class SettingsError(NloLabError, ValueError):
-    """A setting out of range (a negative weight, zero iterations, an unknown init)."""
+    """A setting or argument out of range (a negative weight, zero iterations, an unknown init)."""
 
 
-class OutputError(NloLabError):
+class SettingsTypeError(SettingsError, TypeError):
+    """A setting or argument of the wrong type (a string where a number goes, an int where a path goes)."""
+
+
+class OutputError(NloLabError, OSError):
     """An output place that cannot take the results (a file, blocking entries, no permission)."""
 
 

@@ -269,14 +269,14 @@ def test_bundled_name_wins_over_a_folder_of_that_name(tmp_path, monkeypatch):
 
 
 def test_missing_spec_file(tmp_path):
-    with pytest.raises(RobotDescriptionError, match="not found"):
+    with pytest.raises(RobotDescriptionError, match="no such file"):
         load_robot(tmp_path / "nope.json")
 
 
 def test_missing_urdf_file(tmp_path):
     spec, urdf = copy_robot(tmp_path)
     urdf.unlink()
-    with pytest.raises(RobotDescriptionError, match=r"not found.*nao\.urdf"):
+    with pytest.raises(RobotDescriptionError, match=r"no such file.*nao\.urdf"):
         load_robot(spec)
 
 

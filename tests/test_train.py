@@ -85,7 +85,7 @@ def test_checkpoint_of_another_format_version_is_refused(tmp_path, nao):
 
 
 def test_missing_corrupt_and_foreign_files_are_refused(tmp_path, nao):
-    with pytest.raises(CheckpointError, match="not found"):
+    with pytest.raises(CheckpointError, match="no such file"):
         load_checkpoint(tmp_path / "none.pt", nao)
     bad = tmp_path / "bad.pt"
     bad.write_bytes(b"\x00not a checkpoint" * 10)

@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from nlo_lab.errors import DemonstrationError
+from nlo_lab.files import as_path
 from nlo_lab.human.demonstration import Demonstration
 from nlo_lab.human.io_h5 import load_h5_first, load_h5_sequences
 from nlo_lab.human.io_npz import load_npz, save_npz
@@ -38,8 +37,9 @@ def load_demonstration(path) -> Demonstration:
     Raises:
         DemonstrationError: unknown extension, or any problem the reader finds
             (the message names the file, and the frame and field where they apply).
+        SettingsTypeError, SettingsError: ``path`` is not a file path.
     """
-    path = Path(path)
+    path = as_path(path)
     reader = SUFFIXES.get(path.suffix.lower())
     if reader is None:
         raise DemonstrationError(

@@ -26,6 +26,14 @@ Assumptions (the dataset is not public, so these are documented choices):
   Without either the orientation is masked; without ``glove_pos`` the fingers are masked.
 - fps: attribute ``fps`` on the group, else on the file, else :data:`DEFAULT_FPS`.
 - A group is a sentence when its name contains :data:`SENTENCE_MARKER` (case-insensitive).
+
+Only the file named is read. Refused before any data is read: links to other files
+(external links), virtual datasets (their data lives in other files), datasets stored
+in external raw files, any storage not inside the file, compression filters other than
+HDF5's own (deflate, shuffle, Fletcher-32, scale-offset, n-bit; and LZF), chunks larger
+than :data:`MAX_CHUNK_BYTES`, a file of more than :data:`MAX_H5_BYTES`, more than
+:data:`MAX_GROUPS` entries at its root, and more than
+:data:`~nlo_lab.human.demonstration.MAX_FRAMES` frames in all its sequences together.
 """
 
 from __future__ import annotations
@@ -36,10 +44,18 @@ import h5py
 import numpy as np
 
 from nlo_lab.errors import DemonstrationError
+from nlo_lab.files import format_size, open_input
 from nlo_lab.human.demonstration import FPS_RANGE, MAX_FRAMES, Demonstration
 from nlo_lab.human.transforms import body_frame_from_shoulders, check_arm_lengths, quat_to_matrix, wrist_frame_from_hand
 
-__all__ = ["DEFAULT_FPS", "SENTENCE_MARKER", "GLOVE_POINTS", "GLOVE_FINGER_POINTS", "load_h5_sequences", "load_h5_first"]
+__all__ = ["DEFAULT_FPS", "SENTENCE_MARKER", "GLOVE_POINTS", "GLOVE_FINGER_POINTS", "MAX_H5_BYTES", "MAX_GROUPS",
+           "MAX_CHUNK_BYTES", "load_h5_sequences", "load_h5_first"]
+
+MAX_H5_BYTES = 4 << 30  # the file
+MAX_GROUPS = 100_000  # entries at the file's root (the authors' data set: hundreds of words and sentences)
+MAX_CHUNK_BYTES = 64 << 20  # one chunk of a dataset, inflated: HDF5 inflates a whole chunk to read any part of it
+_FILTERS = {h5py.h5z.FILTER_DEFLATE, h5py.h5z.FILTER_SHUFFLE, h5py.h5z.FILTER_FLETCHER32, h5py.h5z.FILTER_SCALEOFFSET,
+            h5py.h5z.FILTER_NBIT, 32000}  # HDF5's own and h5py's LZF; another id would load a plugin
 
 DEFAULT_FPS = 15.0  # the authors' released samples run at about 15 Hz
 SENTENCE_MARKER = "sentence"
@@ -70,6 +86,7 @@ def _dataset(group: h5py.Group, key: str, shape_tail: tuple[int, ...], path, req
         raise DemonstrationError("no frames", path=path, field=field)
     if obj.shape[0] > MAX_FRAMES:
         raise DemonstrationError(f"declares {obj.shape[0]} frames, more than the {MAX_FRAMES} this nlo_lab reads", path=path, field=field)
+    _check_storage(obj, path, field)
     try:
         value = np.asarray(obj[()], dtype=np.float64)
     except (OSError, ValueError, TypeError) as err:
@@ -78,6 +95,27 @@ def _dataset(group: h5py.Group, key: str, shape_tail: tuple[int, ...], path, req
     if bad.any():
         raise DemonstrationError("NaN or inf", path=path, frame=int(np.argwhere(bad)[0][0]), field=field)
     return value
+
+
+def _check_storage(obj: h5py.Dataset, path, field: str) -> None:
+    """The dataset's bytes are inside this file, stored the ways HDF5 itself reads, in bounded chunks."""
+    plist = obj.id.get_create_plist()
+    layout = plist.get_layout()
+    if layout == h5py.h5d.VIRTUAL:
+        raise DemonstrationError("is a virtual dataset: its data lives in other files, which are not read", path=path, field=field)
+    if plist.get_external_count() > 0:
+        raise DemonstrationError("is stored in an external raw file, which is not read", path=path, field=field)
+    if layout not in (h5py.h5d.COMPACT, h5py.h5d.CONTIGUOUS, h5py.h5d.CHUNKED):
+        raise DemonstrationError(f"has a storage layout ({layout}) that is not inside the file", path=path, field=field)
+    for i in range(plist.get_nfilters()):
+        code = plist.get_filter(i)[0]
+        if code not in _FILTERS:
+            raise DemonstrationError(f"uses the filter {code}, not one of HDF5's own (a plugin would be loaded)", path=path, field=field)
+    if obj.chunks is not None:
+        chunk = int(np.prod(obj.chunks, dtype=np.int64)) * obj.dtype.itemsize
+        if chunk > MAX_CHUNK_BYTES:
+            raise DemonstrationError(f"has chunks of {format_size(chunk)}, more than {format_size(MAX_CHUNK_BYTES)}",
+                                     path=path, field=field)
 
 
 def _member(group: h5py.Group, key: str, path, field: str):
@@ -95,6 +133,13 @@ def _fps(group: h5py.Group, root: h5py.File, path) -> float:
     for holder in (group, root):
         if "fps" in holder.attrs:
             field = f"{holder.name}:fps"
+            try:
+                info = h5py.h5a.open(holder.id, b"fps")
+                shape, dtype = info.shape, info.dtype
+            except (OSError, TypeError, ValueError) as err:
+                raise DemonstrationError(f"unreadable fps attribute ({err})", path=path, field=field) from None
+            if shape is None or int(np.prod(shape, dtype=np.int64)) != 1 or dtype.kind not in "iuf":  # before reading it
+                raise DemonstrationError(f"fps must be one real number, got dtype {dtype} shape {shape}", path=path, field=field)
             try:
                 raw = np.asarray(holder.attrs["fps"])
             except (OSError, TypeError, ValueError) as err:
@@ -183,14 +228,6 @@ def _read_group(group: h5py.Group, root: h5py.File, path: Path) -> Demonstration
     return demo
 
 
-def _groups(path: Path):
-    try:
-        f = h5py.File(path, "r")
-    except FileNotFoundError:
-        raise DemonstrationError("no such file", path=path) from None
-    except (OSError, ValueError) as err:
-        raise DemonstrationError(f"not a readable HDF5 file ({err})", path=path) from None
-    return f
 
 
 def load_h5_sequences(path) -> list[Demonstration]:
@@ -220,12 +257,27 @@ def load_h5_first(path) -> Demonstration:
 
 def _read_groups(path: Path, first_only: bool) -> list[Demonstration]:
     """The sequence groups of ``path`` in sorted order (only the first when ``first_only``)."""
-    with _groups(path) as f:
+    with open_input(path, kind="HDF5", max_bytes=MAX_H5_BYTES, error=DemonstrationError) as handle:
         try:
-            # hard links only: a soft or external link at the root is not a sequence of this file
-            names = sorted(k for k in f.keys() if isinstance(f.get(k, getlink=True), h5py.HardLink) and isinstance(f[k], h5py.Group))
-            if not names:
-                raise DemonstrationError("the file holds no sequence group", path=path)
-            return [_read_group(f[n], f, path) for n in names[: 1 if first_only else None]]
-        except (OSError, KeyError, RuntimeError, ValueError, TypeError) as err:  # truncated / corrupt storage
-            raise DemonstrationError(f"unreadable HDF5 content ({err})", path=path) from None
+            f = h5py.File(handle, "r")
+        except (OSError, ValueError) as err:
+            raise DemonstrationError(f"not a readable HDF5 file ({err})", path=path) from None
+        with f:
+            try:
+                if len(f) > MAX_GROUPS:
+                    raise DemonstrationError(f"the file's root holds {len(f)} entries, more than {MAX_GROUPS}", path=path)
+                # hard links only: a soft or external link at the root is not a sequence of this file
+                names = sorted(k for k in f.keys() if isinstance(f.get(k, getlink=True), h5py.HardLink) and isinstance(f[k], h5py.Group))
+                if not names:
+                    raise DemonstrationError("the file holds no sequence group", path=path)
+                demos, frames = [], 0
+                for n in names[: 1 if first_only else None]:
+                    demos.append(_read_group(f[n], f, path))
+                    frames += len(demos[-1])
+                    if frames > MAX_FRAMES:
+                        raise DemonstrationError(f"its sequences hold more than {MAX_FRAMES} frames together", path=path, field=n)
+                return demos
+            except DemonstrationError:
+                raise
+            except (OSError, KeyError, RuntimeError, ValueError, TypeError) as err:  # truncated / corrupt storage
+                raise DemonstrationError(f"unreadable HDF5 content ({err})", path=path) from None

@@ -10,18 +10,18 @@ Keys: ``format`` (the string ``"nlo_lab.demonstration"``), ``format_version``
 from __future__ import annotations
 
 import json
-import zipfile
-import zlib
 from pathlib import Path
 
 import numpy as np
 
 from nlo_lab.atomic_files import atomic_path
 from nlo_lab.errors import DemonstrationError
+from nlo_lab.files import as_path
 from nlo_lab.human.demonstration import MAX_FRAMES, Demonstration
 from nlo_lab.human.transforms import check_arm_lengths
+from nlo_lab.npz_archive import Member, read_npz_members
 
-__all__ = ["NPZ_FORMAT", "NPZ_FORMAT_VERSION", "save_npz", "load_npz"]
+__all__ = ["NPZ_FORMAT", "NPZ_FORMAT_VERSION", "MAX_NPZ_BYTES", "MAX_NPZ_INFLATED", "save_npz", "load_npz"]
 
 NPZ_FORMAT = "nlo_lab.demonstration"
 NPZ_FORMAT_VERSION = 1
@@ -70,48 +70,19 @@ def save_npz(demo: Demonstration, path) -> Path:
 
 
 _SCALARS = ("format", "format_version", "fps", "name", "meta_json")
-_MAX_TEXT = {"format": 64, "name": 4096, "meta_json": 1 << 20}  # characters
 _MAX_META_DEPTH = 64  # nesting of meta_json's objects and lists
-_FLOATS_PER_FRAME = 2 * 5 * 2 * 3  # the largest array, finger_positions, per frame
-
-
-def _read_member(zf: zipfile.ZipFile, key: str, path: Path) -> np.ndarray:
-    """One ``.npy`` member, its header checked before any data is read."""
-    with zf.open(key + ".npy") as fh:
-        try:
-            version = np.lib.format.read_magic(fh)
-            if version == (1, 0):
-                shape, fortran, dtype = np.lib.format.read_array_header_1_0(fh)
-            elif version == (2, 0):
-                shape, fortran, dtype = np.lib.format.read_array_header_2_0(fh)
-            else:
-                raise ValueError(f"unsupported .npy version {version}")
-        except (ValueError, EOFError, SyntaxError) as err:
-            raise DemonstrationError(f"not a readable array ({err})", path=path, field=key) from None
-        if dtype.hasobject:
-            raise DemonstrationError("holds Python objects (pickles are refused)", path=path, field=key)
-        if key in _SCALARS:
-            if shape != ():
-                raise DemonstrationError(f"must be a scalar, got shape {shape}", path=path, field=key)
-            if dtype.kind == "U" and dtype.itemsize // 4 > _MAX_TEXT.get(key, 0):
-                raise DemonstrationError(f"text of {dtype.itemsize // 4} characters is too long", path=path, field=key)
-        limit = MAX_FRAMES * _FLOATS_PER_FRAME if key not in _SCALARS else 1
-        count = int(np.prod(shape, dtype=np.int64)) if shape else 1
-        if count > limit or count < 0:
-            raise DemonstrationError(f"declares {shape} elements, more than a recording of {MAX_FRAMES} frames holds",
-                                     path=path, field=key)
-        nbytes = count * dtype.itemsize
-        raw = fh.read(nbytes)
-        if len(raw) != nbytes:
-            raise DemonstrationError("truncated array", path=path, field=key)
-    return np.frombuffer(raw, dtype=dtype).reshape(shape, order="F" if fortran else "C").copy()
-
-
-def _read_members(fh, path: Path) -> dict[str, np.ndarray]:
-    """The known members of an open archive; unknown ones are never read."""
-    with zipfile.ZipFile(fh) as zf:
-        present = {n[: -len(".npy")] for n in zf.namelist() if n.endswith(".npy")}
-        return {key: _read_member(zf, key, path) for key in _SCALARS + _ARRAYS if key in present}
+MAX_NPZ_BYTES = 512 << 20  # the file (an archive of MAX_FRAMES frames is 380 MB uncompressed)
+_PER_FRAME = {"arm_positions": 18, "arm_mask": 6, "wrist_rotations": 18, "wrist_mask": 2, "finger_positions": 60, "finger_mask": 10}
+LAYOUT = {
+    "format": Member("U", max_chars=64),
+    "format_version": Member("iuf"),  # a float is named as such by load_npz
+    "fps": Member("iufb"),  # a bool is named as such by Demonstration
+    "name": Member("U", max_chars=4096),
+    "meta_json": Member("U", max_chars=1 << 20),
+    **{key: Member("iufb", ndim=None, max_elements=MAX_FRAMES * n) for key, n in _PER_FRAME.items()},
+}
+# every member at its largest (text: 4 bytes a character, numbers: 8 bytes): what an archive may inflate to, 398 MB
+MAX_NPZ_INFLATED = sum(m.max_elements * (4 * m.max_chars if m.kinds == "U" else 8) for m in LAYOUT.values())
 
 
 def _depth(value, limit: int) -> int:
@@ -146,18 +117,9 @@ def load_npz(path) -> Demonstration:
             missing keys, wrong shapes or dtypes, NaN/inf where the mask says valid,
             fps outside :data:`~nlo_lab.human.demonstration.FPS_RANGE`, an arm of zero length.
     """
-    path = Path(path)
-    try:
-        with open(path, "rb") as fh:
-            if not zipfile.is_zipfile(fh):
-                raise DemonstrationError("not a readable .npz archive (no zip directory)", path=path)
-            content = _read_members(fh, path)
-    except FileNotFoundError:
-        raise DemonstrationError("no such file", path=path) from None
-    except IsADirectoryError:
-        raise DemonstrationError("is a folder, not a file", path=path) from None
-    except (OSError, EOFError, ValueError, zlib.error, zipfile.BadZipFile, NotImplementedError, RuntimeError) as err:
-        raise DemonstrationError(f"not a readable .npz archive ({type(err).__name__}: {err})", path=path) from None
+    path = as_path(path)
+    content = read_npz_members(path, LAYOUT, kind="demonstration archive", max_bytes=MAX_NPZ_BYTES,
+                               max_inflated=MAX_NPZ_INFLATED, error=DemonstrationError)
     if "format" not in content or _text(content, "format", path) != NPZ_FORMAT:
         raise DemonstrationError(f"not an nlo_lab demonstration archive (no format '{NPZ_FORMAT}')", path=path, field="format")
     version = content.get("format_version", np.array(-1))

@@ -78,7 +78,7 @@ from nlo_lab.errors import DemonstrationError
 from nlo_lab.human import conditioning as cond
 from nlo_lab.human import proportions
 from nlo_lab.human.demonstration import ARM_JOINTS, SIDES, Demonstration
-from nlo_lab.human.pose_file import MAX_HEADER_BYTES, MAX_PEOPLE, MIN_CONFIDENCE, PoseComponents, read_pose_file
+from nlo_lab.human.pose_file import MAX_HEADER_BYTES, MAX_PEOPLE, MAX_POSE_BYTES, MIN_CONFIDENCE, PoseComponents, read_pose_file
 from nlo_lab.human.pose_landmarks import (
     DEPTH_SIGN_MARGIN,
     HIP_MIN_CONFIDENCE,
@@ -103,6 +103,7 @@ __all__ = [
     "DEPTH_SIGN_MARGIN",
     "MAX_PEOPLE",
     "MAX_HEADER_BYTES",
+    "MAX_POSE_BYTES",
     "load_pose",
 ]
 

@@ -19,10 +19,11 @@ from pathlib import Path
 import numpy as np
 
 from nlo_lab.errors import DemonstrationError
-from nlo_lab.human.file_head import read_head
+from nlo_lab.files import open_input
 
 __all__ = [
     "VIDEO_SUFFIXES",
+    "MAX_VIDEO_BYTES",
     "VideoInfo",
     "VideoFrames",
     "video_extra",
@@ -35,6 +36,7 @@ __all__ = [
 ]
 
 VIDEO_SUFFIXES = (".mp4", ".mov", ".webm", ".avi")
+MAX_VIDEO_BYTES = 32 << 30  # the file; frames are decoded one at a time, so memory does not grow with it
 
 
 def video_extra(path: Path, module: str):
@@ -60,7 +62,8 @@ def container_kind(head: bytes) -> str | None:
 
 def check_video_file(path: Path) -> None:
     """Missing, empty or non-video files, before any decoder sees them."""
-    head, _ = read_head(path, 16, "video")
+    with open_input(path, kind="video", max_bytes=MAX_VIDEO_BYTES, error=DemonstrationError) as f:
+        head = f.read(16)
     if container_kind(head) is None:
         raise DemonstrationError(
             f"not a video: the contents are no MP4, QuickTime, WebM or AVI container despite the {path.suffix} extension",

@@ -12,7 +12,6 @@ import io
 import json
 import math
 import os
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,11 +20,23 @@ import numpy as np
 
 from nlo_lab.atomic_files import atomic_write_bytes
 from nlo_lab.errors import NloLabError
+from nlo_lab.files import as_path, read_input_bytes
+from nlo_lab.npz_archive import Member, read_npz_members
 
-__all__ = ["RobotTrajectory", "TrajectoryError", "FORMAT_VERSION"]
+__all__ = ["RobotTrajectory", "TrajectoryError", "FORMAT_VERSION", "MAX_TRAJECTORY_BYTES"]
 
 FORMAT_VERSION = 2  # bump when the file layout changes (2: per-frame `time`)
 READ_VERSIONS = (1, 2)  # version 1 files have no `time`: frames are 1/fps apart
+MAX_TRAJECTORY_BYTES = 512 << 20  # a file (.npz or .json), and what an .npz's members may inflate to
+_MAX_JOINTS, _MAX_NAME = 1024, 256  # joints of a trajectory, characters of a name
+_NPZ_LAYOUT = {
+    "format_version": Member("iu"),
+    "robot": Member("U", max_chars=_MAX_NAME),
+    "joint_names": Member("U", ndim=1, max_elements=_MAX_JOINTS, max_chars=_MAX_NAME),
+    "angles": Member("f", ndim=2, max_elements=MAX_TRAJECTORY_BYTES // 8),
+    "fps": Member("iuf"),
+    "time": Member("f", ndim=1, max_elements=MAX_TRAJECTORY_BYTES // 8),
+}
 
 
 class TrajectoryError(NloLabError, ValueError):
@@ -197,23 +208,19 @@ class RobotTrajectory:
         Raises:
             TrajectoryError: missing, unreadable or malformed file (the message names the file).
         """
-        p = Path(path)
+        p = as_path(path)
         suffix = p.suffix.lower()
         if suffix not in (".npz", ".json"):
             raise TrajectoryError(f"{p}: unsupported trajectory file type {p.suffix!r} (expected .npz or .json)")
-        if not p.is_file():
-            raise TrajectoryError(f"{p}: no such file")
         if suffix == ".json":
+            raw = read_input_bytes(p, kind="trajectory", max_bytes=MAX_TRAJECTORY_BYTES, error=TrajectoryError)
             try:
-                data = json.loads(p.read_text(encoding="utf-8"))
-            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+                data = json.loads(raw.decode("utf-8"))
+            except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
                 raise TrajectoryError(f"{p}: not a readable JSON trajectory ({exc})") from None
             return cls.from_dict(data, source=str(p))
-        try:
-            with np.load(p, allow_pickle=False) as z:
-                data = {k: z[k] for k in z.files}
-        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-            raise TrajectoryError(f"{p}: not a readable .npz trajectory ({exc})") from None
+        data = read_npz_members(p, _NPZ_LAYOUT, kind="trajectory", max_bytes=MAX_TRAJECTORY_BYTES,
+                                max_inflated=MAX_TRAJECTORY_BYTES, error=TrajectoryError)
         try:
             data = {
                 "format_version": int(data.get("format_version", FORMAT_VERSION)),

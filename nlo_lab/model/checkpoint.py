@@ -10,20 +10,54 @@ robot, so inference needs the model package only, never the trainer.
 
 from __future__ import annotations
 
+import zipfile
 from pathlib import Path
 from typing import Any
 
 import torch
 
 from nlo_lab.errors import CheckpointError, NloLabError
+from nlo_lab.files import format_size, open_input
 from nlo_lab.human.skeleton import skeleton_graph
 from nlo_lab.model.retarget_model import RetargetModel, build_model
 from nlo_lab.paths import BUNDLED_ROBOTS, CHECKPOINTS_DIR, is_bundled, is_editable_checkout, repair_hint
 from nlo_lab.robot import load_robot
 
-__all__ = ["CHECKPOINT_FORMAT_VERSION", "save_checkpoint", "load_checkpoint", "checkpoint_path", "load_pretrained"]
+__all__ = ["CHECKPOINT_FORMAT_VERSION", "MAX_CHECKPOINT_BYTES", "save_checkpoint", "load_checkpoint", "load_torch_file",
+           "checkpoint_path", "load_pretrained"]
 
 CHECKPOINT_FORMAT_VERSION = 2  # 2: the decoder's rest offset (decoder.rest_pre) is part of the state
+MAX_CHECKPOINT_BYTES = 256 << 20  # the shipped checkpoints are 0.4-0.8 MB
+
+
+def load_torch_file(path, *, kind: str = "checkpoint", max_bytes: int = MAX_CHECKPOINT_BYTES, error=CheckpointError):
+    """``torch.load`` of a file written by ``torch.save``, plain data only (``weights_only=True``), memory bounded.
+
+    The file is checked first (:func:`nlo_lab.files.open_input`: a regular file of at most
+    ``max_bytes``), then its zip directory: ``torch.save`` stores every record uncompressed,
+    so a compressed record (which could inflate to any size) is refused, and the records
+    together must fit in the file. Pickled code never runs (``weights_only``).
+
+    Raises:
+        error: not a regular file, too large, not a zip archive of ``torch.save``, or unreadable.
+    """
+    with open_input(path, kind=kind, max_bytes=max_bytes, error=error) as f:
+        try:
+            with zipfile.ZipFile(f) as zf:
+                records = zf.infolist()
+        except (zipfile.BadZipFile, OSError, ValueError, EOFError, NotImplementedError):
+            raise error(f"cannot be read: corrupt or not a {kind} (no zip archive, which torch.save writes)", path=path) from None
+        compressed = [r.filename for r in records if r.compress_type != zipfile.ZIP_STORED]
+        if compressed:
+            raise error(f"cannot be read: the record {compressed[0]!r} is compressed, which torch.save never does", path=path)
+        total = sum(r.file_size for r in records)
+        if total > max_bytes:
+            raise error(f"cannot be read: its records declare {format_size(total)}, more than the file can hold", path=path)
+        f.seek(0)
+        try:
+            return torch.load(f, map_location="cpu", weights_only=True)
+        except Exception as exc:  # torch raises many types for a damaged file
+            raise error(f"cannot be read (corrupt or not a {kind}): {type(exc).__name__}", path=path) from None
 
 
 def _resolve_robot(robot):
@@ -78,12 +112,7 @@ def load_checkpoint(path, robot) -> RetargetModel:
     """
     path = Path(path)
     robot = _resolve_robot(robot)
-    if not path.is_file():
-        raise CheckpointError(f"checkpoint {path} not found")
-    try:
-        ckpt = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as exc:  # torch raises many types for a damaged file
-        raise CheckpointError(f"checkpoint {path} cannot be read (corrupt or not a checkpoint): {type(exc).__name__}") from None
+    ckpt = load_torch_file(path)
     if not isinstance(ckpt, dict) or "format_version" not in ckpt or "robot" not in ckpt:
         raise CheckpointError(f"checkpoint {path} is not an nlo_lab checkpoint (no format_version/robot)")
     if ckpt["format_version"] != CHECKPOINT_FORMAT_VERSION:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,11 +21,14 @@ from pathlib import Path
 import torch
 
 from nlo_lab.errors import RobotDescriptionError, UnknownRobotError
+from nlo_lab.files import as_path, read_input_bytes
 from nlo_lab.human.demonstration import FINGERS, SIDES
 from nlo_lab.paths import BUNDLED_ROBOTS, ROBOTS_DIR, is_bundled, repair_hint
 from nlo_lab.rotations import rpy_to_matrix
 
-__all__ = ["ArmSpec", "CapsuleSpec", "RobotSpec", "load_spec", "known_robots"]
+__all__ = ["ArmSpec", "CapsuleSpec", "RobotSpec", "load_spec", "known_robots", "MAX_SPEC_BYTES"]
+
+MAX_SPEC_BYTES = 1 << 20  # a robot spec is a few kB of JSON (the bundled ones 3-9 kB)
 
 
 @dataclass(frozen=True)
@@ -151,14 +155,12 @@ def known_robots() -> list[str]:
 
 
 def _resolve(name_or_path: str | Path) -> Path:
-    p = Path(name_or_path)
+    p = as_path(name_or_path, "robot")
     # A bundled name wins over a same-named file or folder in the working directory.
     if isinstance(name_or_path, str) and name_or_path in known_robots():
         return ROBOTS_DIR / f"{name_or_path}.json"
-    if p.suffix == ".json" or p.exists() or len(p.parts) > 1:
-        if not p.is_file():
-            raise RobotDescriptionError(f"robot spec file not found: {p}")
-        return p
+    if p.suffix == ".json" or os.path.lexists(p) or len(p.parts) > 1:
+        return p  # load_spec checks the file before it opens it
     spec = ROBOTS_DIR / f"{name_or_path}.json"
     if not spec.is_file() and name_or_path in BUNDLED_ROBOTS:
         raise RobotDescriptionError(f"robot spec file not found: {spec}; {repair_hint(spec)}")
@@ -194,8 +196,9 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         RobotDescriptionError: a missing or malformed file or field.
     """
     path = _resolve(name_or_path)
+    raw = read_input_bytes(path, kind="robot spec", max_bytes=MAX_SPEC_BYTES, error=RobotDescriptionError)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(raw.decode("utf-8"))
     except UnicodeDecodeError:
         hint = f"; {repair_hint(path)}" if is_bundled(path) else ""
         raise RobotDescriptionError(f"{path}: not a text file (a robot spec is UTF-8 JSON){hint}") from None

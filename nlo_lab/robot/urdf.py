@@ -18,9 +18,12 @@ from typing import Any
 import numpy as np
 
 from nlo_lab.errors import RobotDescriptionError
+from nlo_lab.files import check_input_file
 from nlo_lab.rotations import matrix_to_rpy
 
-__all__ = ["MOVING_TYPES", "SUPPORTED_TYPES", "JointInfo", "URDFModel", "load_urdf", "parse_urdf"]
+__all__ = ["MOVING_TYPES", "SUPPORTED_TYPES", "MAX_URDF_BYTES", "JointInfo", "URDFModel", "load_urdf", "parse_urdf"]
+
+MAX_URDF_BYTES = 16 << 20  # the largest URDF of example-robot-data is well under 1 MB
 
 MOVING_TYPES = ("revolute", "continuous")
 SUPPORTED_TYPES = MOVING_TYPES + ("fixed",)
@@ -124,8 +127,7 @@ def load_urdf(path: str | Path):
     import yourdfpy  # imported here: the FK never needs it once the tree is built
 
     path = Path(path)
-    if not path.is_file():
-        raise RobotDescriptionError(f"URDF file not found: {path}")
+    check_input_file(path, kind="URDF", max_bytes=MAX_URDF_BYTES, error=RobotDescriptionError)
     logger = logging.getLogger("yourdfpy")
     recorder = _LogRecorder()
     logger.addHandler(recorder)

@@ -27,6 +27,7 @@ from torch import nn
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import JointOptimizeSettings, RetargetInputs, optimize_joints
 from nlo_lab.model import EncoderInput
+from nlo_lab.model.checkpoint import load_torch_file
 from nlo_lab.objective import Targets
 from nlo_lab.settings import check_int, check_positive
 from nlo_lab.training.data import corpus_inputs
@@ -222,7 +223,7 @@ def supervised_dataset(robot, settings: SupervisedSettings | None = None, *, use
     path = cache_dir() / f"labels_{robot.name}_{label_key}.pt"
     if use_cache and path.is_file():
         try:
-            blob = torch.load(path, map_location="cpu", weights_only=True)
+            blob = load_torch_file(path, kind="cache file")
             if blob["labels"].shape == (len(data), robot.n_joints):
                 return data, blob["labels"], float(blob["seconds"])
         except Exception:  # a damaged cache file is rebuilt, never trusted
@@ -258,7 +259,7 @@ def supervised_network(robot, settings: SupervisedSettings | None = None, *, use
     lo, hi = robot.lower_limits.float().cpu(), robot.upper_limits.float().cpu()
     if use_cache and path.is_file():
         try:
-            blob = torch.load(path, map_location="cpu", weights_only=True)
+            blob = load_torch_file(path, kind="cache file")
             net = SupervisedNet(int(blob["in_features"]), lo, hi, s.hidden)
             net.load_state_dict(blob["state_dict"])
             net.info = json.loads(blob["info"])
