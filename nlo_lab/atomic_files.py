@@ -15,6 +15,7 @@ import re
 import secrets
 import shutil
 import signal
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -126,15 +127,22 @@ def stale_temp_folders(target: str | os.PathLike) -> list[Path]:
 def check_output_place(target: str | os.PathLike, names: tuple[str, ...]) -> Path:
     """Refuse a target folder that cannot take the set ``names``; returns its absolute path.
 
-    Refused: a target that exists but is not a folder (a file, ``/dev/null``), a path
-    below a file, the current folder or one of its parents, a folder holding an entry
-    of the set that is not a plain file or holding a sub-folder or other non-file (the
-    swap carries plain files over; it cannot carry folders), or a place we may not write.
+    Refused: an empty path; a target that exists but is not a folder (a file, ``/dev/null``),
+    a path below a file, the root, the current folder or one of its parents, a folder holding
+    an entry of the set that is not a plain file or holding a sub-folder or other non-file (the
+    swap carries plain files over; it cannot carry folders), an existing folder owned by
+    another user or without write permission for its owner (the swap replaces the folder as a
+    whole: a folder someone made read-only, or someone else's, is not ours to replace), or a
+    place we may not write in. Checked before any input is read.
 
     Raises:
         OutputError: naming the target and the reason.
     """
+    if not isinstance(target, (str, os.PathLike)) or not os.fspath(target):
+        raise OutputError(f"the output folder must be a non-empty path, got {target!r}")
     raw = Path(target)
+    if "\x00" in str(raw):
+        raise OutputError(f"the output folder {str(raw)!r} holds a NUL character")
     target = Path(os.path.realpath(raw))
     if target == Path(target.anchor):
         raise OutputError(f"{raw} is the root folder")
@@ -143,6 +151,12 @@ def check_output_place(target: str | os.PathLike, names: tuple[str, ...]) -> Pat
     if os.path.lexists(target):
         if not target.is_dir():
             raise OutputError(f"{raw} exists and is not a folder")
+        st = os.stat(target)
+        if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+            raise OutputError(f"{raw} belongs to another user (uid {st.st_uid}); nlo-lab replaces its output folder "
+                              "as a whole, so it writes only into a folder of your own or a new one")
+        if not st.st_mode & stat.S_IWUSR or not os.access(target, os.W_OK | os.X_OK):
+            raise OutputError(f"{raw} is read-only (mode {stat.S_IMODE(st.st_mode):o}); make it writable or choose another folder")
         with os.scandir(target) as entries:
             blocking = sorted(e.name for e in entries if not e.is_file(follow_symlinks=False))
         if blocking:

@@ -6,6 +6,11 @@ than one intra-op thread, each operation hands work to a thread pool; on a
 a 1.5 s job can take a minute (measured: FK of 133 frames of YuMi, 1.5 ms on
 one thread against 95 ms on two, with a second process busy). So the command
 line, the notebooks and :func:`nlo_lab.inference.retarget` use one thread.
+
+``NLO_LAB_THREADS`` is validated like the ``--threads`` flag: a whole number in
+:data:`THREADS_RANGE` (1..256), else a :class:`~nlo_lab.errors.SettingsError` naming the
+variable (exit status 2 on the command line). torch crashes (SIGSEGV) when asked for 100,000
+threads, so a bad value is refused before any thread is made.
 """
 
 from __future__ import annotations
@@ -14,24 +19,54 @@ import contextlib
 import os
 from collections.abc import Iterator
 
-import torch
+from nlo_lab.errors import SettingsError
+from nlo_lab.settings import check_int
 
-__all__ = ["single_thread", "default_threads"]
+__all__ = ["THREADS_RANGE", "check_threads", "env_threads", "single_thread", "default_threads"]
+
+THREADS_RANGE = (1, 256)  # torch threads or pose-estimation processes: the --threads flag's range too
+ENV = "NLO_LAB_THREADS"
+
+
+def check_threads(name: str, value) -> int:
+    """A thread count: a whole number in :data:`THREADS_RANGE`."""
+    return check_int(name, value, *THREADS_RANGE)
+
+
+def env_threads() -> int | None:
+    """``NLO_LAB_THREADS`` as a whole number in :data:`THREADS_RANGE`; None when it is unset or empty.
+
+    Raises:
+        SettingsError: any other value (a word, 0, 100000, a 20-digit number), naming the variable.
+    """
+    text = os.environ.get(ENV, "").strip()
+    if not text:
+        return None
+    lo, hi = THREADS_RANGE
+    if len(text) > 40:  # int() of a huge digit string is slow, and its echo floods the line
+        raise SettingsError(f"{ENV} must be a whole number in [{lo}, {hi}], got {len(text)} characters")
+    try:
+        value = int(text)
+    except ValueError:
+        raise SettingsError(f"{ENV} must be a whole number in [{lo}, {hi}], got {text!r}") from None
+    if not lo <= value <= hi:
+        raise SettingsError(f"{ENV} must be a whole number in [{lo}, {hi}], got {text}")
+    return value
 
 
 def default_threads() -> int:
-    """Threads for our work: ``NLO_LAB_THREADS`` if set, else 1."""
-    try:
-        return max(1, int(os.environ.get("NLO_LAB_THREADS", "1")))
-    except ValueError:
-        return 1
+    """Threads for our work: ``NLO_LAB_THREADS`` if set (validated, :func:`env_threads`), else 1."""
+    return env_threads() or 1
 
 
 @contextlib.contextmanager
 def single_thread(n: int | None = None) -> Iterator[None]:
     """Run the block with ``n`` torch threads (default :func:`default_threads`), then restore."""
+    import torch
+
+    n = default_threads() if n is None else check_threads("threads", n)
     previous = torch.get_num_threads()
-    torch.set_num_threads(n or default_threads())
+    torch.set_num_threads(n)
     try:
         yield
     finally:

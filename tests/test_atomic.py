@@ -98,3 +98,46 @@ def test_missing_folder_is_an_error(tmp_path):
     with pytest.raises(FileNotFoundError):
         atomic_write_bytes(tmp_path / "nope" / "x.bin", b"x")
     assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------------------- output places refused before any input is read (issue 25)
+def test_an_empty_output_path_is_refused():
+    from nlo_lab.atomic_files import check_output_place
+    from nlo_lab.errors import OutputError
+
+    for bad in ("", None, 5):
+        with pytest.raises(OutputError, match="must be a non-empty path"):
+            check_output_place(bad, ("a",))
+
+
+def test_a_read_only_output_folder_is_refused(tmp_path):
+    """Also as root, who may write anywhere: a folder made read-only is not ours to replace."""
+    from nlo_lab.atomic_files import check_output_place, output_set
+    from nlo_lab.errors import OutputError
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "a").write_text("old")
+    out.chmod(0o555)
+    try:
+        with pytest.raises(OutputError, match=r"out is read-only \(mode 555\)"):
+            check_output_place(out, ("a",))
+        with pytest.raises(OutputError, match="read-only"), output_set(out, ("a",)) as tmp:
+            (tmp / "a").write_text("new")
+        assert (out / "a").read_text() == "old" and sorted(os.listdir(tmp_path)) == ["out"]
+    finally:
+        out.chmod(0o755)
+
+
+def test_an_output_folder_of_another_user_is_refused(tmp_path):
+    from nlo_lab.atomic_files import check_output_place
+    from nlo_lab.errors import OutputError
+
+    if os.geteuid() == 0:
+        theirs = tmp_path / "theirs"
+        theirs.mkdir(mode=0o777)
+        os.chown(theirs, 65534, 65534)
+    else:
+        theirs = Path("/usr")  # root's, whatever the test user
+    with pytest.raises(OutputError, match=r"belongs to another user \(uid \d+\)"):
+        check_output_place(theirs, ("a",))

@@ -20,7 +20,7 @@ cv2 = pytest.importorskip("cv2", reason="the video extra (opencv) is not install
 from cli_errors import assert_one_line_error  # noqa: E402
 
 from nlo_lab.cli import main  # noqa: E402
-from nlo_lab.errors import DemonstrationError  # noqa: E402
+from nlo_lab.errors import DemonstrationError, SettingsError  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
 from nlo_lab.human.io_video import (  # noqa: E402
     VIDEO_SUFFIXES,
@@ -162,7 +162,7 @@ def test_pose_workers_never_more_than_asked_available_or_useful(monkeypatch):
     assert pose_workers(frames=5 * pose_estimation.SEGMENT_FRAMES + 1) == 6
     monkeypatch.setattr(pose_estimation, "_available_cores", lambda: 1)
     assert pose_workers(8) == 1  # never more than the cores available
-    with pytest.raises(DemonstrationError, match="threads"):
+    with pytest.raises(SettingsError, match="threads"):
         pose_workers(0)
 
 

@@ -34,6 +34,7 @@ import numpy as np
 
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human.video_frames import VideoFrames, native_output_silenced, open_video, video_extra
+from nlo_lab.threads import check_threads, env_threads
 
 __all__ = [
     "MODEL_COMPLEXITY",
@@ -69,25 +70,17 @@ def pose_workers(threads: int | None = None, frames: int = 0) -> int:
     """Holistic instances to run side by side.
 
     Args:
-        threads: the most the caller allows; None: ``NLO_LAB_THREADS`` if set, else no limit.
+        threads: the most the caller allows, 1..256; None: ``NLO_LAB_THREADS`` if set, else no limit.
         frames: the video's frame count (0: unknown): no more workers than it has segments of
             :data:`SEGMENT_FRAMES`.
 
     Returns:
         ``min(threads, cores available, segments)``, at least 1.
+
+    Raises:
+        SettingsError: ``threads`` or ``NLO_LAB_THREADS`` not a whole number in 1..256.
     """
-    if threads is None:
-        env = os.environ.get("NLO_LAB_THREADS")
-        try:
-            asked = int(env) if env else None
-        except ValueError:
-            asked = None
-        if asked is not None and asked < 1:
-            asked = 1
-    else:
-        asked = int(threads)
-        if asked < 1:
-            raise DemonstrationError(f"threads must be >= 1, got {asked}")
+    asked = env_threads() if threads is None else check_threads("threads", threads)
     workers = _available_cores() if asked is None else min(asked, _available_cores())
     if frames > 0:
         workers = min(workers, -(-int(frames) // SEGMENT_FRAMES))
