@@ -13,7 +13,9 @@ workers, the landmarks, and so the demonstration, are the same for any number of
 workers, frame by frame, in the video's order. The number of workers
 (:func:`pose_workers`) is the cores this process may use (``os.sched_getaffinity``,
 else ``os.cpu_count()``), never more than asked for (``threads``, ``--threads N``, or
-``NLO_LAB_THREADS``), nor more than the video has segments.
+``NLO_LAB_THREADS``), nor more than the video has segments, nor more than fit their
+frames in :data:`IN_FLIGHT_BYTES` (frames larger than :data:`MAX_ESTIMATION_SIDE` are
+shrunk before MediaPipe sees them, so that is several workers even for 8K video).
 
 Segments can also be estimated apart, in other processes or on other machines
 (``nlo-lab batch`` does): :func:`segment_bounds` cuts the video at the same frames,
@@ -55,6 +57,10 @@ MODEL_COMPLEXITY = 1
 # tracking restarts rarely (once a second at 30 fps), short enough that the 58-frame sample
 # already has two segments for two cores.
 SEGMENT_FRAMES = 30
+# Frames go to MediaPipe with a longer side of at most this (a larger frame is shrunk first: the models
+# see 256-pixel crops, so more pixels only cost memory): a segment of 30 frames is at most 187 MB.
+MAX_ESTIMATION_SIDE = 1920
+IN_FLIGHT_BYTES = 1 << 30  # decoded frames waiting for or inside the Holistic instances, at most (workers capped to fit)
 _POSE = "POSE_LANDMARKS"
 
 
@@ -85,6 +91,13 @@ def pose_workers(threads: int | None = None, frames: int = 0) -> int:
     if frames > 0:
         workers = min(workers, -(-int(frames) // SEGMENT_FRAMES))
     return max(1, workers)
+
+
+def _workers_in_memory(info) -> int:
+    """The most workers whose segments fit in :data:`IN_FLIGHT_BYTES` (each worker's, one waiting, one being decoded)."""
+    scale = min(1.0, MAX_ESTIMATION_SIDE / max(info.width, info.height, 1))
+    segment = SEGMENT_FRAMES * 3 * max(1, round(info.width * scale)) * max(1, round(info.height * scale))
+    return max(1, IN_FLIGHT_BYTES // segment - 2)
 
 
 @dataclass
@@ -180,9 +193,9 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
 
     path = Path(path)
     info = open_video(path)
-    workers = pose_workers(threads, info.frames)
+    workers = min(pose_workers(threads, info.frames), _workers_in_memory(info))
     load_holistic = video_extra(path, "pose_format.utils.holistic").load_holistic
-    frames = VideoFrames(path, info)
+    frames = VideoFrames(path, info, max_side=MAX_ESTIMATION_SIDE)
 
     def segment_pose(segment: list[np.ndarray]):
         return _holistic(load_holistic, segment, info)
@@ -268,7 +281,7 @@ def estimate_segment(path, first: int = 0, end: int | None = None) -> SegmentPos
     path = Path(path)
     info = open_video(path)
     load_holistic = video_extra(path, "pose_format.utils.holistic").load_holistic
-    frames = VideoFrames(path, info, first=first, count=None if end is None else end - first)
+    frames = VideoFrames(path, info, max_side=MAX_ESTIMATION_SIDE, first=first, count=None if end is None else end - first)
     start = time.perf_counter()
     with native_output_silenced():
         poses = [_holistic(load_holistic, segment, info) for segment in _segments(frames, SEGMENT_FRAMES)]

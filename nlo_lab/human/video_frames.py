@@ -4,6 +4,13 @@ Needs the ``video`` extra (``pip install "nlo_lab[video]"``, which brings opencv
 Faults end in :class:`~nlo_lab.errors.DemonstrationError` naming the file: missing or
 empty file, contents that are not a video container, a video no decoder opens or no frame
 of which decodes, a truncated video (fewer frames decode than its header announces).
+
+Memory stays bounded whatever the file: the container's announced size and frame count are
+checked before any frame is decoded (a side of at most :data:`MAX_VIDEO_SIDE` pixels, at
+most :data:`MAX_VIDEO_PIXELS` pixels a frame, at most
+:data:`~nlo_lab.human.demonstration.MAX_FRAMES` frames); a decoded frame of another size
+than announced, or more frames than that, is an error; frames are decoded one at a time,
+and :func:`read_video_frames` keeps at most :data:`MAX_SHOWN_BYTES` of them.
 """
 
 from __future__ import annotations
@@ -19,11 +26,15 @@ from pathlib import Path
 import numpy as np
 
 from nlo_lab.errors import DemonstrationError
-from nlo_lab.files import open_input
+from nlo_lab.files import format_size, open_input
+from nlo_lab.human.demonstration import MAX_FRAMES
 
 __all__ = [
     "VIDEO_SUFFIXES",
     "MAX_VIDEO_BYTES",
+    "MAX_VIDEO_SIDE",
+    "MAX_VIDEO_PIXELS",
+    "MAX_SHOWN_BYTES",
     "VideoInfo",
     "VideoFrames",
     "video_extra",
@@ -37,6 +48,9 @@ __all__ = [
 
 VIDEO_SUFFIXES = (".mp4", ".mov", ".webm", ".avi")
 MAX_VIDEO_BYTES = 32 << 30  # the file; frames are decoded one at a time, so memory does not grow with it
+MAX_VIDEO_SIDE = 7680  # pixels: 8K UHD's width
+MAX_VIDEO_PIXELS = 7680 * 4320  # a frame (8K UHD: 33 MP, 100 MB decoded)
+MAX_SHOWN_BYTES = 1 << 30  # the frames read_video_frames keeps (RGB, shrunk to max_side)
 
 
 def video_extra(path: Path, module: str):
@@ -110,7 +124,21 @@ def open_video(path: Path) -> VideoInfo:
             cap.release()
     if not (np.isfinite(fps) and 0 < fps <= 1000):
         raise DemonstrationError(f"the video's frame rate is not usable ({fps})", path=path, field="fps")
+    check_video_size(path, info)
     return info
+
+
+def check_video_size(path: Path, info: VideoInfo) -> None:
+    """The announced frame size and count within the limits (before any frame is decoded)."""
+    w, h = info.width, info.height
+    if w <= 0 or h <= 0:
+        raise DemonstrationError(f"the container announces no usable frame size ({w}x{h})", path=path)
+    if max(w, h) > MAX_VIDEO_SIDE or w * h > MAX_VIDEO_PIXELS:
+        raise DemonstrationError(f"the container announces frames of {w}x{h} pixels, more than nlo_lab reads "
+                                 f"(a side of at most {MAX_VIDEO_SIDE}, at most {MAX_VIDEO_PIXELS:,} pixels: 8K UHD)", path=path)
+    if info.frames > MAX_FRAMES:
+        raise DemonstrationError(f"the container announces {info.frames} frames, more than the {MAX_FRAMES} this nlo_lab reads",
+                                 path=path)
 
 
 class VideoFrames:
@@ -131,10 +159,16 @@ class VideoFrames:
             if self.first and not (cap.set(cv2.CAP_PROP_POS_FRAMES, self.first)
                                    and int(cap.get(cv2.CAP_PROP_POS_FRAMES)) == self.first):
                 raise DemonstrationError(f"cannot seek to frame {self.first} (a damaged or unusual container)", path=self.path)
+            w, h = self.info.width, self.info.height
             while self.limit is None or self.count < self.limit:
                 ok, bgr = cap.read()
                 if not ok or bgr is None:
                     return
+                if bgr.shape[:2] not in ((h, w), (w, h)):  # (w, h): a frame turned by the container's rotation
+                    raise DemonstrationError(f"frame {self.first + self.count} decodes to {bgr.shape[1]}x{bgr.shape[0]} pixels, "
+                                             f"not the {w}x{h} its container announces", path=self.path, frame=self.first + self.count)
+                if self.first + self.count >= MAX_FRAMES:
+                    raise DemonstrationError(f"more than the {MAX_FRAMES} frames this nlo_lab reads decode", path=self.path)
                 if self.max_side and max(bgr.shape[:2]) > self.max_side:
                     s = self.max_side / max(bgr.shape[:2])
                     bgr = cv2.resize(bgr, (max(1, round(bgr.shape[1] * s)), max(1, round(bgr.shape[0] * s))),
@@ -168,12 +202,26 @@ def read_video_frames(path, max_side: int | None = 360) -> np.ndarray:
         ``(T, H, W, 3)`` ``uint8``.
 
     Raises:
-        DemonstrationError: as :func:`nlo_lab.human.io_video.load_video` for unreadable, non-video or truncated files.
+        DemonstrationError: as :func:`nlo_lab.human.io_video.load_video` for unreadable, non-video or truncated
+            files; frames that would take more than :data:`MAX_SHOWN_BYTES` (checked from the container's
+            announcement before decoding, and again while decoding).
     """
     path = Path(path)
-    frames = VideoFrames(path, open_video(path), max_side)
+    info = open_video(path)
+    scale = min(1.0, max_side / max(info.width, info.height)) if max_side else 1.0
+    frame_bytes = max(1, round(info.width * scale)) * max(1, round(info.height * scale)) * 3
+    if info.frames * frame_bytes > MAX_SHOWN_BYTES:
+        raise DemonstrationError(f"{info.frames} frames of {format_size(frame_bytes)} would take more than the "
+                                 f"{format_size(MAX_SHOWN_BYTES)} kept for showing them (a smaller max_side helps)", path=path)
+    frames = VideoFrames(path, info, max_side)
+    images, total = [], 0
     with native_output_silenced():
-        images = list(frames)
+        for image in frames:
+            total += image.nbytes
+            if total > MAX_SHOWN_BYTES:
+                raise DemonstrationError(f"its frames take more than the {format_size(MAX_SHOWN_BYTES)} kept for showing them "
+                                         "(more frames decode than its container announces)", path=path)
+            images.append(image)
     frames.check_complete()
     return np.stack(images)
 

@@ -303,3 +303,67 @@ def test_npz_member_with_more_bytes_than_declared(tmp_path):
     _replace_member(path, "fps", fps, [b"trailing"])
     with pytest.raises(DemonstrationError, match="holds more bytes than its header declares"):
         load_demonstration(path)
+
+
+# ----------------------------------------------------------------------------- videos: sizes checked before decoding
+def _avi(path, w=128, h=96, frames=5):
+    cv2 = pytest.importorskip("cv2")
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (w, h))
+    for i in range(frames):
+        writer.write(np.full((h, w, 3), 40 * i, np.uint8))
+    writer.release()
+    return path
+
+
+def test_a_video_announcing_8192_by_8192_is_refused_before_decoding(tmp_path, monkeypatch):
+    """The issue's case (over 6 GiB): refused from the container's announcement, no frame decoded."""
+    from nlo_lab.human import video_frames
+
+    path = _avi(tmp_path / "huge.avi", 8192, 8192, frames=1)
+    decoded = []
+    monkeypatch.setattr(video_frames.VideoFrames, "__iter__", lambda self: decoded.append(1) or iter(()))
+    with pytest.raises(DemonstrationError, match=r"announces frames of 8192x8192 pixels, more than nlo_lab reads") as err:
+        load_demonstration(path)
+    assert "huge.avi" in str(err.value) and not decoded
+
+
+def test_a_video_announcing_a_million_frames_is_refused(tmp_path):
+    path = _avi(tmp_path / "long.avi")
+    raw = bytearray(path.read_bytes())
+    at = raw.index(b"strh") + 16 + 24  # the stream header's dwLength
+    struct.pack_into("<I", raw, at, 1_000_000)
+    path.write_bytes(bytes(raw))
+    with pytest.raises(DemonstrationError, match="announces 1000000 frames, more than the 432000"):
+        load_demonstration(path)
+
+
+def test_a_frame_of_another_size_than_announced_is_an_error(tmp_path):
+    from nlo_lab.human.video_frames import VideoFrames, VideoInfo
+
+    path = _avi(tmp_path / "v.avi", 128, 96)
+    frames = VideoFrames(path, VideoInfo(10.0, 64, 48, 5))
+    with pytest.raises(DemonstrationError, match="frame 0 decodes to 128x96 pixels, not the 64x48 its container announces"):
+        list(frames)
+    assert len(list(VideoFrames(path, VideoInfo(10.0, 128, 96, 5)))) == 5
+
+
+def test_shown_frames_are_bounded(tmp_path, monkeypatch):
+    from nlo_lab.human import video_frames
+
+    path = _avi(tmp_path / "v.avi", 128, 96, frames=5)
+    assert video_frames.read_video_frames(path, max_side=None).shape == (5, 96, 128, 3)
+    monkeypatch.setattr(video_frames, "MAX_SHOWN_BYTES", 4 * 128 * 96 * 3)
+    with pytest.raises(DemonstrationError, match=r"5 frames of 36.0 KiB would take more than the 144.0 KiB"):
+        video_frames.read_video_frames(path, max_side=None)
+
+
+def test_estimation_frames_and_workers_fit_in_memory():
+    from nlo_lab.human.pose_estimation import IN_FLIGHT_BYTES, MAX_ESTIMATION_SIDE, SEGMENT_FRAMES, _workers_in_memory
+    from nlo_lab.human.video_frames import VideoInfo
+
+    for w, h in ((640, 480), (1920, 1080), (3840, 2160), (7680, 4320)):
+        workers = _workers_in_memory(VideoInfo(30.0, w, h, 100))
+        s = min(1.0, MAX_ESTIMATION_SIDE / max(w, h))
+        segment = SEGMENT_FRAMES * 3 * round(w * s) * round(h * s)
+        assert workers >= 1 and (workers + 2) * segment <= max(IN_FLIGHT_BYTES, 3 * segment)
+    assert _workers_in_memory(VideoInfo(30.0, 7680, 4320, 100)) == _workers_in_memory(VideoInfo(30.0, 1920, 1080, 100)) == 3
