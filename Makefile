@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test lab bench clean browser lint wheel-check export-js
+.PHONY: setup demo test lab bench results clean browser lint wheel-check export-js
 
 setup: $(STAMP)
 
@@ -68,6 +68,13 @@ bench: setup
 	$(PY) benchmarks/video.py $(if $(QUICK),--repeats 1 --no-cli --no-write,)
 	$(PY) benchmarks/conditioning.py
 	$(PY) benchmarks/motion.py $(if $(QUICK),--robots yumi --clips 3 --no-write,)
+
+# Every figure the docs quote, from the code as it is: tools/results.py runs each benchmark, which rewrites its
+# sections of docs/RESULTS.md (stamped: commit, machine, load, date). Resumable (a finished step is skipped while
+# the code is unchanged; FORCE=1 reruns). QUICK=1: a short run of every step into build/results-quick/RESULTS.md.
+# ONLY=a,b runs some steps; `python tools/results.py --list` lists them with their time on an idle machine.
+results: setup
+	$(PY) tools/results.py $(if $(QUICK),--quick,) $(if $(FORCE),--force,) $(if $(ONLY),--only $(ONLY),)
 
 clean:
 	rm -rf $(VENV) build *.egg-info

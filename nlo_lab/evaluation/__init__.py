@@ -9,6 +9,7 @@ The supervised baseline's network is trained by :mod:`nlo_lab.training.supervise
 """
 
 from nlo_lab.evaluation.methods import (
+    EVALUATION_MODES,
     LATENT_METHODS,
     METHODS,
     BaselineSettings,
@@ -29,7 +30,7 @@ from nlo_lab.evaluation.tables import COLLISION_MARK, JSON_KEYS, format_table, t
 
 __all__ = [
     # methods
-    "METHODS", "LATENT_METHODS", "BaselineSettings", "MethodResult", "latent_encoder", "encoder_only",
+    "METHODS", "LATENT_METHODS", "EVALUATION_MODES", "BaselineSettings", "MethodResult", "latent_encoder", "encoder_only",
     "latent_random", "joint_space", "nn_supervised", "ik", "ik_wrists", "wrist_positions", "run_method", "mean_objective",
     # scores
     "SequenceScore", "Evaluation", "check_methods", "evaluate", "evaluate_split",

@@ -4,7 +4,16 @@ Every method is a function ``method(robot, demo, settings=None, **context) ->
 MethodResult`` that turns a human :class:`~nlo_lab.human.Demonstration` into
 joint angles ``(T, n)`` inside the limits, and measures its own wall time (from
 the demonstration to the angles: targets, mapping and features included;
-training of a network excluded):
+training of a network excluded). Two modes (:data:`EVALUATION_MODES`,
+``BaselineSettings.mode``) give the paper's Table I twice:
+
+* ``"robot-ready"`` (the default): the objective and pipeline of ``nlo-lab retarget`` as
+  shipped: the smoothness term (``LossWeights.smooth``) and warm start along the
+  sequence, and the latent methods' output retimed to the joint velocity limits.
+* ``"paper"``: the paper's objective (no smoothness term, frames independent) and no
+  retiming.
+
+The methods:
 
 * ``latent_encoder``: the method: encoder initialisation + latent optimisation.
 * ``encoder_only``: the encoder's latent decoded, no optimisation (the paper's 'Init').
@@ -30,14 +39,15 @@ import numpy as np
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetConfig, optimize_joints
+from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetConfig, optimize_joints, retime_times
 from nlo_lab.objective import LossWeights, objective, targets_from_demonstration
-from nlo_lab.settings import check_int, check_positive, validate_fields
+from nlo_lab.settings import check_choice, check_int, check_positive, validate_fields
 from nlo_lab.training import SupervisedNet, SupervisedSettings, supervised_network
 
 __all__ = [
     "METHODS",
     "LATENT_METHODS",
+    "EVALUATION_MODES",
     "BaselineSettings",
     "MethodResult",
     "latent_encoder",
@@ -54,6 +64,7 @@ __all__ = [
 
 METHODS = ("latent_encoder", "encoder_only", "latent_random", "joint_space", "nn_supervised", "ik")
 LATENT_METHODS = ("latent_encoder", "encoder_only", "latent_random")  # need a trained model
+EVALUATION_MODES = ("robot-ready", "paper")  # module docstring
 
 
 @dataclass(frozen=True)
@@ -70,6 +81,11 @@ class BaselineSettings:
         ik_damping: λ of ``ik`` [m]: ``dq = Jᵀ (J Jᵀ + λ² I)⁻¹ e``.
         ik_tolerance: ``ik`` stops when every wrist error is below this [m].
         supervised: :class:`SupervisedSettings` of ``nn_supervised``.
+        mode: ``"robot-ready"`` (the shipped defaults: smoothness term, warm start, the latent
+            methods retimed) or ``"paper"`` (the paper's objective, no smoothness term, no
+            retiming); see the module docstring.
+        weights: the objective of the latent methods and ``joint_space``; None: the mode's
+            (``LossWeights()``, in paper mode with ``smooth=0``).
     """
 
     iterations: int = 100
@@ -81,13 +97,30 @@ class BaselineSettings:
     ik_damping: float = 0.05
     ik_tolerance: float = 1e-4
     supervised: SupervisedSettings = field(default_factory=SupervisedSettings)
+    mode: str = "robot-ready"
+    weights: LossWeights | None = None
 
     def __post_init__(self) -> None:
+        check_choice("evaluation mode", self.mode, EVALUATION_MODES)
+        if self.weights is not None and not isinstance(self.weights, LossWeights):
+            raise SettingsError(f"weights must be a LossWeights, got {type(self.weights).__name__}")
         validate_fields(self, lambda name, v: check_int(name, v, 0), names=("iterations", "seed", "ik_iterations"))
         validate_fields(self, lambda name, v: check_int(name, v, 1), names=("patience",))
         validate_fields(self, check_positive, names=("random_sigma", "joint_lr", "ik_damping", "ik_tolerance"))
         if not isinstance(self.supervised, SupervisedSettings):
             raise SettingsError(f"supervised must be a SupervisedSettings, got {type(self.supervised).__name__}")
+
+    @property
+    def loss_weights(self) -> LossWeights:
+        """The objective's weights: ``weights``, else the mode's (paper: no smoothness term)."""
+        if self.weights is not None:
+            return self.weights
+        return LossWeights(smooth=0.0) if self.mode == "paper" else LossWeights()
+
+    @property
+    def retime(self) -> bool:
+        """Whether the latent methods' output is retimed (robot-ready mode)."""
+        return self.mode == "robot-ready"
 
 
 @dataclass
@@ -100,6 +133,8 @@ class MethodResult:
         seconds: wall time from the demonstration to the angles [s].
         history: mean loss per iteration where the method iterates (else empty).
         iterations: iterations taken.
+        times: ``(T,)`` when each frame plays [s] where the method retimed its output
+            (robot-ready mode, latent methods); None: frames 1/fps apart.
     """
 
     method: str
@@ -107,6 +142,7 @@ class MethodResult:
     seconds: float
     history: list[float] = field(default_factory=list)
     iterations: int = 0
+    times: np.ndarray | None = None
 
 
 def _numpy(q: torch.Tensor) -> np.ndarray:
@@ -115,12 +151,15 @@ def _numpy(q: torch.Tensor) -> np.ndarray:
 
 def _latent(name: str, robot, demo, settings: BaselineSettings, model, init: str, iterations: int) -> MethodResult:
     """The retargeting pipeline's optimisation (:class:`~nlo_lab.inference.RetargetConfig`) with the
-    evaluation's fixed budget: the whole sequence as one batch, no retiming, default weights."""
+    evaluation's fixed budget and the mode's weights, the whole sequence as one batch; retimed
+    to the velocity limits in robot-ready mode (as :meth:`~nlo_lab.inference.Retargeter.__call__` does)."""
     opt = OptimizeSettings(init=init, iterations=iterations, patience=settings.patience, latent_sigma=settings.random_sigma, seed=settings.seed)
-    retargeter = RetargetConfig(robot, opt, model=model, chunk_frames=None, retime=False).build()
+    retargeter = RetargetConfig(robot, opt, settings.loss_weights, model=model, chunk_frames=None, retime=settings.retime).build()
     start = time.perf_counter()
     r = retargeter.optimize(retargeter.inputs(demo))
-    return MethodResult(name, _numpy(r.q), time.perf_counter() - start, list(r.history), r.iterations)
+    angles = _numpy(r.q)
+    times = retime_times(angles, demo.fps, robot.velocity_limits.double().numpy()) if settings.retime else None
+    return MethodResult(name, angles, time.perf_counter() - start, list(r.history), r.iterations, times)
 
 
 def latent_encoder(robot, demo, settings: BaselineSettings | None = None, *, model=None, **_) -> MethodResult:
@@ -149,11 +188,12 @@ def latent_random(robot, demo, settings: BaselineSettings | None = None, *, mode
 
 
 def joint_space(robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResult:
-    """Adam on the angles from the robot's neutral pose (``JointOptimizeSettings`` default), same objective, clamped to the limits."""
+    """Adam on the angles from the robot's neutral pose (``JointOptimizeSettings`` default), the mode's objective, clamped to the limits."""
     s = settings or BaselineSettings()
     start = time.perf_counter()
     targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)
-    r = optimize_joints(robot, targets, JointOptimizeSettings(iterations=s.iterations, patience=s.patience, lr=s.joint_lr), fast=True)
+    r = optimize_joints(robot, targets, JointOptimizeSettings(iterations=s.iterations, patience=s.patience, lr=s.joint_lr), fast=True,
+                        weights=s.loss_weights)
     return MethodResult("joint_space", _numpy(r.q), time.perf_counter() - start, list(r.history), r.iterations)
 
 

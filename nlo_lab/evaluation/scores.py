@@ -11,10 +11,13 @@ time. ``--json`` prints the contract object as the last line of stdout::
                         "velocity_violations": n, "max_joint_speed_ratio": r, "slowdown": x,
                         "depth": "world"}}}
 
-The joint-speed keys take each method's output as it is, frames 1/fps apart
-(no method retimes here; ``nlo-lab retarget`` does): ``velocity_violations`` summed over
-the sequences, ``max_joint_speed_ratio`` and ``slowdown`` (what retiming would need) the
-largest over the sequences, ``depth`` the demonstrations' (``"world"`` for the corpus).
+The joint-speed keys take each method's output as it is: on its own time base, which for
+the latent methods in robot-ready mode (the default, ``--mode robot-ready``) is the retimed
+one of ``nlo-lab retarget``, and otherwise frames 1/fps apart: ``velocity_violations`` summed
+over the sequences, ``max_joint_speed_ratio`` and ``slowdown`` (how much longer the retimed
+motion is, or would be) the largest over the sequences, ``depth`` the demonstrations'
+(``"world"`` for the corpus). ``--mode paper`` evaluates the paper's objective instead (no
+smoothness term, no retiming; :data:`~nlo_lab.evaluation.EVALUATION_MODES`).
 
 Without ``--json`` a table like the paper's Table I (rows = sequences, columns =
 methods, ``*`` = the sequence has at least one self-collision frame), made by
@@ -54,8 +57,9 @@ class SequenceScore:
         objective: mean ``L(D, K(q))`` over frames (no latent term).
         seconds: the method's wall time [s].
         frames: T.
-        velocity_violations: (frame pair, joint) entries over the joint's velocity limit, the
-            frames played at the recording's rate (the methods do not retime).
+        velocity_violations: (frame pair, joint) entries over the joint's velocity limit, on
+            the method's output time base (retimed latent methods in robot-ready mode, else
+            frames played at the recording's rate).
         max_joint_speed_ratio: largest joint speed over its limit, same time base.
         slowdown: how much longer retiming (``nlo_lab.inference.retime``) would make the motion.
         depth: ``"world"`` or ``"image"`` (the demonstration's ``meta["depth"]``).
@@ -182,8 +186,8 @@ def evaluate(
                 objective=mean_objective(robot, demo, r.angles),
                 seconds=r.seconds,
                 frames=len(demo),
-                velocity_violations=velocity_violations(robot, r.angles, fps=demo.fps),
-                max_joint_speed_ratio=max_joint_speed_ratio(robot, r.angles, fps=demo.fps),
+                velocity_violations=velocity_violations(robot, r.angles, r.times, fps=demo.fps),
+                max_joint_speed_ratio=max_joint_speed_ratio(robot, r.angles, r.times, fps=demo.fps),
                 slowdown=float(retime_times(r.angles, demo.fps, robot.velocity_limits.double().numpy())[-1] * demo.fps + 1) / len(demo),
                 depth=str(demo.meta.get("depth", "world")),
             )

@@ -62,6 +62,9 @@ def initial_latent(model, inputs, settings: OptimizeSettings) -> torch.Tensor:
     if settings.init == "zeros":
         return torch.zeros(shape, dtype=dtype, device=device)
     if settings.init == "encoder":
+        if not getattr(model, "has_encoder", True):
+            raise SettingsError("init 'encoder': this model was trained as an auto-decoder and has no trained encoder; "
+                                "start from 'train-stats', 'random' or 'zeros'")
         if not isinstance(inputs, EncoderInput):
             raise SettingsError("init 'encoder' needs the encoder's input: pass encoder_input=nlo_lab.model.encoder_input(demo)")
         x = inputs.to(device=device, dtype=dtype)

@@ -14,12 +14,21 @@ from nlo_lab.model.checkpoint import CHECKPOINT_FORMAT_VERSION, checkpoint_path,
 from nlo_lab.model.decoder import DECODER_FORMS, GraphDecoder, MLPDecoder
 from nlo_lab.model.encoder import GraphEncoder, MLPEncoder
 from nlo_lab.model.encoder_input import EncoderInput, encoder_input
-from nlo_lab.model.layers import LEAKY_SLOPE, GraphLayer, remap_to_limits, rest_preactivation
+from nlo_lab.model.layers import (
+    ACTIVATIONS,
+    DEFAULT_ACTIVATION,
+    LEAKY_SLOPE,
+    GraphLayer,
+    activation_function,
+    remap_to_limits,
+    rest_preactivation,
+)
 from nlo_lab.model.retarget_model import MODEL_KINDS, RetargetModel, build_model
 
 __all__ = [
     # layers, encoder, decoder, the model
     "GraphLayer", "remap_to_limits", "rest_preactivation", "LEAKY_SLOPE",
+    "ACTIVATIONS", "DEFAULT_ACTIVATION", "activation_function",
     "GraphEncoder", "MLPEncoder", "GraphDecoder", "MLPDecoder", "DECODER_FORMS",
     "RetargetModel", "build_model", "MODEL_KINDS",
     # the encoder's input

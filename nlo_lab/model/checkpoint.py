@@ -19,6 +19,7 @@ import torch
 from nlo_lab.errors import CheckpointError, NloLabError
 from nlo_lab.files import format_size, open_input
 from nlo_lab.human.skeleton import skeleton_graph
+from nlo_lab.model.layers import DEFAULT_ACTIVATION
 from nlo_lab.model.retarget_model import RetargetModel, build_model
 from nlo_lab.paths import BUNDLED_ROBOTS, CHECKPOINTS_DIR, is_bundled, is_editable_checkout, repair_hint
 from nlo_lab.robot import load_robot
@@ -136,8 +137,11 @@ def load_checkpoint(path, robot) -> RetargetModel:
             edge_features=cfg["edge_features"],
             kind=cfg["kind"],
             latent_per_node=cfg["latent_per_node"],
+            activation=cfg.get("activation", DEFAULT_ACTIVATION),  # checkpoints before the choice: LeakyReLU
         )
         model.load_state_dict(ckpt["state_dict"])
+        if cfg.get("training") is not None:  # how it was trained (an auto-decoder has no trained encoder)
+            model.config["training"] = str(cfg["training"])
     except (KeyError, RuntimeError, TypeError, NloLabError) as exc:
         raise CheckpointError(f"checkpoint {path} does not fit the model for {robot.name!r}: {exc}") from None
     model.train_info = {k: ckpt.get(k) for k in ("val_loss", "train_settings", "weights", "history", "train_seconds", "steps")}

@@ -23,7 +23,7 @@ from torch import nn
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.graph import Graph
-from nlo_lab.model.layers import LEAKY_SLOPE, GraphBuffers, GraphLayer, mlp, remap, remap_to_limits, rest_preactivation
+from nlo_lab.model.layers import DEFAULT_ACTIVATION, LEAKY_SLOPE, GraphBuffers, GraphLayer, mlp, remap, remap_to_limits, rest_preactivation
 from nlo_lab.model.numpy_backend import DecoderPlan, decode_numpy
 from nlo_lab.settings import check_choice
 
@@ -45,6 +45,9 @@ class GraphDecoder(nn.Module):
             robot's neutral pose); None: the limits' midpoint, as the paper's
             remap. Training starts there, and the arm configuration it starts
             in is the one it keeps (see :func:`~nlo_lab.model.layers.rest_preactivation`).
+        activation: the layers' message activation (:data:`~nlo_lab.model.layers.ACTIVATIONS`;
+            paper: LeakyReLU). The numpy evaluation of the frozen decoder supports the
+            default only; with another one the decoder runs in torch.
     """
 
     def __init__(
@@ -55,6 +58,7 @@ class GraphDecoder(nn.Module):
         latent_per_node: int = 4,
         widths: tuple[int, ...] = (32, 16, 1),
         rest: torch.Tensor | None = None,
+        activation: str = DEFAULT_ACTIVATION,
     ):
         super().__init__()
         if widths[-1] != 1:
@@ -69,7 +73,8 @@ class GraphDecoder(nn.Module):
         self.register_buffer("rest_pre", rest_preactivation(rest, self.lower, self.upper))  # (n,), saved in checkpoints
         edge_f = robot_graph.edge_attr.shape[-1]
         dims = (latent_per_node + 2, *widths)
-        self.layers = nn.ModuleList(GraphLayer(a, b, edge_f) for a, b in zip(dims[:-1], dims[1:], strict=True))
+        self.activation = activation
+        self.layers = nn.ModuleList(GraphLayer(a, b, edge_f, activation) for a, b in zip(dims[:-1], dims[1:], strict=True))
 
     @property
     def latent_shape(self) -> tuple[int, int]:
@@ -86,7 +91,8 @@ class GraphDecoder(nn.Module):
                 paper writes them; ``"node-major"``: node-major weights with the constant
                 inputs folded in (fewer, larger ops); ``"numpy"``: that in numpy with a
                 written-out gradient to ``z`` (fastest at small batch), for frozen weights
-                with ``z`` on the CPU in the weights' dtype, else ``"node-major"`` runs.
+                with ``z`` on the CPU in the weights' dtype and the default activation
+                (LeakyReLU), else ``"node-major"`` runs.
         """
         if form == "paper":
             return self.remap(self.paper_preactivation(z))
@@ -162,7 +168,7 @@ class GraphDecoder(nn.Module):
         for i, layer in enumerate(self.layers):
             w["layers"].append(layer.node_major_weights(g.edge_index, g.edge_attr, g.node_type, fixed if i == 0 else None))
         if frozen:
-            if self.lower.device.type == "cpu":
+            if self.lower.device.type == "cpu" and self.activation == DEFAULT_ACTIVATION:  # numpy: LeakyReLU only
                 w["plan"] = DecoderPlan(w, len(g.node_type), LEAKY_SLOPE)
             self._weights_cache = (key, w)
         return w
@@ -179,6 +185,7 @@ class MLPDecoder(nn.Module):
         latent_per_node: int = 4,
         widths: tuple[int, ...] = (128, 64),
         rest: torch.Tensor | None = None,
+        activation: str = DEFAULT_ACTIVATION,
     ):
         super().__init__()
         n = robot_graph.num_nodes
@@ -186,7 +193,8 @@ class MLPDecoder(nn.Module):
         self.register_buffer("lower", lower.detach().float().clone(), persistent=False)
         self.register_buffer("upper", upper.detach().float().clone(), persistent=False)
         self.register_buffer("rest_pre", rest_preactivation(rest, self.lower, self.upper))
-        self.net = mlp((n * (latent_per_node + 2), *widths, n))
+        self.activation = activation
+        self.net = mlp((n * (latent_per_node + 2), *widths, n), activation)
 
     @property
     def latent_shape(self) -> tuple[int, int]:

@@ -18,7 +18,7 @@ import torch
 from torch import nn
 
 from nlo_lab.graph import Graph
-from nlo_lab.model.layers import GraphBuffers, GraphLayer, mlp
+from nlo_lab.model.layers import DEFAULT_ACTIVATION, GraphBuffers, GraphLayer, mlp
 
 __all__ = ["GraphEncoder", "MLPEncoder"]
 
@@ -34,6 +34,7 @@ class GraphEncoder(nn.Module):
         n_robot_nodes: nodes of the robot graph (actuated joints).
         latent_per_node: ``k``.
         widths: per-node hidden widths (paper: 16, 32, 64).
+        activation: the layers' message activation (:data:`~nlo_lab.model.layers.ACTIVATIONS`; paper: LeakyReLU).
     """
 
     def __init__(
@@ -44,12 +45,14 @@ class GraphEncoder(nn.Module):
         n_robot_nodes: int,
         latent_per_node: int = 4,
         widths: tuple[int, ...] = (16, 32, 64),
+        activation: str = DEFAULT_ACTIVATION,
     ):
         super().__init__()
         self.graph = GraphBuffers(human_graph)
         self.n_robot_nodes, self.latent_per_node = n_robot_nodes, latent_per_node
+        self.activation = activation
         dims = (in_features, *widths)
-        self.layers = nn.ModuleList(GraphLayer(a, b, edge_features) for a, b in zip(dims[:-1], dims[1:], strict=True))
+        self.layers = nn.ModuleList(GraphLayer(a, b, edge_features, activation) for a, b in zip(dims[:-1], dims[1:], strict=True))
         self.to_latent = nn.Linear(human_graph.num_nodes * widths[-1], n_robot_nodes * latent_per_node)
 
     def forward(self, node_x: torch.Tensor, edge_x: torch.Tensor | None = None) -> torch.Tensor:
@@ -77,11 +80,13 @@ class MLPEncoder(nn.Module):
         n_robot_nodes: int,
         latent_per_node: int = 4,
         widths: tuple[int, ...] = (256, 256),
+        activation: str = DEFAULT_ACTIVATION,
     ):
         super().__init__()
         del edge_features  # part of the common signature only
         self.n_robot_nodes, self.latent_per_node = n_robot_nodes, latent_per_node
-        self.net = mlp((human_graph.num_nodes * in_features, *widths, n_robot_nodes * latent_per_node))
+        self.activation = activation
+        self.net = mlp((human_graph.num_nodes * in_features, *widths, n_robot_nodes * latent_per_node), activation)
 
     def forward(self, node_x: torch.Tensor, edge_x: torch.Tensor | None = None) -> torch.Tensor:
         """``node_x (B, N_h, F)`` -> ``z (B, N_r, k)``."""

@@ -5,7 +5,9 @@ The graph layer (Zhang et al., Sec. "Graph-based Encoder & Decoder")::
     x_i' = x_i + sum_{j in N(i)} LeakyReLU(W_t [x_i, x_j, e_ji] + b_t)
 
 with one weight set ``(W_t, b_t)`` per node type ``t`` (arm, hand) chosen by
-the *receiving* node ``i``. Messages flow along the directed edges,
+the *receiving* node ``i``. The message activation ``g`` is the paper's LeakyReLU by
+default; :data:`ACTIVATIONS` holds the alternatives of the paper's Table II
+(Sigmoid, Tanh, ReLU), chosen per model (``build_model(activation=...)``). Messages flow along the directed edges,
 source (parent) -> target (child). When the layer changes width the residual
 ``x_i`` cannot be added as is, so it goes through a per-node-type linear skip
 (``P_t x_i``, no bias); at equal width the skip is the identity, as in the paper.
@@ -27,6 +29,9 @@ from torch import nn
 from nlo_lab.graph import Graph
 
 __all__ = [
+    "ACTIVATIONS",
+    "DEFAULT_ACTIVATION",
+    "activation_function",
     "GraphLayer",
     "GraphBuffers",
     "mlp",
@@ -39,6 +44,23 @@ __all__ = [
 
 NUM_NODE_TYPES = 2  # NODE_ARM, NODE_HAND
 LEAKY_SLOPE = 0.2  # negative slope of the LeakyReLU in the messages
+ACTIVATIONS = ("sigmoid", "tanh", "relu", "leaky_relu")  # the paper's Table II, in its order
+DEFAULT_ACTIVATION = "leaky_relu"  # the paper's g (and every shipped checkpoint's)
+
+
+def activation_function(name: str):
+    """The message activation ``g`` named ``name`` (one of :data:`ACTIVATIONS`) as a function of a tensor.
+
+    Raises:
+        SettingsError: an unknown name.
+    """
+    if name == "leaky_relu":
+        return lambda x: nn.functional.leaky_relu(x, LEAKY_SLOPE)
+    if name in ("sigmoid", "tanh", "relu"):
+        return getattr(torch, name)
+    from nlo_lab.errors import SettingsError
+
+    raise SettingsError(f"unknown activation {name!r}; expected one of {', '.join(ACTIVATIONS)}")
 
 
 def remap_to_limits(a: torch.Tensor, lower: torch.Tensor, upper: torch.Tensor) -> torch.Tensor:
@@ -86,11 +108,14 @@ class GraphLayer(nn.Module):
         in_features: node feature width C_in.
         out_features: node feature width C_out (O).
         edge_features: edge feature width F.
+        activation: the message activation ``g``, one of :data:`ACTIVATIONS` (paper: LeakyReLU).
     """
 
-    def __init__(self, in_features: int, out_features: int, edge_features: int):
+    def __init__(self, in_features: int, out_features: int, edge_features: int, activation: str = DEFAULT_ACTIVATION):
         super().__init__()
         self.in_features, self.out_features, self.edge_features = in_features, out_features, edge_features
+        self.activation = activation
+        self.g = activation_function(activation)
         fan_in = 2 * in_features + edge_features
         bound = 1.0 / math.sqrt(fan_in)  # nn.Linear's default initialisation
         self.weight = nn.Parameter(torch.empty(NUM_NODE_TYPES, out_features, fan_in).uniform_(-bound, bound))
@@ -103,7 +128,7 @@ class GraphLayer(nn.Module):
             self.skip = nn.Parameter(torch.empty(NUM_NODE_TYPES, out_features, in_features).uniform_(-b, b))
 
     def forward(self, x: torch.Tensor, edge_index: torch.Tensor, edge_attr: torch.Tensor, node_type: torch.Tensor) -> torch.Tensor:
-        """``x_i' = P_t x_i + sum_{j -> i} LeakyReLU(W_t [x_i, x_j, e_ji] + b_t)``, ``t`` = type of ``i``.
+        """``x_i' = P_t x_i + sum_{j -> i} g(W_t [x_i, x_j, e_ji] + b_t)``, ``t`` = type of ``i``.
 
         Args:
             x: ``(B, N, C_in)`` node features.
@@ -121,7 +146,7 @@ class GraphLayer(nn.Module):
         e = edge_attr.to(x.dtype).expand(B, -1, -1)  # (B, E, F)
         h = torch.cat([x.index_select(1, dst), x.index_select(1, src), e], dim=-1)  # (B, E, 2C+F): [x_i, x_j, e_ji]
         w, b = self.weight.index_select(0, t), self.bias.index_select(0, t)  # (E, O, 2C+F), (E, O): W_t, b_t per edge
-        msg = nn.functional.leaky_relu(torch.einsum("bef,eof->beo", h, w) + b, LEAKY_SLOPE)  # (B, E, O)
+        msg = self.g(torch.einsum("bef,eof->beo", h, w) + b)  # (B, E, O): g = LeakyReLU in the paper
         total = x.new_zeros(B, N, self.out_features).index_add(1, dst, msg)  # sum over j in N(i)
         residual = x if self.skip is None else torch.einsum("bnc,noc->bno", x, self.skip.index_select(0, node_type))
         return residual + total
@@ -171,8 +196,7 @@ class GraphLayer(nn.Module):
             "skip_bias": skip_bias,
         }
 
-    @staticmethod
-    def forward_node_major(x: torch.Tensor, w: dict[str, torch.Tensor]) -> torch.Tensor:
+    def forward_node_major(self, x: torch.Tensor, w: dict[str, torch.Tensor]) -> torch.Tensor:
         """The layer on node-major features: ``x (N, B, C')`` -> ``(N, B, O)``.
 
         Same map as :meth:`forward` (with ``w`` from :meth:`node_major_weights`)
@@ -181,7 +205,7 @@ class GraphLayer(nn.Module):
         """
         msg = torch.baddbmm(w["bias"], x.index_select(0, w["dst"]), w["self"])  # (E, B, O)
         msg = torch.baddbmm(msg, x.index_select(0, w["src"]), w["nbr"])
-        msg = nn.functional.leaky_relu(msg, LEAKY_SLOPE)
+        msg = self.g(msg)
         if w["skip"] is None:
             res = x
         elif w["skip_bias"] is None:
@@ -209,11 +233,25 @@ class GraphBuffers(nn.Module):
         self.register_buffer("node_type", graph.node_type.long().clone(), persistent=False)
 
 
-def mlp(dims: tuple[int, ...]) -> nn.Sequential:
-    """Linear layers ``dims[0] -> ... -> dims[-1]`` with a LeakyReLU between them (not after the last)."""
+class _Activation(nn.Module):
+    """:func:`activation_function` as a module (for ``nn.Sequential``)."""
+
+    def __init__(self, name: str):
+        super().__init__()
+        self.name, self.g = name, activation_function(name)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.g(x)
+
+    def extra_repr(self) -> str:
+        return self.name
+
+
+def mlp(dims: tuple[int, ...], activation: str = DEFAULT_ACTIVATION) -> nn.Sequential:
+    """Linear layers ``dims[0] -> ... -> dims[-1]`` with the activation between them (not after the last)."""
     mods: list[nn.Module] = []
     for i, (a, b) in enumerate(zip(dims[:-1], dims[1:], strict=True)):
         mods.append(nn.Linear(a, b))
         if i < len(dims) - 2:
-            mods.append(nn.LeakyReLU(LEAKY_SLOPE))
+            mods.append(nn.LeakyReLU(LEAKY_SLOPE) if activation == DEFAULT_ACTIVATION else _Activation(activation))
     return nn.Sequential(*mods)

@@ -11,6 +11,7 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.graph import Graph
 from nlo_lab.model.decoder import GraphDecoder, MLPDecoder
 from nlo_lab.model.encoder import GraphEncoder, MLPEncoder
+from nlo_lab.model.layers import ACTIVATIONS, DEFAULT_ACTIVATION
 
 __all__ = ["RetargetModel", "build_model", "MODEL_KINDS"]
 
@@ -43,6 +44,12 @@ class RetargetModel(nn.Module):
         """``(N_r, k)``: the latent of one frame."""
         return self.decoder.latent_shape
 
+    @property
+    def has_encoder(self) -> bool:
+        """False for a model trained as an auto-decoder (``config["training"] == "autodecoder"``):
+        its encoder was never trained, so it cannot start latent optimisation."""
+        return self.config.get("training", "encoder") != "autodecoder"
+
     def encode(self, node_x: torch.Tensor, edge_x: torch.Tensor | None = None) -> torch.Tensor:
         """Human features ``(B, N_h, F)`` (+ ``(B, E_h, 3)``) -> ``z (B, N_r, k)``."""
         return self.encoder(node_x, edge_x)
@@ -68,6 +75,7 @@ def build_model(
     kind: str = "graph",
     latent_per_node: int = 4,
     rest: torch.Tensor | None = None,
+    activation: str = DEFAULT_ACTIVATION,
 ) -> RetargetModel:
     """Build an untrained :class:`RetargetModel`.
 
@@ -81,18 +89,22 @@ def build_model(
         kind: ``"graph"`` (the paper) or ``"mlp"`` (the ablation).
         latent_per_node: ``k`` of ``z (B, N_r, k)``.
         rest: ``(n,)`` the decoder's rest angles (``robot.neutral_q``); None: midpoint.
+        activation: the message activation of encoder and decoder, one of
+            :data:`~nlo_lab.model.layers.ACTIVATIONS` (the paper's Table II); default LeakyReLU, the paper's.
 
     Raises:
-        SettingsError: unknown kind or a non-positive latent size.
+        SettingsError: unknown kind or activation, or a non-positive latent size.
     """
     if kind not in MODEL_KINDS:
         raise SettingsError(f"unknown model kind {kind!r}; expected one of {MODEL_KINDS}")
+    if activation not in ACTIVATIONS:
+        raise SettingsError(f"unknown activation {activation!r}; expected one of {', '.join(ACTIVATIONS)}")
     if int(latent_per_node) < 1:
         raise SettingsError(f"latent_per_node must be >= 1, got {latent_per_node}")
     enc_cls, dec_cls = (GraphEncoder, GraphDecoder) if kind == "graph" else (MLPEncoder, MLPDecoder)
     n_r = robot_graph.num_nodes
-    encoder = enc_cls(human_graph, in_features, edge_features, n_r, latent_per_node)
-    decoder = dec_cls(robot_graph, lower, upper, latent_per_node, rest=rest)
+    encoder = enc_cls(human_graph, in_features, edge_features, n_r, latent_per_node, activation=activation)
+    decoder = dec_cls(robot_graph, lower, upper, latent_per_node, rest=rest, activation=activation)
     config = {
         "kind": kind,
         "latent_per_node": int(latent_per_node),
@@ -100,5 +112,6 @@ def build_model(
         "edge_features": int(edge_features),
         "human_nodes": int(human_graph.num_nodes),
         "robot_nodes": int(n_r),
+        "activation": activation,
     }
     return RetargetModel(encoder, decoder, robot_name, config)

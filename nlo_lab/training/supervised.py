@@ -28,7 +28,7 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.inference import JointOptimizeSettings, RetargetInputs, optimize_joints
 from nlo_lab.model import EncoderInput
 from nlo_lab.model.checkpoint import load_torch_file
-from nlo_lab.objective import Targets
+from nlo_lab.objective import LossWeights, Targets
 from nlo_lab.settings import check_int, check_positive
 from nlo_lab.training.data import corpus_inputs
 
@@ -108,35 +108,46 @@ class SupervisedNet(nn.Module):
 
 
 def supervised_labels(robot, targets: Targets, iterations: int, *, progress: bool = False) -> torch.Tensor:
-    """The supervised 'ground truth': joint-space optimisation results ``(N, n)`` for every frame of ``targets``."""
+    """The supervised 'ground truth': joint-space optimisation results ``(N, n)`` for every frame of ``targets``.
+
+    Each frame on its own, with the paper's objective (no smoothness term): the frames are
+    samples (every ``frame_stride``-th frame, several sequences end to end), not a motion.
+    """
     chunk = 2048  # bounded memory; frames are independent
     out = []
+    per_frame = LossWeights(smooth=0.0)
     for i in range(0, len(targets), chunk):
-        r = optimize_joints(robot, targets.index(slice(i, i + chunk)), JointOptimizeSettings(iterations=iterations, patience=iterations + 1), fast=True)
+        r = optimize_joints(robot, targets.index(slice(i, i + chunk)), JointOptimizeSettings(iterations=iterations, patience=iterations + 1),
+                            fast=True, weights=per_frame)
         out.append(r.q.detach())
     return torch.cat(out)
 
 
-def _fit(module: nn.Module, predict: Callable, x: tuple, u: torch.Tensor, epochs: int, batch: int, lr: float, seed: int, max_seconds: float | None) -> list[float]:
-    """Adam on the mean squared error of ``predict(*x_batch)`` against ``u``; returns per-epoch losses."""
+def _fit(module: nn.Module, predict: Callable, x: tuple, u: torch.Tensor, epochs: int, batch: int, lr: float, seed: int,
+         max_seconds: float | None, max_steps: int | None = None) -> list[float]:
+    """Adam on the mean squared error of ``predict(*x_batch)`` against ``u``; returns per-epoch
+    losses (the last epoch's over the batches it ran when ``max_steps`` ends it)."""
     gen = torch.Generator().manual_seed(seed)
     opt = torch.optim.Adam(module.parameters(), lr=lr)
     n = u.shape[0]
     history = []
     start = time.perf_counter()
+    steps = 0
     module.train()
     for _ in range(epochs):
         order = torch.randperm(n, generator=gen)
-        total = 0.0
+        total, seen = 0.0, 0
         for b in range(0, n, batch):
             idx = order[b : b + batch]
             loss = (predict(*(t[idx] if t is not None else None for t in x)) - u[idx]).pow(2).mean()
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
-            total += float(loss.detach()) * len(idx)
-        history.append(total / n)
-        if max_seconds is not None and time.perf_counter() - start > max_seconds:
+            total, seen, steps = total + float(loss.detach()) * len(idx), seen + len(idx), steps + 1
+            if max_steps is not None and steps >= max_steps:
+                break
+        history.append(total / seen)
+        if (max_seconds is not None and time.perf_counter() - start > max_seconds) or (max_steps is not None and steps >= max_steps):
             break
     module.eval()
     return history
@@ -159,11 +170,13 @@ def train_supervised_net(robot, features: torch.Tensor, labels: torch.Tensor, se
     return net
 
 
-def train_supervised_model(model, inputs: EncoderInput | RetargetInputs, labels: torch.Tensor, *, epochs: int, batch_size: int = 64, lr: float = 1e-3, seed: int = 0, max_seconds: float | None = None) -> list[float]:
+def train_supervised_model(model, inputs: EncoderInput | RetargetInputs, labels: torch.Tensor, *, epochs: int, batch_size: int = 64, lr: float = 1e-3,
+                           seed: int = 0, max_seconds: float | None = None, max_steps: int | None = None) -> list[float]:
     """Train a :class:`~nlo_lab.model.RetargetModel` (encoder + decoder) supervised on
     ``labels (N, n)`` (paper Eq. ``L_sup``: squared error of the angles, here
     normalised by the half range of each joint): the 'AE'/'GAE' of Table III.
-    ``inputs``: the encoder's input of the N frames (or frames carrying it).
+    ``inputs``: the encoder's input of the N frames (or frames carrying it); training
+    stops after ``epochs``, ``max_seconds`` or ``max_steps`` optimiser steps, whichever comes first.
 
     Returns:
         Mean training loss per epoch. The model is left in eval mode.
@@ -177,7 +190,7 @@ def train_supervised_model(model, inputs: EncoderInput | RetargetInputs, labels:
         return (model(x, e)[0].to(lo.dtype) - mid) / half
 
     torch.manual_seed(seed)
-    return _fit(model, predict, (x.node_features.to(lo.dtype), x.edge_features.to(lo.dtype)), u, epochs, batch_size, lr, seed, max_seconds)
+    return _fit(model, predict, (x.node_features.to(lo.dtype), x.edge_features.to(lo.dtype)), u, epochs, batch_size, lr, seed, max_seconds, max_steps)
 
 
 def cache_dir() -> Path:
@@ -199,9 +212,10 @@ def _cache_key(robot, settings: SupervisedSettings, data: RetargetInputs) -> str
         "upper": [round(float(v), 6) for v in robot.upper_limits],
         "margins": [round(float(v), 6) for v in robot.collision_margins],
         "settings": asdict(settings),
-        # 2: labels from the neutral start with the fixed-shoulder end-effector term; bump on any
-        # change to the objective or to optimize_joints, or stale labels are reused
-        "version": 2,
+        # 2: labels from the neutral start with the fixed-shoulder end-effector term; 3: frames
+        # labelled independently (no smoothness term between unrelated sample frames). Bump on
+        # any change to the objective or to optimize_joints, or stale labels are reused
+        "version": 3,
     }
     return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:16]
 

@@ -1,15 +1,22 @@
-"""Training of encoder and decoder end to end on the objective (paper Eq. 10).
+"""Training of the networks on the objective: encoder and decoder end to end (paper Eq. 10), or the auto-decoder.
 
+Mode ``"encoder"`` (the default, the paper's final method):
 ``min_{psi,phi} L(D, K(f_psi(f_phi(D)))) + ||f_phi(D)||²/σ²`` over per-frame
 samples of the synthetic training split; validation (encoder + decoder, no
 latent optimisation) on sequences held out of the training split
 (:func:`nlo_lab.training.train_validation_split`); Adam, gradient-norm clip 10,
 the best validation state kept.
 
+Mode ``"autodecoder"`` (the paper's Eq. ``autodecoder``,
+:mod:`nlo_lab.training.autodecoder`): ``min_{z,psi} L(D, K(f_psi(z))) + ||z||²/σ²`` with
+one latent code per training frame, optimised with the decoder; validation is latent
+optimisation on the held-out frames with the decoder frozen.
+
 Departures from the paper's settings, measured on a 2-core CPU (see
-``assets/checkpoints/README.md``): batch 64 instead of 16 and lr 1e-3 instead
-of 1e-4, because the training budget is minutes of CPU, not a GPU for 20
-minutes; a wall-clock budget ``max_seconds`` ends training early.
+``assets/checkpoints/README.md`` and docs/PAPER.md): batch 64 instead of 16 and lr 1e-3
+instead of 1e-4, because the training budget is minutes of CPU, not a GPU for 20
+minutes; a wall-clock budget ``max_seconds`` ends training early, and ``max_steps``
+gives a budget that does not depend on the machine (what the benchmarks use).
 
 Command: ``nlo-lab train --robot yumi [--epochs N] [--max-seconds S] [--out CKPT]``.
 """
@@ -24,12 +31,15 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import FastPaths, RetargetInputs, fast_paths
-from nlo_lab.model import MODEL_KINDS, EncoderInput, RetargetModel, build_model
+from nlo_lab.model import ACTIVATIONS, DEFAULT_ACTIVATION, MODEL_KINDS, EncoderInput, RetargetModel, build_model
 from nlo_lab.objective import COLLISION_FORMS, LossWeights, latent_loss, objective
 from nlo_lab.settings import check_choice, check_int, check_positive
+from nlo_lab.training.autodecoder import LatentCodes, autodecoder_loss, validate_autodecoder
 from nlo_lab.training.data import demos_inputs, train_validation_split
 
-__all__ = ["TrainSettings", "TrainResult", "new_model", "train_model", "latent_statistics"]
+__all__ = ["TRAIN_MODES", "TrainSettings", "TrainResult", "new_model", "train_model", "latent_statistics"]
+
+TRAIN_MODES = ("encoder", "autodecoder")  # paper Eq. 10 (encoder + decoder), Eq. autodecoder (decoder + codes)
 
 @dataclass(frozen=True)
 class TrainSettings:
@@ -45,9 +55,21 @@ class TrainSettings:
         latent_per_node: ``k`` of ``z (B, N_robot, k)``.
         max_seconds: wall-clock budget [s]; training stops after the step that exceeds it.
         val_every: steps between validations (and at the end of every epoch).
-        val_frames: at most this many evenly spaced test frames are validated.
+        val_frames: at most this many evenly spaced validation frames are validated.
         collision_form: see :func:`nlo_lab.objective.collision_loss`.
         progress: show a tqdm progress bar.
+        activation: the networks' message activation, one of
+            :data:`~nlo_lab.model.ACTIVATIONS` (paper: LeakyReLU; its Table II compares the others).
+        max_steps: stop after this many optimiser steps (None: ``epochs`` decide); a budget
+            that, unlike ``max_seconds``, gives the same model on a busy or an idle machine.
+        mode: ``"encoder"`` (paper Eq. 10, encoder and decoder end to end) or
+            ``"autodecoder"`` (the paper's Eq. ``autodecoder``: decoder and one latent code
+            per training frame, :mod:`nlo_lab.training.autodecoder`).
+        code_lr: auto-decoder only: Adam step size of the latent codes (each code moves
+            only when its frame is in the batch, about once an epoch, so it needs a larger
+            step than the decoder's weights).
+        code_init_std: auto-decoder only: the codes start at ``N(0, code_init_std²)``.
+        val_iterations: auto-decoder only: latent optimisation steps per validation.
     """
 
     epochs: int = 30
@@ -62,15 +84,25 @@ class TrainSettings:
     val_frames: int = 1500
     collision_form: str = "hinge"
     progress: bool = True
+    activation: str = DEFAULT_ACTIVATION
+    max_steps: int | None = None
+    mode: str = "encoder"
+    code_lr: float = 0.01
+    code_init_std: float = 0.01
+    val_iterations: int = 30
 
     def __post_init__(self) -> None:
-        for name in ("epochs", "batch_size", "latent_per_node", "val_every", "val_frames"):
+        for name in ("epochs", "batch_size", "latent_per_node", "val_every", "val_frames", "val_iterations"):
             check_int(name, getattr(self, name), 1)
         check_int("seed", self.seed, 0)
-        for name in ("lr", "clip", "max_seconds"):
+        if self.max_steps is not None:
+            check_int("max_steps", self.max_steps, 1)
+        for name in ("lr", "clip", "max_seconds", "code_lr", "code_init_std"):
             object.__setattr__(self, name, check_positive(name, getattr(self, name)))
         check_choice("model kind", self.kind, MODEL_KINDS)
         check_choice("collision_form", self.collision_form, COLLISION_FORMS)
+        check_choice("activation", self.activation, ACTIVATIONS)
+        check_choice("training mode", self.mode, TRAIN_MODES)
 
 
 @dataclass
@@ -83,6 +115,8 @@ class TrainResult:
         history: ``[{"step", "epoch", "train", "val", "seconds"}, ...]`` at each validation.
         seconds: training wall time [s].
         steps: optimiser steps taken.
+        codes: auto-decoder mode: the learned latent code of every training frame
+            ``(N, N_r, k)``, in the order of the training frames (at the best validation); else None.
     """
 
     model: RetargetModel
@@ -90,6 +124,7 @@ class TrainResult:
     history: list[dict[str, float]]
     seconds: float
     steps: int
+    codes: torch.Tensor | None = None
 
 
 def _resolve_robot(robot):
@@ -121,6 +156,7 @@ def new_model(robot, settings: TrainSettings | None = None, in_features: int | N
         kind=settings.kind,
         latent_per_node=settings.latent_per_node,
         rest=robot.neutral_q,
+        activation=settings.activation,
     )
 
 
@@ -161,7 +197,7 @@ def train_model(
     model: RetargetModel | None = None,
     fast: bool | FastPaths = True,
 ) -> TrainResult:
-    """Train encoder and decoder for ``robot`` (paper Eq. 10).
+    """Train the networks of ``robot``: encoder and decoder (paper Eq. 10), or the auto-decoder (``settings.mode``).
 
     Args:
         robot: a ``Robot`` or a robot name.
@@ -175,7 +211,7 @@ def train_model(
             readable forms, or a :class:`~nlo_lab.inference.FastPaths`.
 
     Returns:
-        :class:`TrainResult` with the best-validation model.
+        :class:`TrainResult` with the best-validation model (and, auto-decoder, the codes).
     """
     settings = settings or TrainSettings()
     weights = weights or LossWeights()
@@ -196,51 +232,88 @@ def train_model(
     if model is None:
         model = new_model(robot, settings, in_features=int(train_data.encoder.node_features.shape[-1]))
     model = model.to(dtype=dtype).train()
-    opt = torch.optim.Adam(model.parameters(), lr=settings.lr)
-    gen = torch.Generator().manual_seed(settings.seed)
+    autodecoder = settings.mode == "autodecoder"
+    form = settings.collision_form
     n = len(train_data)
+    if autodecoder:  # Eq. autodecoder: the decoder and one code per frame; the encoder takes no part
+        model.config["training"] = "autodecoder"
+        codes = LatentCodes(n, model.latent_shape, settings.code_init_std, settings.seed)
+        params = list(model.decoder.parameters())
+        code_opt = torch.optim.SparseAdam(list(codes.parameters()), lr=settings.code_lr)
+
+        def batch_loss(idx):
+            return autodecoder_loss(model, robot, codes, idx, train_data.targets.index(idx), weights, form, fast)
+
+        def validate():
+            return validate_autodecoder(model, robot, val_data, codes.all().mean(0), weights, form, settings.val_iterations, fast)
+    else:
+        codes, code_opt, params = None, None, list(model.parameters())
+
+        def batch_loss(idx):
+            return _batch_loss(model, robot, train_data.index(idx), weights, form, fast)
+
+        def validate():
+            return _evaluate(model, robot, val_data, weights, form, fast)
+
+    opt = torch.optim.Adam(params, lr=settings.lr)
+    gen = torch.Generator().manual_seed(settings.seed)
     steps_per_epoch = max(1, n // settings.batch_size)  # drop the ragged last batch
     total_steps = settings.epochs * steps_per_epoch
+    if settings.max_steps is not None:
+        total_steps = min(total_steps, settings.max_steps)
 
     from tqdm.auto import tqdm
 
-    bar = tqdm(total=total_steps, desc=f"train {robot.name}", disable=not settings.progress, leave=False)
+    label = "train" if not autodecoder else "auto-decode"
+    bar = tqdm(total=total_steps, desc=f"{label} {robot.name}", disable=not settings.progress, leave=False)
     start = time.perf_counter()
-    best_val, best_state = _evaluate(model, robot, val_data, weights, settings.collision_form, fast), None
-    best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+
+    def snapshot():
+        state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+        return state, None if codes is None else codes.all()
+
+    best_val = validate()
+    best_state, best_codes = snapshot()
     history = [{"step": 0, "epoch": 0, "train": float("nan"), "val": best_val, "seconds": 0.0}]
-    step, running, out_of_time = 0, [], False
+    step, running, stop = 0, [], False
     for epoch in range(settings.epochs):
         order = torch.randperm(n, generator=gen)
         for b in range(steps_per_epoch):
-            batch = train_data.index(order[b * settings.batch_size : (b + 1) * settings.batch_size])
-            loss = _batch_loss(model, robot, batch, weights, settings.collision_form, fast).mean()
+            idx = order[b * settings.batch_size : (b + 1) * settings.batch_size]
+            loss = batch_loss(idx).mean()
             opt.zero_grad(set_to_none=True)
+            if code_opt is not None:
+                code_opt.zero_grad(set_to_none=True)
             loss.backward()
-            torch.nn.utils.clip_grad_norm_(model.parameters(), settings.clip)
+            torch.nn.utils.clip_grad_norm_(params, settings.clip)
             opt.step()
+            if code_opt is not None:
+                code_opt.step()
             step += 1
             running.append(float(loss.detach()))
             bar.update(1)
-            out_of_time = time.perf_counter() - start > settings.max_seconds
+            stop = time.perf_counter() - start > settings.max_seconds or step >= total_steps
             last_of_epoch = b == steps_per_epoch - 1
-            if step % settings.val_every == 0 or last_of_epoch or out_of_time:
-                val = _evaluate(model, robot, val_data, weights, settings.collision_form, fast)
+            if step % settings.val_every == 0 or last_of_epoch or stop:
+                val = validate()
                 train_mean = sum(running) / len(running)
                 running = []
                 history.append({"step": step, "epoch": epoch, "train": train_mean, "val": val, "seconds": time.perf_counter() - start})
                 bar.set_postfix(train=f"{train_mean:.2f}", val=f"{val:.2f}")
                 if val < best_val:
                     best_val = val
-                    best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
-            if out_of_time:
+                    best_state, best_codes = snapshot()
+            if stop:
                 break
-        if out_of_time:
+        if stop:
             break
     bar.close()
     model.load_state_dict(best_state)
     model.eval()
-    mean, std = latent_statistics(model, train_data)
+    if autodecoder:  # train-stats starts from the learned codes' distribution
+        mean, std = best_codes.mean(0), best_codes.std(0).clamp_min(1e-3)
+    else:
+        mean, std = latent_statistics(model, train_data)
     model.latent_mean.copy_(mean)
     model.latent_std.copy_(std)
     model.train_info = {  # recorded in the checkpoint
@@ -251,4 +324,4 @@ def train_model(
         "seconds": time.perf_counter() - start,
         "steps": step,
     }
-    return TrainResult(model, best_val, history, time.perf_counter() - start, step)
+    return TrainResult(model, best_val, history, time.perf_counter() - start, step, best_codes)
