@@ -127,6 +127,7 @@ def run(argv: list[str] | None = None, steps: tuple[Step, ...] = STEPS) -> int:
     work = ROOT / "build" / ("results-quick" if args.quick else "results")
     out = Path(args.out).resolve() if args.out else (work / "RESULTS.md" if args.quick else results_doc.RESULTS)
     env = dict(os.environ)
+    env.setdefault("TQDM_MININTERVAL", "10")  # progress bars: a line every 10 s in the logs, not every step
     if out != results_doc.RESULTS:
         env["NLO_LAB_RESULTS"] = str(out)
     (work / "logs").mkdir(parents=True, exist_ok=True)
