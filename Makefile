@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test lab bench results clean browser lint wheel-check export-js
+.PHONY: setup demo test lab bench results clean browser lint wheel-check export-js docs
 
 setup: $(STAMP)
 
@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 	$(PIP) install --quiet torch==2.13.0
-	$(PIP) install --quiet -e ".[lab,test,video,batch]"
+	$(PIP) install --quiet -e ".[lab,test,video,batch,docs]"
 	touch $(STAMP)
 
 demo: setup
@@ -53,6 +53,12 @@ export-js: setup
 lab: setup
 	$(VENV)/bin/nlo-lab lab
 
+# The gallery: every notebook run (full budgets; QUICK=1: test mode, a few minutes), then a static site in site/
+# (mkdocs + mkdocs-jupyter, the docs extra) with README, RESULTS and PAPER; its JavaScript is copied from npm
+# packages (tools/export_js.py), so site/index.html opens offline. tools/docs.py says what it does.
+docs: setup
+	$(PY) tools/docs.py $(if $(QUICK),--quick,)
+
 # Benchmarks print tables; speed.py, quality.py, headroom.py and video.py also rewrite their sections of
 # docs/RESULTS.md (quality.py takes about 15 min on 2 cores, headroom.py 3; QUICK=1 for a short run).
 bench: setup
@@ -77,4 +83,4 @@ results: setup
 	$(PY) tools/results.py $(if $(QUICK),--quick,) $(if $(FORCE),--force,) $(if $(ONLY),--only $(ONLY),)
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build site *.egg-info

@@ -300,6 +300,55 @@ class LabPage:
                 break
         return {"bytes": self.received - received, "messages": self.view_stats().get("messages", 0) - before_msgs, "seconds": first}
 
+def offline_view_shot(page: Path, png: Path, local=None, ready: str | None = None) -> dict[str, list[str]]:
+    """Open ``page`` (a file) in Chromium with no network: an address other than ``file:``, ``data:`` or
+    ``blob:`` is answered with the file ``local(url)`` returns, or refused. Once the page's first 3-D view
+    has run its commands (and the JavaScript condition ``ready`` holds), its canvas goes into ``png``.
+
+    Returns:
+        ``{"served": [...], "refused": [...], "errors": [...]}``: the addresses answered and refused, the page's errors.
+    """
+    import mimetypes
+
+    from playwright.sync_api import sync_playwright
+
+    seen: dict[str, list[str]] = {"served": [], "refused": [], "errors": []}
+
+    def answer(route):
+        url = route.request.url
+        if url.startswith(("file:", "data:", "blob:")):
+            return route.continue_()
+        found = local(url) if local is not None else None
+        if found is None:
+            seen["refused"].append(url)
+            return route.abort()
+        seen["served"].append(url)
+        kind = mimetypes.guess_type(found.name)[0] or "application/octet-stream"
+        route.fulfill(status=200, body=found.read_bytes(), headers={"Content-Type": kind, "Access-Control-Allow-Origin": "*"})
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        try:
+            tab = browser.new_page(viewport={"width": 1000, "height": 800})
+            tab.on("pageerror", lambda e: seen["errors"].append(str(e)))
+            tab.route("**/*", answer)
+            tab.goto(Path(page).resolve().as_uri())
+            canvas = tab.locator(".nlo-lab-view canvas").first
+            try:
+                canvas.wait_for(timeout=90_000)
+            except Exception:
+                raise AssertionError(f"no 3-D view in {page}; {seen}") from None
+            tab.wait_for_function("() => (globalThis.__nloLabView || {}).commands > 0", timeout=30_000)
+            if ready:
+                tab.wait_for_function(ready, timeout=30_000)
+            canvas.scroll_into_view_if_needed()
+            tab.wait_for_timeout(500)
+            canvas.screenshot(path=str(png))
+        finally:
+            browser.close()
+    return seen
+
+
 def hue_mask(img: np.ndarray, colour: int, hue_tol: float = 0.03) -> np.ndarray:
     """``(H, W)`` pixels of ``img`` whose hue is that of ``colour`` (saturated, not dark): shading changes brightness, not hue."""
     import matplotlib.colors as mcolors

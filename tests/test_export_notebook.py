@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import base64
 import json
-import mimetypes
 import re
 import subprocess
 import sys
@@ -23,7 +22,7 @@ from pathlib import Path
 import nbformat
 import numpy as np
 import pytest
-from lab_browser import CHROMIUM, CHROMIUM_ARGS, browser_missing, hue_mask
+from lab_browser import browser_missing, hue_mask, offline_view_shot
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tools"))
@@ -70,43 +69,10 @@ def test_exported_notebook_shows_the_robot_in_chromium(exported, tmp_path):
         pytest.skip(browser_missing())
     if export_js.missing():
         pytest.skip(export_js.missing())
-    from playwright.sync_api import sync_playwright
-
     from nlo_lab.viz import GROUP_COLOURS
 
-    served, refused = [], []
-
-    def answer(route):
-        url = route.request.url
-        if url.startswith(("file:", "data:", "blob:")):
-            return route.continue_()
-        local = export_js.local_file(url)
-        if local is None:
-            refused.append(url)
-            return route.abort()
-        served.append(url)
-        kind = mimetypes.guess_type(local.name)[0] or "application/octet-stream"
-        route.fulfill(status=200, body=local.read_bytes(), headers={"Content-Type": kind, "Access-Control-Allow-Origin": "*"})
-
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        try:
-            page = browser.new_page(viewport={"width": 1000, "height": 800})
-            errors = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            page.route("**/*", answer)
-            page.goto(exported.as_uri())
-            canvas = page.locator(".nlo-lab-view canvas").first
-            try:
-                canvas.wait_for(timeout=90_000)
-            except Exception as e:
-                raise AssertionError(f"no 3-D view in the exported page; served {served}, refused {refused}, errors {errors}") from e
-            page.wait_for_function("() => (globalThis.__nloLabView || {}).commands > 0", timeout=30_000)
-            canvas.scroll_into_view_if_needed()
-            page.wait_for_timeout(500)
-            canvas.screenshot(path=str(tmp_path / "export.png"))
-        finally:
-            browser.close()
+    seen = offline_view_shot(exported, tmp_path / "export.png", local=export_js.local_file)
+    served, errors = seen["served"], seen["errors"]
     import matplotlib.image as mimage
 
     img = mimage.imread(str(tmp_path / "export.png"))[..., :3].astype(np.float64)

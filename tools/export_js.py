@@ -14,6 +14,9 @@ packages installed here (:func:`local_file`). Nothing goes into the repository o
 Run: ``make export-js`` (``make test`` runs it): installs into :func:`folder` once, with the anywidget
 release that matches the Python package. Exit status 0 also when npm or the registry is unavailable
 (a note says so; the test then skips with the reason).
+
+``tools/docs.py`` (``make docs``) copies the same files into the gallery site, with MathJax
+(:data:`DOCS_EXTRA`), so that the site loads nothing from a CDN.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from pathlib import Path
 
 HTML_MANAGER = "1.0.15"  # @jupyter-widgets/html-manager for ipywidgets 8 (nbconvert asks for the latest, "@*")
 REQUIREJS = "2.1.10"  # the require.js release nbconvert's template loads from cdnjs
+DOCS_EXTRA = {"mathjax": "3.2.2"}  # the gallery's equations (tools/docs.py), typeset in the page
 
 
 def folder() -> Path:
@@ -38,17 +42,17 @@ def folder() -> Path:
     return Path(cache) / "export-js"
 
 
-def wanted() -> dict[str, str]:
-    """npm package -> version: anywidget's matches the Python package's (its widgets name that version)."""
+def wanted(extra: dict[str, str] | None = None) -> dict[str, str]:
+    """npm package -> version: anywidget's matches the Python package's (its widgets name that version); and ``extra``."""
     import anywidget
 
-    return {"anywidget": anywidget.__version__, "@jupyter-widgets/html-manager": HTML_MANAGER, "requirejs": REQUIREJS}
+    return {"anywidget": anywidget.__version__, "@jupyter-widgets/html-manager": HTML_MANAGER, "requirejs": REQUIREJS, **(extra or {})}
 
 
-def missing() -> str | None:
-    """Why the installed packages cannot serve an export here, or None."""
+def missing(extra: dict[str, str] | None = None) -> str | None:
+    """Why the installed packages (with ``extra``) cannot serve an export here, or None."""
     modules = folder() / "node_modules"
-    for name, version in wanted().items():
+    for name, version in wanted(extra).items():
         meta = modules / name / "package.json"
         if not meta.is_file():
             return f"{name}@{version} is not installed in {folder()} (run `make export-js`; it needs npm and the npm registry)"
@@ -58,20 +62,20 @@ def missing() -> str | None:
     return None
 
 
-def install() -> str | None:
-    """Install the packages with npm when they are missing; returns why that failed, or None."""
-    if missing() is None:
+def install(extra: dict[str, str] | None = None) -> str | None:
+    """Install the packages (with ``extra``) with npm when they are missing; returns why that failed, or None."""
+    if missing(extra) is None:
         return None
     npm = shutil.which("npm")
     if npm is None:
         return "npm is not installed"
     folder().mkdir(parents=True, exist_ok=True)
-    specs = [f"{name}@{version}" for name, version in wanted().items()]
+    specs = [f"{name}@{version}" for name, version in wanted(extra).items()]
     run = subprocess.run([npm, "install", "--no-save", "--no-audit", "--no-fund", "--ignore-scripts", "--prefix", str(folder()), *specs],
                          capture_output=True, text=True, timeout=600)
     if run.returncode != 0:
         return f"npm install {' '.join(specs)} failed: {run.stderr.strip()[-500:]}"
-    return missing()
+    return missing(extra)
 
 
 _CDN = [
@@ -96,11 +100,11 @@ def local_file(url: str) -> Path | None:
 
 
 def main() -> int:
-    why = install()
+    why = install(DOCS_EXTRA)  # the gallery's test builds a page with them too
     if why:
-        print(f"note: the exported-notebook test will be skipped: {why}")
+        print(f"note: the exported-notebook and gallery tests will be skipped: {why}")
     else:
-        print(f"export JavaScript ready in {folder()}: " + ", ".join(f"{n}@{v}" for n, v in wanted().items()))
+        print(f"export JavaScript ready in {folder()}: " + ", ".join(f"{n}@{v}" for n, v in wanted(DOCS_EXTRA).items()))
     return 0
 
 
