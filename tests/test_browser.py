@@ -412,3 +412,32 @@ def test_the_view_and_a_panel_in_notebook_7(tmp_path, browser):
             assert all(text.startswith("No kernel answers") for text in page.view_messages()), page.view_messages()
         finally:
             page.page.close()
+
+
+def test_an_animation_loops_and_its_button_pauses_it(lab_page):
+    """show_view's animation (1 s) still plays after two passes; the view's button pauses it (the picture stops) and plays it."""
+    import nbformat
+
+    page, tmp = lab_page
+    cell = ("import numpy as np\nfrom nlo_lab.lab import show_view\nfrom nlo_lab.robot import load_robot\nnao = load_robot('nao')\n"
+            "lo, hi = nao.lower_limits.numpy(), nao.upper_limits.numpy()\n"
+            "show_view(nao, np.linspace(0.8 * lo + 0.2 * hi, 0.2 * lo + 0.8 * hi, 31))  # 30 steps at 30 fps: 1 s")
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(cell)])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
+    nbformat.write(nb, tmp / "notebooks" / "loop.ipynb")
+    page.open_notebook("loop.ipynb")
+    page.run_all()
+    page.wait_views(1)
+    button = page.page.locator(".nlo-lab-play").first
+    state = lambda: button.get_attribute("data-state")  # noqa: E731
+    page.page.wait_for_timeout(2500)  # two passes and a half
+    assert state() == "playing" and button.is_visible()
+    a, b = page.canvas_image(0, tmp / "loop-a.png"), page.canvas_image(0, tmp / "loop-b.png")
+    assert _changed(a, b) > 0.002, "the animation does not move"
+    button.click()
+    assert state() == "paused"
+    a, b = page.canvas_image(0, tmp / "loop-c.png"), page.canvas_image(0, tmp / "loop-d.png")
+    assert _changed(a, b) < 0.0005, "the paused animation still moves"
+    button.click()
+    assert state() == "playing"
+    _check_clean(page)

@@ -4,16 +4,20 @@
 * :func:`setup`: seeds and a one-line report of the mode and the viewer;
 * :func:`show_robot`, :func:`show_view`, :func:`show_human`: a new 3-D scene each, a
   widget running meshcat's viewer in the notebook (:class:`nlo_lab.viz.SceneWidget`);
-* :func:`joint_table`, :func:`plot_graph`, :func:`recording_path`: small things
-  several notebooks need.
+* :func:`joint_table`, :func:`recording_path`: small things several notebooks need;
+* :func:`time_bar`: a progress bar for work whose budget is a time (training for N seconds);
+* :func:`work_folder`: where a notebook writes (exports, uploads), never into the package or a
+  clone's tracked files.
 """
 
 from __future__ import annotations
 
+import contextlib
 import html
 import os
 import random
-from collections.abc import Sequence
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -31,9 +35,11 @@ __all__ = [
     "show_view",
     "show_human",
     "joint_table",
-    "plot_graph",
     "RECORDINGS_DIR",
     "recording_path",
+    "WORK_ENV",
+    "work_folder",
+    "time_bar",
 ]
 
 TEST_ENV = "NLO_LAB_TEST_MODE"  # set to 1 (CI, ``make test``) for short loops
@@ -98,7 +104,8 @@ def show_view(robot, angles=None, demo=None, *, layout: str = "side", height: in
 
     The view is a widget (:class:`nlo_lab.viz.SceneWidget`, meshcat's viewer in the notebook
     output) that talks to the kernel over the notebook's own connection: no server, no port.
-    The animation plays in the browser; the viewer's Open Controls panel pauses and scrubs it.
+    The animation plays in the browser and loops; the button at the view's lower left pauses and plays it,
+    the viewer's Open Controls panel also scrubs it.
 
     Args:
         robot: a loaded ``nlo_lab.robot.Robot`` or its name.
@@ -112,6 +119,7 @@ def show_view(robot, angles=None, demo=None, *, layout: str = "side", height: in
         that do not match) gives the widget with the reason shown in it.
     """
     from nlo_lab.viz import RetargetScene, SceneWidget
+    from nlo_lab.viz.tracks import LOOP
 
     widget = SceneWidget(height=height)
     try:
@@ -120,7 +128,7 @@ def show_view(robot, angles=None, demo=None, *, layout: str = "side", height: in
         with widget.hold():
             scene = RetargetScene(widget.vis, robot, q, demo=demo, layout=layout)
             if len(scene) > 1:
-                scene.animate(play=True, repetitions=0)
+                scene.animate(play=True, repetitions=LOOP)
     except NloLabError as exc:
         return _failed(widget, exc)
     widget.scene = scene
@@ -142,10 +150,11 @@ def show_robot(robot, q=None, *, height: int = 400):
 
 
 def show_human(demo, *, height: int = 400):
-    """An animated 3-D view of a human ``Demonstration`` alone (skeleton and fingers) as a new scene; see :func:`show_view`."""
+    """An animated (looping) 3-D view of a human ``Demonstration`` alone (skeleton and fingers) as a new scene; see :func:`show_view`."""
     from meshcat.animation import Animation
 
     from nlo_lab.viz import HumanScene, SceneWidget, frame_points, style_viewer
+    from nlo_lab.viz.tracks import LOOP
 
     widget = SceneWidget(height=height)
     try:
@@ -155,7 +164,7 @@ def show_human(demo, *, height: int = 400):
             if len(demo) > 1:
                 anim = Animation(default_framerate=float(demo.fps))
                 scene.add_to(anim)
-                widget.vis.set_animation(anim, play=True, repetitions=0)
+                widget.vis.set_animation(anim, play=True, repetitions=LOOP)
     except NloLabError as exc:
         return _failed(widget, exc)
     widget.scene = scene
@@ -177,63 +186,6 @@ def joint_table(robot):
     return HTML(f"<p><b>{html.escape(robot.name)}</b>: {robot.n_joints} actuated joints</p><table>{head}{''.join(rows)}</table>")
 
 
-def _tree_layout(n: int, edges: np.ndarray) -> np.ndarray:
-    """``(n, 2)`` positions of a forest: depth downwards, leaves spread left to right."""
-    children: dict[int, list[int]] = {i: [] for i in range(n)}
-    has_parent = np.zeros(n, bool)
-    for p, c in edges.T:
-        children[int(p)].append(int(c))
-        has_parent[int(c)] = True
-    pos = np.zeros((n, 2))
-    cursor = [0.0]
-
-    def place(node: int, depth: int) -> float:
-        kids = children[node]
-        if not kids:
-            x = cursor[0]
-            cursor[0] += 1.0
-        else:
-            x = float(np.mean([place(k, depth + 1) for k in kids]))
-        pos[node] = (x, -depth)
-        return x
-
-    for root in np.flatnonzero(~has_parent):
-        place(int(root), 0)
-    return pos
-
-
-def plot_graph(graph, names: Sequence[str] | None = None, ax=None, title: str = "", fontsize: float = 6.0):
-    """Draw a :class:`nlo_lab.graph.Graph` as a tree (parent above child), nodes coloured by type.
-
-    Args:
-        graph: the robot structure graph (``robot.graph``) or the human skeleton graph.
-        names: one label per node (e.g. ``robot.joint_names`` or ``nlo_lab.human.NODE_NAMES``).
-        ax: axes to draw into (a new figure if None).
-
-    Returns:
-        ``(fig, ax)``.
-    """
-    import matplotlib.pyplot as plt
-
-    edges = np.asarray(graph.edge_index.detach().cpu() if hasattr(graph.edge_index, "detach") else graph.edge_index)
-    n = int(graph.num_nodes)
-    pos = _tree_layout(n, edges)
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(max(6.0, 0.35 * n), 3.5))
-    fig = ax.figure
-    for p, c in edges.T:
-        ax.plot(pos[[p, c], 0], pos[[p, c], 1], color="0.6", lw=1, zorder=1)
-    types = np.asarray(graph.node_type.detach().cpu() if hasattr(graph.node_type, "detach") else graph.node_type)
-    palette = {0: "#E8731A", 1: "#2CA02C"}  # arm, hand (as in the 3-D viewer)
-    ax.scatter(pos[:, 0], pos[:, 1], c=[palette.get(int(t), "#4C72B0") for t in types], s=40, zorder=2)
-    if names is not None:
-        for i, name in enumerate(names):
-            ax.annotate(str(name), pos[i], xytext=(0, -7), textcoords="offset points", ha="center", va="top", fontsize=fontsize, rotation=60)
-    ax.set_title(title or f"{n} nodes, {edges.shape[1]} edges (orange: arm, green: hand)")
-    ax.axis("off")
-    return fig, ax
-
-
 def recording_path(name: str = "holistic_both_hands_47f.pose") -> Path:
     """A real recording shipped in ``assets/recordings/`` (see its README for the licence)."""
     path = RECORDINGS_DIR / name
@@ -241,3 +193,67 @@ def recording_path(name: str = "holistic_both_hands_47f.pose") -> Path:
         have = sorted(p.name for p in RECORDINGS_DIR.glob("*")) if RECORDINGS_DIR.is_dir() else []
         raise NloLabError(f"no shipped recording {name!r} in {RECORDINGS_DIR} (have: {', '.join(have) or 'none'})")
     return path
+
+
+WORK_ENV = "NLO_LAB_WORK"  # where the notebooks write; default ./nlo_lab_work
+
+
+def work_folder(name: str = "") -> Path:
+    """The folder a notebook writes into (exports, uploaded videos), created if missing.
+
+    ``$NLO_LAB_WORK/name`` if that variable is set, else ``nlo_lab_work/name`` in the current folder (the
+    notebook's own: beside your copy of the notebooks, where Jupyter's file browser shows it). In a clone
+    of the repository ``nlo_lab_work/`` is ignored by git (``.gitignore``), so running the notebooks there
+    leaves ``git status`` clean.
+
+    Args:
+        name: a sub-folder (one plain name, e.g. ``"retargeted"``); "" for the work folder itself.
+
+    Raises:
+        NloLabError: ``name`` is not one plain folder name, or the folder cannot be created.
+    """
+    if name and (Path(name).name != name or name in (".", "..")):
+        raise NloLabError(f"work_folder takes one plain folder name, got {name!r}")
+    root = Path(os.environ.get(WORK_ENV) or "nlo_lab_work").expanduser()
+    folder = root / name if name else root
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise NloLabError(f"cannot create the work folder {folder}: {exc.strerror or exc}") from None
+    return folder
+
+
+@contextlib.contextmanager
+def time_bar(seconds: float, desc: str = ""):
+    """A progress bar (tqdm: a widget in a notebook, text elsewhere) that fills with the wall-clock time
+    spent inside the block, out of ``seconds``: for work whose budget is a time, such as training for
+    N seconds (``train_variant``), where the time spent is the progress made.
+
+    Args:
+        seconds: the budget [s] (the bar's total).
+        desc: the bar's label.
+
+    Yields:
+        The tqdm bar (``bar.set_postfix_str(...)`` says what runs now).
+    """
+    from tqdm.auto import tqdm
+
+    total = max(1, round(float(seconds)))
+    bar = tqdm(total=total, desc=desc, unit="s", bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s{postfix}")
+    start, stop = time.monotonic(), threading.Event()
+
+    def tick() -> None:  # another thread: the block itself runs undisturbed
+        while not stop.wait(0.5):
+            bar.n = min(total, int(time.monotonic() - start))
+            bar.refresh()
+
+    ticker = threading.Thread(target=tick, name="nlo_lab-time-bar", daemon=True)
+    ticker.start()
+    try:
+        yield bar
+    finally:
+        stop.set()
+        ticker.join()
+        bar.n = min(total, round(time.monotonic() - start))
+        bar.refresh()
+        bar.close()

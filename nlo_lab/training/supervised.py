@@ -112,14 +112,20 @@ def supervised_labels(robot, targets: Targets, iterations: int, *, progress: boo
 
     Each frame on its own, with the paper's objective (no smoothness term): the frames are
     samples (every ``frame_stride``-th frame, several sequences end to end), not a motion.
+    ``progress``: a tqdm bar of the optimisation steps (every chunk of frames takes ``iterations + 1``).
     """
+    from tqdm.auto import tqdm
+
     chunk = 2048  # bounded memory; frames are independent
+    starts = range(0, len(targets), chunk)
     out = []
     per_frame = LossWeights(smooth=0.0)
-    for i in range(0, len(targets), chunk):
-        r = optimize_joints(robot, targets.index(slice(i, i + chunk)), JointOptimizeSettings(iterations=iterations, patience=iterations + 1),
-                            fast=True, weights=per_frame)
-        out.append(r.q.detach())
+    with tqdm(total=len(starts) * (iterations + 1), desc=f"labels {robot.name}", unit="step", disable=not progress) as bar:
+        for i in starts:
+            settings = JointOptimizeSettings(iterations=iterations, patience=iterations + 1)
+            r = optimize_joints(robot, targets.index(slice(i, i + chunk)), settings, fast=True, weights=per_frame,
+                                callback=lambda it, loss: bar.update(1))
+            out.append(r.q.detach())
     return torch.cat(out)
 
 

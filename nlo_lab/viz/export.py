@@ -194,7 +194,7 @@ def static_html(
     import numpy as np
 
     from nlo_lab.viz.scene import RetargetScene
-    from nlo_lab.viz.tracks import set_key_times
+    from nlo_lab.viz.tracks import LOOP, set_key_times
 
     if times is not None:
         times = np.asarray(times, dtype=np.float64)
@@ -212,7 +212,7 @@ def static_html(
                 set_key_times(anim, times)  # the trajectory's own time base (retimed): what the robot would play
             except ValueError as exc:
                 raise NloLabError(f"times: {exc}") from None
-        vis.set_animation(anim, play=play, repetitions=0 if play else 1)
+        vis.set_animation(anim, play=play, repetitions=LOOP if play else 1)
     return vis.static_html()
 
 

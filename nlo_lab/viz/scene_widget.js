@@ -72,7 +72,13 @@ async function render({ model, el }) {
   note.className = "nlo-lab-view-message";
   note.style.cssText = "position: absolute; left: 0; top: 0; right: 0; padding: 6px 10px; font: 13px sans-serif;" +
     "background: #fff3cd; color: #5c4400; border-bottom: 1px solid #e0c36a; display: none; z-index: 2";
-  box.append(pane, note);
+  // Play / pause of the scene's animation (show_view and show_human loop theirs): shown while the scene has one.
+  const play = document.createElement("button");
+  play.className = "nlo-lab-play";
+  play.type = "button";
+  play.style.cssText = "position: absolute; left: 8px; bottom: 8px; z-index: 2; display: none; min-width: 30px;" +
+    "padding: 2px 8px; font: 14px sans-serif; background: rgba(255,255,255,0.85); border: 1px solid #999; border-radius: 4px; cursor: pointer";
+  box.append(pane, note, play);
   el.append(box);
   let status = "loading the 3-D viewer ...";
   const show = () => {
@@ -189,6 +195,7 @@ async function render({ model, el }) {
     if (!alive) return;
     requestAnimationFrame(loop);
     viewer.animator.update();
+    showPlay();
     if (viewer.needs_render) {
       const t0 = performance.now();
       viewer.render();
@@ -202,6 +209,24 @@ async function render({ model, el }) {
       }
     }
   };
+  // The button follows the animator (the viewer's own controls and a new animation change it too).
+  let shown = null;
+  const showPlay = () => {
+    const animator = viewer.animator;
+    const state = animator.duration > 0 ? (animator.playing ? "playing" : "paused") : "none";
+    if (state === shown) return;
+    shown = state;
+    play.style.display = state === "none" ? "none" : "block";
+    play.textContent = state === "playing" ? "\u275A\u275A" : "\u25B6";
+    const label = state === "playing" ? "Pause the animation" : "Play the animation";
+    play.title = label;
+    play.setAttribute("aria-label", label);
+    play.dataset.state = state;
+  };
+  play.addEventListener("click", () => {
+    if (viewer.animator.playing) viewer.animator.pause(); else viewer.animator.play();
+    showPlay();
+  });
   const resize = new ResizeObserver(() => viewer.set_3d_pane_size());
   resize.observe(pane);
   viewer.set_3d_pane_size();

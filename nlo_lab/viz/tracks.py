@@ -10,8 +10,12 @@ from meshcat.animation import Animation, AnimationClip, AnimationTrack
 
 from nlo_lab.rotations import matrix_to_quat as matrix_to_quaternion  # (x, y, z, w), three.js's order
 
-__all__ = ["matrix_to_quaternion", "add_track", "add_pose_tracks", "add_visible_track", "set_key_times", "material",
+__all__ = ["LOOP", "matrix_to_quaternion", "add_track", "add_pose_tracks", "add_visible_track", "set_key_times", "material",
            "translation", "Y_TO_Z", "tick_ms", "DETAILS", "SEGMENTS", "detail_of", "sphere", "cylinder"]
+
+# ``repetitions`` of an animation that plays until paused: three.js's LoopRepeat stops after ``repetitions``
+# passes, so 0 (or 1) plays once; msgpack carries infinity as a float, which the page reads as Infinity.
+LOOP = float("inf")
 
 Y_TO_Z = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])  # R_x(+90°): meshcat Y -> URDF Z
 

@@ -76,22 +76,6 @@ fused_total, _ = objective(robot, q0, one, fused=True)
 print(f"term functions {float(total):.6f}, numpy terms {float(fused_total):.6f}")
 
 # %% [markdown]
-# ## Weight sliders
-#
-# Move a weight: the sliders build `LossWeights` and call `objective` again; watch the total and the share of
-# each term change (the pose is fixed here; in notebook 05 the sliders re-optimise the pose).
-
-# %%
-from ipywidgets import FloatLogSlider, interact
-
-sliders = {n: FloatLogSlider(value=getattr(LossWeights(), n), base=10, min=-1, max=4, description=n) for n in terms}
-
-@interact(**sliders)
-def shares(**w):
-    total, unweighted = objective(robot, q0, one, LossWeights(**w))
-    print(f"total {float(total):.1f}:  " + "  ".join(f"{n} {float(w[n] * v) / float(total):5.1%}" for n, v in unweighted.items()))
-
-# %% [markdown]
 # ## Joint-space optimisation of one frame
 #
 # The obvious approach: gradient descent (Adam) on the angles `q` themselves. Joint limits are kept by
@@ -108,15 +92,28 @@ print(f"loss {res.history[0]:.1f} -> {res.history[-1]:.2f} in {res.iterations} s
 plot_convergence({"joint space, from the neutral pose": res.history});
 
 # %%
-from nlo_lab.lab import show_robot
+from nlo_lab.lab import show_view
 
-show_robot(robot, res.q[0])
+show_view(robot, res.q[0], demo=demo.slice(t, t + 1))   # the robot beside the human's frame
+
+# %% [markdown]
+# ## Weight sliders
+#
+# Move a weight and release it: the sliders build `LossWeights`, and the frame is optimised again in joint
+# space with them (the same start and budget as above). The 3-D view shows the pose these weights give,
+# beside the human; the bars show the weighted terms at that pose, the line below each term's share of the
+# total. Lower `finger` to 0.1, or raise `elbow` to 10,000, and watch the hands and the arms.
+
+# %%
+from nlo_lab.lab import WeightsPanel
+
+WeightsPanel(robot, one, demo.slice(t, t + 1), iterations=budget(100, 20))
 
 # %% [markdown]
 # ### Local minima
 #
-# The objective is not convex in `q`. From different random starts inside the limits, the same frame ends at
-# different losses: the result depends on where we start.
+# The objective is not convex in `q`: from different random starts inside the limits, the same frame can end
+# at different losses, so the result depends on where we start.
 
 # %%
 gen = torch.Generator().manual_seed(0)
@@ -126,20 +123,29 @@ for seed in range(budget(6, 3)):
     q_start = lo + (hi - lo) * torch.rand(1, robot.n_joints, generator=gen, dtype=lo.dtype)
     r = optimize_joints(robot, one, JointOptimizeSettings(iterations=ITERS, patience=ITERS), q0=q_start)
     histories[f"start {seed}: {r.history[-1]:.2f}"] = r.history
-plot_convergence(histories, title="joint space from random starts");
+plot_convergence(histories, title="joint space from random starts")
+plt.show()
+final = sorted(h[-1] for h in histories.values())
+Markdown(f"Here the {len(final)} starts ended between **{final[0]:.2f}** and **{final[-1]:.2f}** "
+         f"({final[-1] / final[0]:.1f}× the best), against {res.history[-1]:.2f} from the neutral pose.")
 
 # %% [markdown]
 # ### Limits
 #
-# Without clamping, limits can only be encouraged by a penalty. A weak penalty lets the optimiser leave
-# the limits to lower the tracking terms: the result is not a pose the robot can take.
+# Without clamping, limits can only be encouraged by a penalty. A weak penalty can let the optimiser leave
+# the limits to lower the tracking terms, and the result is then not a pose the robot can take.
 
 # %%
 from nlo_lab.metrics import limit_violations
 
+outside = {}
 for limits, penalty in (("clamp", 1e4), ("penalty", 1e4), ("penalty", 1.0)):
     r = optimize_joints(robot, one, JointOptimizeSettings(iterations=ITERS, patience=ITERS, limits=limits, penalty=penalty))
-    print(f"{limits:8s} penalty {penalty:8.0f}: loss {r.history[-1]:8.2f}, joints outside their limits: {limit_violations(robot, r.q)}")
+    outside[(limits, penalty)] = limit_violations(robot, r.q)
+    print(f"{limits:8s} penalty {penalty:8.0f}: loss {r.history[-1]:8.2f}, joints outside their limits: {outside[(limits, penalty)]}")
+weak = outside[("penalty", 1.0)]
+Markdown(f"Clamping leaves {outside[('clamp', 1e4)]} joints outside their limits; the weak penalty leaves **{weak}** "
+         + ("outside: a pose the robot cannot take." if weak else "outside on this frame with this budget: try more iterations."))
 
 # %% [markdown]
 # ## Exercises

@@ -70,10 +70,20 @@ ev = evaluate(robot, demos, settings, model=model, network=network, progress=Fal
 print(format_table(ev))
 
 # %% [markdown]
-# Things to look for: IK tracks the wrists it was asked to track, but ignores the elbows, hand
-# orientation and collisions; the supervised network is fast but only as good as its labels and its
-# generalisation; random latent starts need more steps than the encoder's.
-#
+# Things to look for. IK is asked to track the wrists only: not the elbows, the hand orientation or
+# collisions. The supervised network needs no optimisation at run time, and is only as good as its labels
+# and its generalisation. Random latent starts get the same budget as the encoder's. What this run shows:
+
+# %%
+from IPython.display import Markdown
+
+the_method, n = "latent_encoder", len(ev.sequences)
+def seen(m):
+    return (f"wrists {ev.mean(m, 'frechet_wrist_m'):.3f} m, elbows {ev.mean(m, 'frechet_elbow_m'):.3f} m, "
+            f"self-collision in {ev.collision_sequences(m)} of {n} sequences, {ev.total(m, 'seconds'):.2f} s")
+Markdown("\n".join(f"- **{m}**: {seen(m)}" + (" (the method)" if m == the_method else "") for m in ev.methods))
+
+# %% [markdown]
 # ## Similarity against time
 #
 # The paper's comparison figure: the lower left corner is best (similar motion, little time).
@@ -90,11 +100,21 @@ ax.set_xscale("log"); ax.set_xlabel("wall time [s]"); ax.set_ylabel("mean Fréch
 # %% [markdown]
 # ## Smoothness: velocity and acceleration errors
 #
-# Nothing in the objective asks for smooth motion; a method that follows the (smooth) human closely
-# frame by frame inherits its smoothness. Errors are differences of finite-difference derivatives of
-# the wrist and elbow paths, human (mapped) against robot.
+# The paper optimises every frame on its own: it has "no mechanism to ensure smoothness". Our objective
+# adds one, the smoothness term (not in the paper): each joint's speed between consecutive frames in units
+# of its velocity limit, squared, weighted by `LossWeights.smooth`. The methods that optimise a whole
+# sequence (the latent methods and joint space) use it; the encoder alone, the supervised network and IK
+# map every frame on its own. The errors below are differences of finite-difference derivatives of the
+# wrist and elbow paths, human (mapped) against robot: how closely each method follows the human's own
+# speed and acceleration.
 
 # %%
+from nlo_lab.inference import smoothness_term
+from nlo_lab.objective import LossWeights, targets_from_demonstration
+
+sequence = targets_from_demonstration(demos[0], dtype=robot.lower_limits.dtype)
+print(f"default smoothness weight LossWeights().smooth = {LossWeights().smooth:g}; "
+      f"a term over {len(sequence)} frames at {sequence.fps:g} fps: {smoothness_term(robot, sequence, LossWeights()) is not None}")
 fig, axes = plt.subplots(1, 2, figsize=(8, 3))
 for ax, key, unit in zip(axes, ("velocity_error", "acceleration_error"), ("m/s", "m/s²"), strict=True):
     ax.bar(range(len(ev.methods)), [ev.mean(m, key) for m in ev.methods])
@@ -142,8 +162,31 @@ print(sorted(obj["methods"]), sorted(obj["methods"]["latent_encoder"]))
 print(json.dumps(obj["methods"]["latent_encoder"], indent=1)[:400])
 
 # %% [markdown]
-# The full tables (all 25 test sequences, the initialisation ablation, timings) are in `docs/RESULTS.md`,
-# made by `benchmarks/quality.py` and `benchmarks/speed.py`.
+# ### Joint speeds: what `velocity_violations` counts
+#
+# `velocity_violations` (a row of the table, a key of the JSON) counts the (frame pair, joint) entries in
+# which a joint turns faster than its velocity limit when the frames play at the recording's rate. No
+# method here retimes its output; `retarget()` and `nlo-lab retarget` do: they keep the angles and play a
+# frame later wherever a joint would be too fast (`nlo_lab.inference.retime_times`). On the first clip:
+
+# %%
+import numpy as np
+
+from nlo_lab.inference import retime_times
+from nlo_lab.metrics import max_joint_speed_ratio, velocity_violations
+
+q = run_method(the_method, robot, demo, settings, model=model).angles          # (T, n) [rad], frames 1/fps apart
+times = retime_times(q, demo.fps, robot.velocity_limits.double().numpy())  # (T,) [s], what retarget() plays
+before, after = velocity_violations(robot, q, fps=demo.fps), velocity_violations(robot, q, times=times)
+Markdown(f"{the_method} on `{demo.name}` ({len(q)} frames at {demo.fps:g} fps): **{before}** of its {(len(q) - 1) * robot.n_joints} "
+         f"(frame pair, joint) entries are over the limit, the fastest joint at {max_joint_speed_ratio(robot, q, fps=demo.fps):.2f}× "
+         f"its limit ({int(ev.total(the_method, 'velocity_violations'))} entries over the {n} sequences of the table). "
+         f"Retimed, the clip lasts {(times[-1] + 1 / demo.fps) * demo.fps / len(q):.2f}× as long, with **{after}** entries over "
+         f"the limit (fastest {max_joint_speed_ratio(robot, q, times=times):.2f}×).")
+
+# %% [markdown]
+# `nlo-lab evaluate --robot yumi` scores every sequence of the test split with the full budgets (add
+# `--json` for the object above, `--limit N` for the first N sequences).
 #
 # ## Exercises
 #

@@ -61,20 +61,18 @@ plot_joint_trajectories(result.trajectory.angles, robot.joint_names, robot.lower
 #
 # `trajectory.npz` (angles, joint names, fps, robot, and `time`: when each frame plays), `trajectory.csv`
 # (one row per frame: `time_s`, then one column per joint, for a real robot's controller) and `viewer.html` (opens offline in any browser: robot beside the
-# human, with play and scrub).
+# human, with play and scrub). They go into `nlo_lab_work/retargeted/` beside this notebook (`work_folder`; the
+# variable `NLO_LAB_WORK` chooses another place), never into the package.
 
 # %%
-import tempfile
-from pathlib import Path
-
+from nlo_lab.lab import work_folder
 from nlo_lab.viz import export_html
 
-out = Path(tempfile.mkdtemp()) if TEST_MODE else Path("retargeted")
-out.mkdir(exist_ok=True)
+out = work_folder("retargeted")
 result.trajectory.save_npz(out / "trajectory.npz")
 result.trajectory.save_csv(out / "trajectory.csv")
 export_html(out / "viewer.html", robot, result.trajectory.angles, demo=demo)
-print(sorted(p.name for p in out.iterdir()))
+print(out.resolve(), sorted(p.name for p in out.iterdir()))
 print((out / "trajectory.csv").read_text().splitlines()[0][:120], "...")
 
 # %% [markdown]
@@ -93,9 +91,9 @@ for name in budget(("yumi", "nao", "pepper"), ("nao",)):
 # ## Smooth, and within the robot's speed limits
 #
 # The paper optimises every frame on its own: it has "no mechanism to ensure smoothness". On a real
-# recording that shows: the encoder can pick another arm configuration from one frame to the next, and
-# noise in the landmarks becomes joint jitter, many times faster than the robot's motors (YuMi's axes 1, 2,
-# 7 and 3 turn at most 3.14 rad/s). Three things fix it, in this order:
+# recording that can show: the encoder can pick another arm configuration from one frame to the next, and
+# noise in the landmarks becomes joint jitter, faster than the robot's motors can turn (each joint's limit is
+# in `robot.velocity_limits`). Three things fix it, in this order:
 #
 # 1. **the smoothness term** `smooth` (`LossWeights`): each joint's speed between consecutive frames, in
 #    units of its velocity limit, squared, added to `L(D, K(q))` over the whole sequence;
@@ -119,7 +117,17 @@ for label, r in (("smooth=0", rough), (f"smooth={LossWeights().smooth:g}", smoot
     s = r.summary
     print(f"{label:10s} Fréchet {s['frechet_m']:.3f} m, speed/limit at the recorded rate {s['recording_speed_ratio']:5.2f}, "
           f"largest step {s['max_joint_step_rad']:.2f} rad, slowdown {s['slowdown']:.2f}, velocity violations {s['velocity_violations']}")
-plot_joint_speeds(robot, {"smooth=0, not retimed": rough.trajectory.at_frame_rate(), "smooth, retimed": smooth.trajectory});
+plot_joint_speeds(robot, {"smooth=0, not retimed": rough.trajectory.at_frame_rate(), "smooth, retimed": smooth.trajectory})
+import matplotlib.pyplot as plt
+from IPython.display import Markdown
+
+plt.show()
+a, b = rough.summary, smooth.summary
+Markdown(f"At the recorded rate, the fastest joint turns at **{a['recording_speed_ratio']:.2f}×** its limit without the "
+         f"smoothness term and **{b['recording_speed_ratio']:.2f}×** with it (largest step {a['max_joint_step_rad']:.2f} against "
+         f"{b['max_joint_step_rad']:.2f} rad). Retiming then plays the smooth result {b['slowdown']:.2f}× as long as the "
+         f"recording, with {b['velocity_violations']} velocity violations; the Fréchet distance goes from "
+         f"{a['frechet_m']:.3f} to {b['frechet_m']:.3f} m.")
 
 # %% [markdown]
 # Move the slider: the smoothness weight trades tracking (Fréchet) against speed. The dashed lines are the
@@ -186,7 +194,8 @@ import shutil
 from nlo_lab.corpus import corpus_clip, corpus_names
 from nlo_lab.human import save_npz
 
-corpus = Path(tempfile.mkdtemp()) / "corpus"
+shutil.rmtree(work_folder("batch"))          # afresh at every run: the first run below works, the second skips
+corpus = work_folder("batch") / "corpus"
 (corpus / "synthetic").mkdir(parents=True)
 shutil.copy(path, corpus / path.name)
 for name in corpus_names("test")[:budget(6, 2)]:

@@ -29,12 +29,9 @@ upload = W.FileUpload(accept=".mp4,.mov,.webm,.avi", multiple=False, description
 upload
 
 # %%
-import tempfile
-from pathlib import Path
+from nlo_lab.lab import recording_path, save_upload, work_folder
 
-from nlo_lab.lab import recording_path, save_upload
-
-work = Path(tempfile.mkdtemp()) if TEST_MODE else Path("my_video")
+work = work_folder("my_video")             # nlo_lab_work/my_video beside this notebook: uploads and exports
 path = save_upload(upload, work) or recording_path("signer_webcam_58f.mp4")
 print(path.name)
 
@@ -63,6 +60,31 @@ for side, seen in demo.meta["hands"].items():
     print(f"{side} hand seen in {seen['observed_frames']} of {len(demo)} frames")
 
 # %% [markdown]
+# Which frames have each hand? A hand MediaPipe does not find in a frame is masked there (short gaps are
+# filled from the neighbouring frames): its fingers and wrist orientation have no target in the objective.
+
+# %%
+import matplotlib.pyplot as plt
+from IPython.display import Markdown
+
+from nlo_lab.human import load_demonstration
+
+fig, ax = plt.subplots(figsize=(6, 2.2))
+for s, side in enumerate(("left", "right")):
+    ax.step(range(len(demo)), demo.finger_mask[:, s].all(axis=1), where="mid", label=f"{side} hand")
+ax.set(xlabel="frame", ylabel="fingers have a target", yticks=[0, 1], yticklabels=["no", "yes"]); ax.legend(fontsize="small")
+plt.show()
+seen = {side: demo.meta["hands"][side]["observed_frames"] for side in ("left", "right")}
+never = [side for side, n in seen.items() if n == 0]
+shipped = load_demonstration(recording_path()).meta["hands"]   # the .pose recording of notebook 08
+Markdown(f"MediaPipe found the left hand in **{seen['left']}** and the right hand in **{seen['right']}** of the {len(demo)} frames. "
+         + (f"The {' and the '.join(never)} hand{'s are' if len(never) > 1 else ' is'} never seen, so the robot's "
+            f"{' and '.join(never)} fingers follow no target in any frame: this video cannot show both hands. "
+            if never else "")
+         + f"The `.pose` recording of notebook 08 has the left hand in {shipped['left']['observed_frames']} and the right in "
+         f"{shipped['right']['observed_frames']} frames; for a video with both hands, film yourself with both in the picture.")
+
+# %% [markdown]
 # ## Retarget
 #
 # The same call as in notebook 08: the encoder's guess, then latent optimisation of the whole clip.
@@ -80,8 +102,9 @@ for key in ("frames", "seconds", "frechet_m", "self_collision_frames", "limit_vi
 # ## Video, skeleton and robot in sync
 #
 # Press play, or drag the slider: the video frame on the left, the human skeleton MediaPipe found (scaled to
-# the robot's arms) and the robot on the right, always the same frame. Look for the frames where a hand
-# is masked: the robot's hand holds its pose instead of following noise.
+# the robot's arms) and the robot on the right, always the same frame. Where a hand is masked (the plot
+# above), the robot's fingers on that side have no target: they come from the encoder's guess and the
+# smoothness term, not from the video.
 
 # %%
 from nlo_lab.lab import VideoView

@@ -1,0 +1,24 @@
+"""What the notebook tests share: running a notebook as Jupyter would."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import nbformat
+import pytest
+
+
+def _run_notebook(path: Path, cwd: Path) -> list[nbformat.NotebookNode]:
+    """The code cells of the notebook at ``path`` after running all of it (a kernel in ``cwd``, this
+    process's environment: set ``NLO_LAB_TEST_MODE`` first for the short budgets)."""
+    from nbclient import NotebookClient
+
+    nb = nbformat.read(path, as_version=4)
+    NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(cwd)}}).execute()
+    return [c for c in nb.cells if c.cell_type == "code"]
+
+
+@pytest.fixture(scope="session")
+def run_notebook():
+    """``run_notebook(path, cwd)`` -> the notebook's code cells with their outputs."""
+    return _run_notebook
