@@ -103,7 +103,8 @@ ax.set_xscale("log"); ax.set_xlabel("wall time [s]"); ax.set_ylabel("mean Fréch
 # The paper optimises every frame on its own: it has "no mechanism to ensure smoothness". Our objective
 # adds one, the smoothness term (not in the paper): each joint's speed between consecutive frames in units
 # of its velocity limit, squared, weighted by `LossWeights.smooth`. The methods that optimise a whole
-# sequence (the latent methods and joint space) use it; the encoder alone, the supervised network and IK
+# sequence (the latent methods and joint space) use it, unless the evaluation is in the paper's mode
+# (`BaselineSettings(mode="paper")`: no smoothness term); the encoder alone, the supervised network and IK
 # map every frame on its own. The errors below are differences of finite-difference derivatives of the
 # wrist and elbow paths, human (mapped) against robot: how closely each method follows the human's own
 # speed and acceleration.
@@ -113,8 +114,9 @@ from nlo_lab.inference import smoothness_term
 from nlo_lab.objective import LossWeights, targets_from_demonstration
 
 sequence = targets_from_demonstration(demos[0], dtype=robot.lower_limits.dtype)
-print(f"default smoothness weight LossWeights().smooth = {LossWeights().smooth:g}; "
-      f"a term over {len(sequence)} frames at {sequence.fps:g} fps: {smoothness_term(robot, sequence, LossWeights()) is not None}")
+weights = settings.loss_weights  # what this evaluation optimises (BaselineSettings.mode)
+print(f"smoothness weight: {weights.smooth:g} in this {settings.mode} evaluation (LossWeights().smooth = {LossWeights().smooth:g}); "
+      f"a smoothness term over {len(sequence)} frames at {sequence.fps:g} fps: {smoothness_term(robot, sequence, weights) is not None}")
 fig, axes = plt.subplots(1, 2, figsize=(8, 3))
 for ax, key, unit in zip(axes, ("velocity_error", "acceleration_error"), ("m/s", "m/s²"), strict=True):
     ax.bar(range(len(ev.methods)), [ev.mean(m, key) for m in ev.methods])
@@ -165,9 +167,11 @@ print(json.dumps(obj["methods"]["latent_encoder"], indent=1)[:400])
 # ### Joint speeds: what `velocity_violations` counts
 #
 # `velocity_violations` (a row of the table, a key of the JSON) counts the (frame pair, joint) entries in
-# which a joint turns faster than its velocity limit when the frames play at the recording's rate. No
-# method here retimes its output; `retarget()` and `nlo-lab retarget` do: they keep the angles and play a
-# frame later wherever a joint would be too fast (`nlo_lab.inference.retime_times`). On the first clip:
+# which a joint turns faster than its velocity limit, on the time base the method's output plays at.
+# Retiming keeps the angles and plays a frame later wherever a joint would be too fast
+# (`nlo_lab.inference.retime_times`), as `retarget()` and `nlo-lab retarget` do. In robot-ready mode
+# (`BaselineSettings.mode`, the default) the latent methods retime their output too; the other methods'
+# frames play at the recording's rate. On the first clip, before and after retiming:
 
 # %%
 import numpy as np
@@ -175,14 +179,17 @@ import numpy as np
 from nlo_lab.inference import retime_times
 from nlo_lab.metrics import max_joint_speed_ratio, velocity_violations
 
-q = run_method(the_method, robot, demo, settings, model=model).angles          # (T, n) [rad], frames 1/fps apart
+result = run_method(the_method, robot, demo, settings, model=model)
+q = result.angles                                                          # (T, n) [rad]
 times = retime_times(q, demo.fps, robot.velocity_limits.double().numpy())  # (T,) [s], what retarget() plays
 before, after = velocity_violations(robot, q, fps=demo.fps), velocity_violations(robot, q, times=times)
-Markdown(f"{the_method} on `{demo.name}` ({len(q)} frames at {demo.fps:g} fps): **{before}** of its {(len(q) - 1) * robot.n_joints} "
-         f"(frame pair, joint) entries are over the limit, the fastest joint at {max_joint_speed_ratio(robot, q, fps=demo.fps):.2f}× "
-         f"its limit ({int(ev.total(the_method, 'velocity_violations'))} entries over the {n} sequences of the table). "
-         f"Retimed, the clip lasts {(times[-1] + 1 / demo.fps) * demo.fps / len(q):.2f}× as long, with **{after}** entries over "
-         f"the limit (fastest {max_joint_speed_ratio(robot, q, times=times):.2f}×).")
+Markdown(f"{the_method} on `{demo.name}` ({len(q)} frames at {demo.fps:g} fps), its frames played at the recording's rate: "
+         f"**{before}** of its {(len(q) - 1) * robot.n_joints} (frame pair, joint) entries are over the limit, the fastest joint at "
+         f"{max_joint_speed_ratio(robot, q, fps=demo.fps):.2f}× its limit. Retimed, the clip lasts "
+         f"{(times[-1] + 1 / demo.fps) * demo.fps / len(q):.2f}× as long, with **{after}** entries over the limit (fastest "
+         f"{max_joint_speed_ratio(robot, q, times=times):.2f}×). In this {settings.mode} evaluation the method's output "
+         + ("is retimed" if result.times is not None else "is not retimed")
+         + f": the table counts {int(ev.total(the_method, 'velocity_violations'))} entries over its {n} sequences.")
 
 # %% [markdown]
 # `nlo-lab evaluate --robot yumi` scores every sequence of the test split with the full budgets (add
