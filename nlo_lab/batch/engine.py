@@ -25,6 +25,7 @@ import socket
 from pathlib import Path
 from urllib.parse import urlsplit
 
+import nlo_lab
 from nlo_lab.atomic_files import stale_temp_folders_in
 from nlo_lab.batch.inputs import RESULTS_FILE, find_inputs
 from nlo_lab.batch.lock import run_lock
@@ -38,6 +39,7 @@ __all__ = ["SchedulerError", "CONNECT_TIMEOUT", "available_cores", "retarget_man
 
 CONNECT_TIMEOUT = 10.0  # seconds to reach a scheduler
 VIDEO_PRIORITY = 1  # a video's segments start before the single-task inputs: a long one must not end the run alone
+WARM_UP_PRIORITY = 10  # each worker loads the model before its first input
 
 
 class SchedulerError(NloLabError):
@@ -97,6 +99,8 @@ def _cluster(client, scheduler: str | None, workers: int | None):
     cluster = distributed.LocalCluster(
         n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
         dashboard_address=None, silence_logs=logging.ERROR,
+        # no dashboard, and the scheduler's HTTP routes (health, metrics) on a free loopback port, not 8787
+        scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
         env={"NLO_LAB_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"},  # torch: one thread per worker
     )
     try:
@@ -109,13 +113,40 @@ def _cluster(client, scheduler: str | None, workers: int | None):
         cluster.close()
 
 
+def _warm_up(client, settings: BatchSettings, token: str) -> list:
+    """Every worker builds the retargeter (robot, model) before any input is sent; the first to finish
+    decides: a bad setting (an unknown robot ...) or a worker that cannot run nlo_lab is an error here,
+    before any row is written. Returns the futures (kept until the run ends, so every worker warms up)."""
+    from distributed import as_completed
+
+    from nlo_lab.batch import tasks
+
+    addresses = list(client.scheduler_info().get("workers", {})) or [None]  # none yet: a cluster still growing
+    futures = [client.submit(tasks.warm_up, settings, pure=False, priority=WARM_UP_PRIORITY, key=f"nlo-lab-warm-up-{token}-{i}",
+                             workers=None if a is None else [a], allow_other_workers=a is None)
+               for i, a in enumerate(addresses)]
+    first = next(iter(as_completed(futures, loop=client.loop)))
+    try:
+        version = first.result()
+    except Exception as exc:  # noqa: BLE001 - e.g. nlo_lab missing on the workers
+        raise SchedulerError(f"the cluster's workers cannot run nlo_lab: {type(exc).__name__}: {' '.join(str(exc).split())}") from None
+    if isinstance(version, NloLabError):
+        raise version
+    if version != nlo_lab.__version__:
+        raise SchedulerError(f"the cluster's workers run nlo_lab {version}, this process {nlo_lab.__version__}: install the same version")
+    return futures
+
+
 def _run(client, jobs, table: ResultsTable, progress: Progress, on_row) -> None:
-    """Submit every job, collect the rows as they come (a video: plan, segments, then its job)."""
+    """Submit every job, collect the rows as they come (a video: plan, segments, then its job).
+    The progress starts once a worker has loaded the model (a bad setting is one error line, alone)."""
     from distributed import as_completed
 
     from nlo_lab.batch import tasks
 
     token = secrets.token_hex(4)
+    warming = _warm_up(client, jobs[0].settings, token)  # noqa: F841 - held until the run ends
+    progress.start()
     pending: dict[str, tuple] = {}
     queue = as_completed(loop=client.loop)
 
@@ -217,7 +248,8 @@ def retarget_many(inputs, robot, out, client=None, *, init: str = "encoder", ite
         InputError: an input path that does not exist, no input found, two inputs for one folder.
         SchedulerError: no scheduler at ``scheduler``; the batch extra missing.
         OutputError: ``out`` cannot be written; another batch is writing it.
-        NloLabError: an unknown robot, a bad setting (before anything runs).
+        NloLabError: an unknown robot, a bad setting (found when the first worker loads the model, before
+            any input runs).
     """
     if client is not None and scheduler:
         raise SchedulerError("give a client or a scheduler address, not both")
@@ -236,7 +268,6 @@ def retarget_many(inputs, robot, out, client=None, *, init: str = "encoder", ite
         bar = Progress(len(plan.jobs), progress, skipped=len(plan.rows))
         try:
             if plan.jobs:
-                settings.build()  # an unknown robot or a bad setting: refused here, before any cluster starts
                 if workers is None:  # one per core, but not more than there are tasks (a video: one per segment)
                     videos = any(job.item.is_video for job in plan.jobs)
                     workers = available_cores() if videos else min(available_cores(), len(plan.jobs))

@@ -33,34 +33,40 @@ class Progress:
         show: draw anything at all.
         skipped: inputs the run does not need to run (said once, at the start).
         stream: where to write (default ``sys.stderr``).
+
+    Nothing shows before :meth:`start`.
     """
 
     def __init__(self, total: int, show: bool, skipped: int = 0, stream=None):
-        self.total, self.done, self.failed = total, 0, 0
+        self.total, self.done, self.failed, self.skipped = total, 0, 0, skipped
         self.stream = stream or sys.stderr
-        self.start = time.monotonic()
-        self._logged = self.start
+        self.started = self._logged = time.monotonic()
         self._bar = None
-        self.show = show and total > 0
+        self.wanted, self.show = show and total > 0, False
+
+    def start(self) -> None:
+        """Show the progress from now on (the rate counts from here)."""
+        self.started = self._logged = time.monotonic()
+        self.show, skipped, total = self.wanted, self.skipped, self.total
         if not self.show:
             return
         interactive = getattr(self.stream, "isatty", lambda: False)() or "ipykernel" in sys.modules
         if interactive:
             from tqdm.auto import tqdm
 
-            note = f" ({skipped} done before)" if skipped else ""
+            note = f" ({skipped} from earlier runs)" if skipped else ""
             self._bar = tqdm(total=total, desc=f"batch{note}", unit="input", file=self.stream, dynamic_ncols=True,
                              bar_format="{desc}: {bar} {n_fmt}/{total_fmt} done, {postfix} [{elapsed}<{remaining}, {rate_fmt}]")
             self._bar.set_postfix_str("0 failed")
         else:
-            self._line(f"{total} inputs to run" + (f", {skipped} done before" if skipped else ""))
+            self._line(f"{total} inputs to run" + (f", {skipped} from earlier runs" if skipped else ""))
 
     def _line(self, text: str) -> None:
         print(f"nlo-lab: batch: {text}", file=self.stream, flush=True)
 
     def status(self) -> str:
         """``12/40 done, 1 failed, 0.85 inputs/s, 33 s left``."""
-        elapsed = time.monotonic() - self.start
+        elapsed = time.monotonic() - self.started
         rate = self.done / elapsed if elapsed > 0 else 0.0
         left = f", {format_seconds((self.total - self.done) / rate)} left" if rate > 0 and self.done < self.total else ""
         return f"{self.done}/{self.total} done, {self.failed} failed, {rate:.2f} inputs/s{left}"
@@ -71,7 +77,7 @@ class Progress:
         if self._bar is not None:
             self._bar.set_postfix_str(f"{self.failed} failed", refresh=False)
             self._bar.update(1)
-        elif self.show and time.monotonic() - self._logged >= LOG_INTERVAL:
+        elif self.show and self.done < self.total and time.monotonic() - self._logged >= LOG_INTERVAL:
             self._logged = time.monotonic()
             self._line(self.status())
 
@@ -87,5 +93,5 @@ class Progress:
             self._bar.close()
             self._bar = None
         elif self.show:
-            self._line(f"{self.status()} in {format_seconds(time.monotonic() - self.start)}")
+            self._line(f"{self.status()} in {format_seconds(time.monotonic() - self.started)}")
         self.show = False

@@ -23,7 +23,7 @@ from nlo_lab.batch.settings import BatchSettings
 from nlo_lab.batch.table import failed_row, row_from_summary
 from nlo_lab.errors import NloLabError, escape
 
-__all__ = ["Job", "Failure", "failure_text", "cached_retargeter", "retarget_input", "video_segments", "video_segment"]
+__all__ = ["Job", "Failure", "failure_text", "cached_retargeter", "warm_up", "retarget_input", "video_segments", "video_segment"]
 
 _CACHE: dict[BatchSettings, object] = {}
 _CACHE_SIZE = 4  # settings kept per process (a notebook may try a few)
@@ -75,6 +75,19 @@ def cached_retargeter(settings: BatchSettings):
                 _CACHE.pop(next(iter(_CACHE)))
             _CACHE[settings] = settings.build()
         return _CACHE[settings]
+
+
+def warm_up(settings: BatchSettings) -> str | NloLabError:
+    """Build the retargeter of ``settings`` in this worker (kept for the inputs to come): nlo_lab's version
+    here, or the error that building met (an unknown robot, a bad spec or checkpoint, a setting out of
+    range), returned rather than raised so that the worker's log stays clean."""
+    import nlo_lab
+
+    try:
+        cached_retargeter(settings)
+    except NloLabError as exc:
+        return exc
+    return nlo_lab.__version__
 
 
 def video_segments(path: str) -> list[tuple[int, int | None]] | Failure:

@@ -117,6 +117,17 @@ def test_a_corpus_with_bad_files_on_a_local_cluster_then_resumed(tmp_path, monke
         retarget_many([corpus / "a.pose"], "nao", out, iterations=ITERS + 1)
 
 
+def test_an_unknown_robot_is_refused_when_the_first_worker_loads_it(tmp_path):
+    from nlo_lab.errors import UnknownRobotError
+
+    (tmp_path / "in").mkdir()
+    shutil.copy(POSE, tmp_path / "in" / "a.pose")
+    with pytest.raises(UnknownRobotError, match="unknown robot 'nobody'"):
+        retarget_many([tmp_path / "in"], "nobody", tmp_path / "out", workers=1)
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".nlo-lab-batch.lock", "results.csv"]
+    assert (tmp_path / "out" / "results.csv").read_text().splitlines() == [",".join(COLUMNS)]  # no row: nothing ran
+
+
 def test_the_table_is_a_dataframe_when_pandas_is_there(tmp_path, monkeypatch):
     made = {}
 
