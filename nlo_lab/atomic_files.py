@@ -58,11 +58,15 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         path: the target file; its folder must exist.
 
     Raises:
-        OSError: the folder does not exist or is not writable, or the rename failed.
+        OSError: the folder does not exist or is not writable, the disk is full, or the
+            rename failed; its ``filename`` is ``path`` (never our temporary file).
     """
     target = Path(path)
     folder = target.parent if str(target.parent) else Path(".")
-    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    except OSError as err:
+        raise _naming(err, target) from None
     os.close(fd)
     tmp = Path(name)
     try:
@@ -71,10 +75,20 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
             os.fsync(fh.fileno())
         os.chmod(tmp, 0o666 & ~current_umask())
         os.replace(tmp, target)
-    except BaseException:
+    except BaseException as err:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+        if type(err) in _OS_ERRORS:  # a full disk, no permission: name the user's file, not our temporary one
+            raise _naming(err, target) from None
         raise
+
+
+_OS_ERRORS = (OSError, PermissionError, FileNotFoundError, IsADirectoryError, NotADirectoryError, FileExistsError)
+
+
+def _naming(err: OSError, target: Path) -> OSError:
+    """The same error (type, errno, reason) about ``target``."""
+    return type(err)(err.errno, err.strerror or str(err), str(target)) if err.errno else type(err)(f"{err}: {target}")
 
 
 def atomic_write_bytes(path: str | os.PathLike, payload: bytes) -> Path:

@@ -14,7 +14,8 @@ written before nlo_lab had its own classes keeps working::
     │   └── UnknownRobotError    LookupError  a name that is no bundled robot and no spec file
     ├── CheckpointError          ValueError   a model checkpoint
     ├── TrajectoryError          ValueError   a robot trajectory (nlo_lab.inference)
-    └── OutputError              OSError      an output place that cannot take the results
+    ├── OutputError              OSError      an output place that cannot take the results
+    └── InstallationError        ImportError  a missing extra (JupyterLab, MediaPipe) or a damaged installation
 
 Messages name what is wrong and where: file, frame, field, link or joint. An input
 file that is missing, not a regular file or too large is reported by the reader's own
@@ -35,6 +36,7 @@ __all__ = [
     "SettingsError",
     "SettingsTypeError",
     "OutputError",
+    "InstallationError",
     "Interrupted",
     "escape",
 ]
@@ -88,6 +90,10 @@ class SettingsTypeError(SettingsError, TypeError):
 
 class OutputError(NloLabError, OSError):
     """An output place that cannot take the results (a file, blocking entries, no permission)."""
+
+
+class InstallationError(NloLabError, ImportError):
+    """A missing extra (``pip install "nlo_lab[lab]"``) or a bundled file gone from a damaged installation."""
 
 
 class Interrupted(KeyboardInterrupt):

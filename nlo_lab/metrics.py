@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from nlo_lab.errors import NloLabError
+from nlo_lab.errors import SettingsError, SettingsTypeError
 from nlo_lab.human.demonstration import SIDES
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -53,17 +53,17 @@ def _curve(x: Any, name: str) -> np.ndarray:
     if a.ndim == 1:
         a = a[:, None]
     if a.ndim != 2 or a.shape[0] == 0:
-        raise NloLabError(f"{name} must be a non-empty (n, d) point sequence, got shape {np.shape(x)}")
+        raise SettingsError(f"{name} must be a non-empty (n, d) point sequence, got shape {np.shape(x)}")
     if not np.isfinite(a).all():
         row = int(np.argwhere(~np.isfinite(a))[0][0])
-        raise NloLabError(f"{name} holds NaN or inf at point {row}")
+        raise SettingsError(f"{name} holds NaN or inf at point {row}")
     return a
 
 
 def _pair(P: Any, Q: Any) -> tuple[np.ndarray, np.ndarray]:
     p, q = _curve(P, "P"), _curve(Q, "Q")
     if p.shape[1] != q.shape[1]:
-        raise NloLabError(f"P and Q must have the same point dimension, got {p.shape[1]} and {q.shape[1]}")
+        raise SettingsError(f"P and Q must have the same point dimension, got {p.shape[1]} and {q.shape[1]}")
     return p, q
 
 
@@ -166,17 +166,17 @@ def _derivative_error(a: Any, b: Any, fps: float, order: int, name: str) -> floa
     x = np.asarray(a, dtype=np.float64)
     y = np.asarray(b, dtype=np.float64)
     if x.shape != y.shape:
-        raise NloLabError(f"{name}: a and b must have the same shape, got {x.shape} and {y.shape}")
+        raise SettingsError(f"{name}: a and b must have the same shape, got {x.shape} and {y.shape}")
     if x.ndim < 2:
-        raise NloLabError(f"{name}: expected (T, ..., d) trajectories, got shape {x.shape}")
+        raise SettingsError(f"{name}: expected (T, ..., d) trajectories, got shape {x.shape}")
     try:
         rate = float(fps)
     except (TypeError, ValueError):
-        raise NloLabError(f"{name}: fps must be a number, got {fps!r}") from None
+        raise SettingsTypeError(f"{name}: fps must be a number, got {fps!r}") from None
     if not math.isfinite(rate) or rate <= 0:
-        raise NloLabError(f"{name}: fps must be > 0, got {fps!r}")
+        raise SettingsError(f"{name}: fps must be > 0, got {fps!r}")
     if x.shape[0] <= order:
-        raise NloLabError(f"{name}: needs more than {order} frames, got {x.shape[0]}")
+        raise SettingsError(f"{name}: needs more than {order} frames, got {x.shape[0]}")
     dx = np.diff(x, n=order, axis=0) * rate**order  # (T - order, ..., d)
     dy = np.diff(y, n=order, axis=0) * rate**order
     err = np.linalg.norm(dx - dy, axis=-1)  # NaN where a point is masked
@@ -235,7 +235,7 @@ def _mapped_human(demo: Demonstration, robot) -> np.ndarray:
 
     mapped = np.asarray(map_to_robot(demo, robot), dtype=np.float64)
     if mapped.shape != (len(demo), 2, 3, 3):
-        raise NloLabError(f"map_to_robot returned shape {mapped.shape}, expected {(len(demo), 2, 3, 3)}")
+        raise SettingsError(f"map_to_robot returned shape {mapped.shape}, expected {(len(demo), 2, 3, 3)}")
     return mapped
 
 
@@ -255,7 +255,7 @@ def tracking_errors(demo: Demonstration, robot, angles: Any) -> dict[str, float]
     """
     q = _angles(robot, angles)
     if q.shape[0] != len(demo):
-        raise NloLabError(f"angles have {q.shape[0]} frames but the demonstration {demo.name!r} has {len(demo)}")
+        raise SettingsError(f"angles have {q.shape[0]} frames but the demonstration {demo.name!r} has {len(demo)}")
     human = _mapped_human(demo, robot)  # (T, 2, 3, 3): side x (shoulder, elbow, wrist)
     poses = _forward(robot, q)
     robot_pts = np.empty((q.shape[0], 2, 2, 3))  # (T, side, (elbow, wrist), 3) [m]
@@ -274,7 +274,7 @@ def tracking_errors(demo: Demonstration, robot, angles: Any) -> dict[str, float]
                 continue
             per_point[joint].append(frechet_distance(h[valid], robot_pts[valid, s, j]))
     if not per_point["wrist"] or not per_point["elbow"]:
-        raise NloLabError(f"demonstration {demo.name!r} has no observed elbow or wrist on either arm")
+        raise SettingsError(f"demonstration {demo.name!r} has no observed elbow or wrist on either arm")
     wrist = float(np.mean(per_point["wrist"]))
     elbow = float(np.mean(per_point["elbow"]))
     return {
@@ -326,11 +326,11 @@ def _limits(robot) -> np.ndarray:
 def _times(angles: np.ndarray, times: Any, fps: float | None) -> np.ndarray:
     if times is None:
         if fps is None or not fps > 0:
-            raise NloLabError("give the trajectory's times or its fps (> 0)")
+            raise SettingsError("give the trajectory's times or its fps (> 0)")
         return np.arange(angles.shape[0]) / float(fps)
     t = np.asarray(times, dtype=np.float64)
     if t.shape != (angles.shape[0],) or not np.isfinite(t).all() or (np.diff(t) <= 0).any():
-        raise NloLabError(f"times must be ({angles.shape[0]},) finite and strictly increasing")
+        raise SettingsError(f"times must be ({angles.shape[0]},) finite and strictly increasing")
     return t
 
 

@@ -9,7 +9,12 @@ one line that names the setting, the rule and the value given::
 
 Dataclasses check their fields in ``__post_init__`` (:func:`validate_fields`);
 the command line wraps the same checks as argparse types (:func:`arg_type`), so
-a flag and the setting it fills accept the same values.
+a flag and the setting it fills accept the same values. A value of the wrong type (a
+string where a number goes: ``LossWeights(ee="5")``) is a :class:`SettingsTypeError`
+(also a ``TypeError``); a number out of its range a :class:`SettingsError` (a ``ValueError``).
+
+Every budget and size has an upper bound, stated here once and shared by the settings
+and the command line's flags (README, "Failures and faults").
 """
 
 from __future__ import annotations
@@ -22,25 +27,50 @@ from typing import Any
 
 import numpy as np
 
-from nlo_lab.errors import SettingsError
+from nlo_lab.errors import SettingsError, SettingsTypeError
 
 __all__ = [
+    "ITERATIONS_RANGE",
+    "PATIENCE_RANGE",
+    "EPOCHS_RANGE",
+    "BATCH_RANGE",
+    "SEED_RANGE",
+    "LATENT_RANGE",
+    "COUNT_RANGE",
+    "WEIGHT_RANGE",
+    "RATE_RANGE",
+    "SECONDS_RANGE",
     "check_int",
     "check_positive",
     "check_nonnegative",
     "check_range",
     "check_choice",
+    "check_type",
+    "check_bool",
     "validate_fields",
     "arg_type",
 ]
 
 
+# Stated ranges of budgets and sizes (a value outside is refused before any work).
+ITERATIONS_RANGE = (0, 10_000)  # Adam or IK steps; 0 = the start point. The paper's longest budget is 600
+PATIENCE_RANGE = (1, ITERATIONS_RANGE[1] + 1)  # evaluations without improvement (iterations + 1: never stop early)
+EPOCHS_RANGE = (1, 10_000)  # passes over the training frames (30 by default)
+BATCH_RANGE = (1, 1_000_000)  # frames per training step
+SEED_RANGE = (0, 2**32 - 1)  # numpy's and torch's generators both take it
+LATENT_RANGE = (1, 64)  # latent size per robot node
+COUNT_RANGE = (1, 1_000_000)  # other counts: frames per chunk, validation frames, strides, sequences
+WEIGHT_RANGE = (0.0, 1e6)  # a loss weight: 1000x the largest default; beyond it float32 losses overflow to NaN
+RATE_RANGE = (1e-12, 1e3)  # step sizes, sigmas, damping, tolerances, clips
+SECONDS_RANGE = (1e-3, 1e7)  # wall-clock budgets [s] (1e7 s: 116 days)
+
+
 def check_int(name: str, value: Any, minimum: int | None = None, maximum: int | None = None) -> int:
     """An integer (numpy integers too, never a bool) in ``[minimum, maximum]`` (either bound optional)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise SettingsError(f"{name} must be an integer{_bounds(minimum, maximum)}, got {value!r}")
+        raise SettingsTypeError(f"{name} must be an integer{_bounds(minimum, maximum)}, got {_show(value)}")
     if (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
-        raise SettingsError(f"{name} must be an integer{_bounds(minimum, maximum)}, got {value!r}")
+        raise SettingsError(f"{name} must be an integer{_bounds(minimum, maximum)}, got {_show(value)}")
     return int(value)
 
 
@@ -56,7 +86,7 @@ def check_positive(name: str, value: Any) -> float:
     """A finite number > 0."""
     number = _number(name, value)
     if not (math.isfinite(number) and number > 0):
-        raise SettingsError(f"{name} must be finite and > 0, got {value!r}")
+        raise SettingsError(f"{name} must be finite and > 0, got {_show(value)}")
     return number
 
 
@@ -64,7 +94,7 @@ def check_nonnegative(name: str, value: Any) -> float:
     """A finite number >= 0."""
     number = _number(name, value)
     if not (math.isfinite(number) and number >= 0):
-        raise SettingsError(f"{name} must be finite and >= 0, got {value!r}")
+        raise SettingsError(f"{name} must be finite and >= 0, got {_show(value)}")
     return number
 
 
@@ -72,25 +102,55 @@ def check_range(name: str, value: Any, lo: float, hi: float, unit: str = "") -> 
     """A finite number in ``[lo, hi]``; ``unit`` (``"m"``) is named in the message."""
     number = _number(name, value)
     if not (math.isfinite(number) and lo <= number <= hi):
-        raise SettingsError(f"{name} must be in [{lo}, {hi}]{' ' + unit if unit else ''}, got {value!r}")
+        raise SettingsError(f"{name} must be in [{lo:g}, {hi:g}]{' ' + unit if unit else ''}, got {_show(value)}")
     return number
 
 
+def _show(value: Any) -> str:
+    """``repr(value)`` for a message, cut short (a huge argument is never echoed whole)."""
+    text = repr(value)
+    return text if len(text) <= 80 else f"{text[:60]}... ({type(value).__name__})"
+
+
 def _number(name: str, value: Any) -> float:
-    """``float(value)``, inf and NaN allowed (the caller's rule names them)."""
-    if isinstance(value, (bool, np.bool_)):
-        raise SettingsError(f"{name} must be a number, got {value!r}")
+    """``float(value)`` of a real number (int, float, numpy or torch scalar); inf and NaN allowed (the caller's rule names them).
+
+    Text is not a number here (``"5"``: a :class:`SettingsTypeError`); the command line converts its text first.
+    """
+    if isinstance(value, (bool, np.bool_, str, bytes)) or not hasattr(value, "__float__"):
+        raise SettingsTypeError(f"{name} must be a number, got {_show(value)}")
     try:
         return float(value)
-    except (TypeError, ValueError):
-        raise SettingsError(f"{name} must be a number, got {value!r}") from None
+    except (TypeError, ValueError):  # an array of several numbers
+        raise SettingsTypeError(f"{name} must be a number, got {_show(value)}") from None
 
 
 def check_choice(name: str, value: Any, choices: Collection) -> Any:
     """One of ``choices``; the message lists them."""
-    if value not in choices:
-        raise SettingsError(f"unknown {name} {value!r}; expected one of {tuple(choices)}")
+    try:
+        known = value in choices
+    except TypeError:  # an unhashable value
+        known = False
+    if not known:
+        raise SettingsError(f"unknown {name} {_show(value)}; expected one of {tuple(choices)}")
     return value
+
+
+def check_type(name: str, value: Any, types: type | tuple[type, ...], what: str | None = None) -> Any:
+    """``value`` itself if it is an instance of ``types``; else a :class:`SettingsTypeError` (``what`` names the types)."""
+    if not isinstance(value, types):
+        if what is None:
+            names = [t.__name__ for t in (types if isinstance(types, tuple) else (types,))]
+            what = " or ".join(names)
+        raise SettingsTypeError(f"{name} must be {what}, got {type(value).__name__}")
+    return value
+
+
+def check_bool(name: str, value: Any) -> bool:
+    """True or False (numpy's too), nothing else: a flag given 0 or "no" is a mistake."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise SettingsTypeError(f"{name} must be True or False, got {_show(value)}")
+    return bool(value)
 
 
 def validate_fields(obj: Any, check: Callable[[str, Any], Any], prefix: str = "", names: Collection[str] | None = None) -> None:

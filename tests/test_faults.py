@@ -390,12 +390,13 @@ def test_the_largest_weights_in_range_still_give_a_finite_result(work, demo_npz,
     assert json.loads(out)["frames"] == 12
 
 
-def test_a_nan_loss_is_an_error_not_an_output():
-    from nlo_lab.inference import OptimizeSettings
+def test_weights_that_would_make_the_loss_nan_are_refused():
+    """LossWeights(ee=1e39) made the loss NaN (issue 16); the weights now share the command line's range.
+    A NaN loss that still happens is an error naming the file (tests/test_errors.py)."""
     from nlo_lab.objective import LossWeights
 
-    with pytest.raises(Exception, match="NaN"):  # the command line's range check keeps such weights out
-        retarget(make_demo(T=6), load_robot("nao"), weights=LossWeights(ee=1e39), settings=OptimizeSettings(iterations=2))
+    with pytest.raises(SettingsError, match=r"loss weight ee must be in \[0, 1e\+06\], got 1e\+39"):
+        LossWeights(ee=1e39)
 
 
 def test_retarget_rechecks_the_demonstration():

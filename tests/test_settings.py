@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
 
-from nlo_lab.errors import SettingsError
+from nlo_lab.errors import SettingsError, SettingsTypeError
 from nlo_lab.settings import arg_type, check_choice, check_int, check_nonnegative, check_positive, check_range, validate_fields
 
 
@@ -26,7 +27,7 @@ def test_check_int():
 
 @pytest.mark.parametrize("check, zero_ok", [(check_positive, False), (check_nonnegative, True)])
 def test_positive_and_nonnegative(check, zero_ok):
-    assert check("lr", "0.5") == 0.5 and check("lr", 2) == 2.0
+    assert check("lr", 0.5) == 0.5 and check("lr", 2) == 2.0 and check("lr", np.float32(0.5)) == 0.5
     if zero_ok:
         assert check("w", 0) == 0.0
     else:
@@ -35,8 +36,8 @@ def test_positive_and_nonnegative(check, zero_ok):
     for bad in (-1.0, math.inf, math.nan):
         with pytest.raises(SettingsError, match="must be finite and"):
             check("lr", bad)
-    for bad in ("fast", None, False):
-        with pytest.raises(SettingsError, match=f"lr must be a number, got {bad!r}"):
+    for bad in ("fast", "0.5", None, False, [1.0], 1j):  # text is no number here: the command line converts its text first
+        with pytest.raises(SettingsTypeError, match=re.escape(f"lr must be a number, got {bad!r}")):
             check("lr", bad)
 
 
@@ -58,8 +59,10 @@ def test_validate_fields_checks_and_stores_canonical_values():
         def __post_init__(self):
             validate_fields(self, check_nonnegative, prefix="loss weight ")
 
-    w = Weights(a="2", b=np.float32(0.5))
-    assert (w.a, w.b) == (2.0, 0.5) and type(w.b) is float
+    w = Weights(a=2, b=np.float32(0.5))
+    assert (w.a, w.b) == (2.0, 0.5) and type(w.a) is float and type(w.b) is float
+    with pytest.raises(SettingsTypeError, match="loss weight a must be a number, got '2'"):
+        Weights(a="2")
     with pytest.raises(SettingsError, match="loss weight b must be finite and >= 0, got -1"):
         Weights(b=-1)
 

@@ -42,7 +42,7 @@ VIDEO_PRIORITY = 1  # a video's segments start before the single-task inputs: a 
 WARM_UP_PRIORITY = 10  # each worker loads the model before its first input
 
 
-class SchedulerError(NloLabError):
+class SchedulerError(NloLabError, ConnectionError):
     """No dask scheduler answers at the address given, or the batch extra is missing."""
 
 

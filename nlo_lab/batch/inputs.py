@@ -28,7 +28,7 @@ RESULTS_FILE = "results.csv"  # in the output folder; no input may write a folde
 _HASH_BLOCK = 1 << 20
 
 
-class InputError(NloLabError):
+class InputError(NloLabError, ValueError):
     """The batch's inputs cannot be gathered (a missing path, no input at all, two inputs for one folder)."""
 
 

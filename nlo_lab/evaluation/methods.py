@@ -41,7 +41,16 @@ import torch
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetConfig, optimize_joints, retime_times
 from nlo_lab.objective import LossWeights, objective, targets_from_demonstration
-from nlo_lab.settings import check_choice, check_int, check_positive, validate_fields
+from nlo_lab.settings import (
+    ITERATIONS_RANGE,
+    PATIENCE_RANGE,
+    RATE_RANGE,
+    SEED_RANGE,
+    check_choice,
+    check_int,
+    check_range,
+    validate_fields,
+)
 from nlo_lab.training import SupervisedNet, SupervisedSettings, supervised_network
 
 __all__ = [
@@ -104,9 +113,11 @@ class BaselineSettings:
         check_choice("evaluation mode", self.mode, EVALUATION_MODES)
         if self.weights is not None and not isinstance(self.weights, LossWeights):
             raise SettingsError(f"weights must be a LossWeights, got {type(self.weights).__name__}")
-        validate_fields(self, lambda name, v: check_int(name, v, 0), names=("iterations", "seed", "ik_iterations"))
-        validate_fields(self, lambda name, v: check_int(name, v, 1), names=("patience",))
-        validate_fields(self, check_positive, names=("random_sigma", "joint_lr", "ik_damping", "ik_tolerance"))
+        validate_fields(self, lambda name, v: check_int(name, v, *ITERATIONS_RANGE), names=("iterations", "ik_iterations"))
+        validate_fields(self, lambda name, v: check_int(name, v, *SEED_RANGE), names=("seed",))
+        validate_fields(self, lambda name, v: check_int(name, v, *PATIENCE_RANGE), names=("patience",))
+        validate_fields(self, lambda name, v: check_range(name, v, *RATE_RANGE),
+                        names=("random_sigma", "joint_lr", "ik_damping", "ik_tolerance"))
         if not isinstance(self.supervised, SupervisedSettings):
             raise SettingsError(f"supervised must be a SupervisedSettings, got {type(self.supervised).__name__}")
 

@@ -23,7 +23,8 @@ import numpy as np
 
 from nlo_lab.errors import DemonstrationError
 
-__all__ = ["Demonstration", "SIDES", "ARM_JOINTS", "FINGERS", "FINGER_POINTS", "FPS_RANGE", "MAX_FRAMES", "ROTATION_TOLERANCE"]
+__all__ = ["Demonstration", "SIDES", "ARM_JOINTS", "FINGERS", "FINGER_POINTS", "FPS_RANGE", "MAX_FRAMES", "MAX_COORDINATE",
+           "ROTATION_TOLERANCE"]
 
 SIDES = ("left", "right")
 ARM_JOINTS = ("shoulder", "elbow", "wrist")
@@ -37,6 +38,9 @@ FPS_RANGE = (1.0, 1000.0)
 # Readers check a file's declared size against it before they read the data.
 MAX_FRAMES = 432_000
 ROTATION_TOLERANCE = 1e-3  # largest |R^T R - I| entry (and |det R - 1|) of a valid wrist rotation
+# Largest coordinate [m] a valid point may have in the body frame: a person's arm reaches about 1 m;
+# a point 1 km away is a broken or crafted file (3e38 m overflows the objective's float32 to inf).
+MAX_COORDINATE = 1000.0
 
 
 def _side_index(side: str) -> int:
@@ -61,6 +65,8 @@ class Demonstration:
         finger_mask: ``(T, 2, 5)`` bool, True where both base and tip are valid.
         name: a label (sequence or file name).
         meta: free-form provenance (source file, scenario, signer, ...).
+        path: the file it was read from (set by the readers), named by errors about it later
+            (retargeting, metrics); None for a demonstration built in memory.
     """
 
     fps: float
@@ -72,6 +78,7 @@ class Demonstration:
     finger_mask: np.ndarray
     name: str = ""
     meta: dict[str, Any] = field(default_factory=dict)
+    path: str | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         self.validate()
@@ -105,17 +112,25 @@ class Demonstration:
         demo.finger_mask = finger_mask
         demo.name = name
         demo.meta = {} if meta is None else dict(meta)
-        demo.validate(path=path)
+        demo.path = None if path is None else str(path)
+        demo.validate()
         return demo
 
     # ------------------------------------------------------------------ checks
     def validate(self, path=None) -> None:
-        """Check fps, shapes, dtypes, finiteness and rotations; raise :class:`DemonstrationError` naming the field.
+        """Check fps, shapes, dtypes, finiteness, range and rotations; raise :class:`DemonstrationError` naming the field.
 
         fps must be a real number (not a bool, string or complex) in :data:`FPS_RANGE`;
-        the arrays real numbers (booleans for the masks); every valid wrist rotation
-        a rotation matrix within :data:`ROTATION_TOLERANCE`.
+        the arrays real numbers (booleans for the masks); every valid point within
+        :data:`MAX_COORDINATE` metres of the body frame's origin on each axis; every valid wrist rotation
+        a rotation matrix within :data:`ROTATION_TOLERANCE`. Errors name ``path`` (default: :attr:`path`).
         """
+        if path is None:
+            path = getattr(self, "path", None)
+        if not isinstance(self.name, str):
+            raise DemonstrationError(f"name must be text, got {type(self.name).__name__}", path=path, field="name")
+        if not isinstance(self.meta, dict):
+            raise DemonstrationError(f"meta must be a dict, got {type(self.meta).__name__}", path=path, field="meta")
         fps = self.fps
         if isinstance(fps, np.ndarray) and fps.shape == ():
             fps = fps[()]
@@ -165,6 +180,12 @@ class Demonstration:
             if bad.any():
                 frame = int(np.argwhere(bad)[0][0])
                 raise DemonstrationError(f"{name} holds NaN or inf where the mask says valid", path=path, frame=frame, field=name)
+            if name != "wrist_rotations":
+                far = np.abs(np.where(np.broadcast_to(mask, value.shape), value, 0.0)) > MAX_COORDINATE
+                if far.any():
+                    frame = int(np.argwhere(far)[0][0])
+                    raise DemonstrationError(f"{name} holds a coordinate of {value[far][0]:.3g} m, beyond the {MAX_COORDINATE:g} m "
+                                             "a recording may span (a broken or crafted file)", path=path, frame=frame, field=name)
             # Masked-out entries are NaN by convention (never silent zeros).
             value[~np.broadcast_to(mask, value.shape)] = np.nan
         R = self.wrist_rotations[self.wrist_mask]  # (N, 3, 3) the valid ones
@@ -213,7 +234,7 @@ class Demonstration:
         upper = np.linalg.norm(p[:, 1] - p[:, 0], axis=-1)[m[:, 0] & m[:, 1]]
         fore = np.linalg.norm(p[:, 2] - p[:, 1], axis=-1)[m[:, 1] & m[:, 2]]
         if upper.size == 0 or fore.size == 0:
-            raise DemonstrationError(f"the {side} arm is never fully observed", field=f"{side}/arm")
+            raise DemonstrationError(f"the {side} arm is never fully observed", path=self.path, field=f"{side}/arm")
         return float(np.median(upper)), float(np.median(fore))
 
     def slice(self, start: int, stop: int) -> Demonstration:
@@ -229,6 +250,7 @@ class Demonstration:
             self.finger_mask[sl].copy(),
             name=self.name,
             meta=dict(self.meta),
+            path=self.path,
         )
 
     def __repr__(self) -> str:

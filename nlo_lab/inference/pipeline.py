@@ -41,6 +41,7 @@ from nlo_lab.metrics import (
 from nlo_lab.model import EncoderInput, encoder_input, load_pretrained
 from nlo_lab.objective import LossWeights, Targets, targets_from_demonstration
 from nlo_lab.robot import Robot
+from nlo_lab.settings import COUNT_RANGE, check_bool, check_int, check_type
 from nlo_lab.threads import single_thread
 
 __all__ = ["CHUNK_FRAMES", "RetargetConfig", "Retargeter", "RetargetInputs", "RetargetResult", "retarget", "summary"]
@@ -143,9 +144,15 @@ class RetargetConfig:
                 not True, False or a FastPaths.
             CheckpointError: no shipped checkpoint for this robot (``model`` omitted).
         """
-        chunk = self.chunk_frames
-        if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1):
-            raise SettingsError(f"chunk_frames must be a whole number >= 1 or None, got {chunk!r}")
+        check_type("robot", self.robot, Robot, "a Robot (nlo_lab.robot.load_robot)")
+        if self.settings is not None:
+            check_type("settings", self.settings, OptimizeSettings)
+        if self.weights is not None:
+            check_type("weights", self.weights, LossWeights)
+        if self.chunk_frames is not None:
+            check_int("chunk_frames", self.chunk_frames, *COUNT_RANGE)
+        check_bool("retime", self.retime)
+        check_bool("progress", self.progress)
         fast_paths(self.fast, 1)  # checked here, before any work
         model = self.model if self.model is not None else load_pretrained(self.robot)
         return Retargeter(self, model, self.settings or OptimizeSettings(), self.weights or LossWeights())
@@ -224,6 +231,7 @@ class Retargeter:
         return len(self._bounds(frames))
 
     def __call__(self, demo: Demonstration) -> RetargetResult:
+        check_type("demo", demo, Demonstration, "a Demonstration (nlo_lab.human.load_demonstration)")
         demo.validate()  # again: the arrays may have changed since the demonstration was built
         robot, settings = self.robot, self.settings
         with single_thread():
@@ -234,7 +242,8 @@ class Retargeter:
                 result = self.optimize(inputs, callback=callback)
             seconds = time.perf_counter() - start
         if not all(np.isfinite(result.history)) or not bool(torch.isfinite(result.loss).all()):
-            raise SettingsError("the loss became NaN or infinite (are the loss weights absurdly large?)")
+            raise SettingsError(f"the loss became NaN or infinite retargeting {demo.name or 'the demonstration'!r} to {robot.name} "
+                                "(values beyond what float32 holds, from the demonstration or the loss weights)", path=demo.path)
         angles = result.q.detach().cpu().numpy().astype(np.float64)
         limits = robot.velocity_limits.double().numpy()
         times = retime_times(angles, demo.fps, limits) if self.config.retime else None

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.objective import COLLISION_FORMS
-from nlo_lab.settings import check_choice, check_int, check_positive
+from nlo_lab.settings import ITERATIONS_RANGE, PATIENCE_RANGE, RATE_RANGE, SEED_RANGE, check_bool, check_choice, check_int, check_range
 
 __all__ = [
     "INITS",
@@ -73,13 +73,14 @@ class OptimizeSettings:
     def __post_init__(self) -> None:
         if self.init not in INITS:
             raise SettingsError(f"unknown init {self.init!r}; expected one of {', '.join(INITS)}")
-        check_int("iterations", self.iterations, 0)
-        check_int("patience", self.patience, 1)
-        check_int("seed", self.seed, 0)
-        check_int("warm_window", self.warm_window, 0)
+        check_int("iterations", self.iterations, *ITERATIONS_RANGE)
+        check_int("patience", self.patience, *PATIENCE_RANGE)
+        check_int("seed", self.seed, *SEED_RANGE)
+        check_int("warm_window", self.warm_window, 0, 1000)
         if self.lr is not None:
-            object.__setattr__(self, "lr", check_positive("lr", self.lr))
-        object.__setattr__(self, "latent_sigma", check_positive("latent_sigma", self.latent_sigma))
+            object.__setattr__(self, "lr", check_range("lr", self.lr, *RATE_RANGE))
+        object.__setattr__(self, "latent_sigma", check_range("latent_sigma", self.latent_sigma, *RATE_RANGE))
+        object.__setattr__(self, "warm_start", check_bool("warm_start", self.warm_start))
         check_choice("collision_form", self.collision_form, COLLISION_FORMS)
 
 
@@ -111,10 +112,10 @@ class JointOptimizeSettings:
     collision_form: str = "hinge"
 
     def __post_init__(self) -> None:
-        check_int("iterations", self.iterations, 0)
-        check_int("patience", self.patience, 1)
-        object.__setattr__(self, "lr", check_positive("lr", self.lr))
-        object.__setattr__(self, "penalty", check_positive("penalty", self.penalty))
+        check_int("iterations", self.iterations, *ITERATIONS_RANGE)
+        check_int("patience", self.patience, *PATIENCE_RANGE)
+        object.__setattr__(self, "lr", check_range("lr", self.lr, *RATE_RANGE))
+        object.__setattr__(self, "penalty", check_range("penalty", self.penalty, RATE_RANGE[0], 1e9))
         check_choice("joint init", self.init, JOINT_INITS)
         check_choice("limits mode", self.limits, JOINT_LIMITS)
         check_choice("collision_form", self.collision_form, COLLISION_FORMS)

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nlo_lab.errors import NloLabError
+from nlo_lab.errors import NloLabError, SettingsError
 from nlo_lab.paths import RECORDINGS_DIR
 
 __all__ = [
@@ -143,7 +143,7 @@ def show_robot(robot, q=None, *, height: int = 400):
         robot = _robot(robot)
         q = _angles(robot, q)
         if q.shape[0] != 1:
-            raise NloLabError(f"show_robot shows one pose; got {q.shape[0]} frames (use show_view)")
+            raise SettingsError(f"show_robot shows one pose; got {q.shape[0]} frames (use show_view)")
     except NloLabError as exc:
         return _failed(SceneWidget(height=height), exc)
     return show_view(robot, q, height=height)
@@ -191,7 +191,7 @@ def recording_path(name: str = "holistic_both_hands_47f.pose") -> Path:
     path = RECORDINGS_DIR / name
     if not path.is_file():
         have = sorted(p.name for p in RECORDINGS_DIR.glob("*")) if RECORDINGS_DIR.is_dir() else []
-        raise NloLabError(f"no shipped recording {name!r} in {RECORDINGS_DIR} (have: {', '.join(have) or 'none'})")
+        raise SettingsError(f"no shipped recording {name!r} in {RECORDINGS_DIR} (have: {', '.join(have) or 'none'})")
     return path
 
 

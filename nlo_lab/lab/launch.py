@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from nlo_lab.atomic_files import atomic_write_bytes
-from nlo_lab.errors import NloLabError
+from nlo_lab.errors import InstallationError, OutputError
 from nlo_lab.paths import NOTEBOOKS_DIR, repair_hint
 
 __all__ = ["bundled_notebooks", "copy_notebooks", "lab_command"]
@@ -24,7 +24,7 @@ def bundled_notebooks() -> list[Path]:
     """The shipped notebooks (``NN_*.ipynb``) and their README, in order."""
     files = sorted(NOTEBOOKS_DIR.glob("[0-9][0-9]_*.ipynb"))
     if not files:
-        raise NloLabError(f"no notebooks found in {NOTEBOOKS_DIR}; {repair_hint(NOTEBOOKS_DIR)}")
+        raise InstallationError(f"no notebooks found in {NOTEBOOKS_DIR}; {repair_hint(NOTEBOOKS_DIR)}")
     readme = NOTEBOOKS_DIR / "README.md"
     return files + ([readme] if readme.is_file() else [])
 
@@ -47,7 +47,7 @@ def copy_notebooks(dest: str | os.PathLike) -> tuple[list[Path], list[Path]]:
     if dest.resolve() == NOTEBOOKS_DIR.resolve():
         return [], [dest / s.name for s in sources]  # the checkout's own folder: nothing to copy
     if dest.exists() and not dest.is_dir():
-        raise NloLabError(f"notebook folder {dest} exists and is not a folder")
+        raise OutputError(f"notebook folder {dest} exists and is not a folder")
     copied, kept = [], []
     try:
         dest.mkdir(parents=True, exist_ok=True)
@@ -59,7 +59,7 @@ def copy_notebooks(dest: str | os.PathLike) -> tuple[list[Path], list[Path]]:
             atomic_write_bytes(target, src.read_bytes())  # never half a notebook
             copied.append(target)
     except OSError as exc:
-        raise NloLabError(f"cannot write the notebooks to {dest}: {exc.strerror or exc}") from None
+        raise OutputError(f"cannot write the notebooks to {dest}: {exc.strerror or exc}") from None
     return copied, kept
 
 
@@ -70,5 +70,5 @@ def lab_command(folder: Path, port: int) -> list[str]:
         NloLabError: JupyterLab is not installed (it is the ``lab`` extra).
     """
     if importlib.util.find_spec("jupyterlab") is None:
-        raise NloLabError("JupyterLab is not installed in this environment; install it with `pip install \"nlo_lab[lab]\"`")
+        raise InstallationError("JupyterLab is not installed in this environment; install it with `pip install \"nlo_lab[lab]\"`")
     return [sys.executable, "-m", "jupyter", "lab", f"--notebook-dir={folder}", "--ip=127.0.0.1", f"--port={port}"]

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from nlo_lab.errors import NloLabError
+from nlo_lab.errors import DemonstrationError, SettingsError
 from nlo_lab.lab.views import View
 
 __all__ = ["VideoView", "jpeg_bytes", "save_upload"]
@@ -58,7 +58,7 @@ def save_upload(upload, folder) -> Path | None:
     item = value[-1]
     name = Path(str(item["name"])).name  # never a folder part from the browser
     if Path(name).suffix.lower() not in VIDEO_SUFFIXES:
-        raise NloLabError(f"uploaded file {name!r} is not a video; expected one of {', '.join(VIDEO_SUFFIXES)}")
+        raise DemonstrationError(f"uploaded file {name!r} is not a video; expected one of {', '.join(VIDEO_SUFFIXES)}")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     return atomic_write_bytes(folder / name, bytes(item["content"]))
@@ -93,13 +93,13 @@ class VideoView:
         frames = np.asarray(frames)
         q = np.asarray(angles, dtype=np.float64)
         if frames.ndim != 4 or frames.shape[-1] != 3 or frames.dtype != np.uint8:
-            raise NloLabError(f"frames must be (T, H, W, 3) uint8 RGB images, got {frames.shape} {frames.dtype}")
+            raise SettingsError(f"frames must be (T, H, W, 3) uint8 RGB images, got {frames.shape} {frames.dtype}")
         if not len(frames) == len(q) == len(demo):
-            raise NloLabError(f"frames ({len(frames)}), angles ({len(q)}) and the demonstration ({len(demo)}) "
+            raise SettingsError(f"frames ({len(frames)}), angles ({len(q)}) and the demonstration ({len(demo)}) "
                               "must have the same number of frames")
         fps = float(fps if fps is not None else demo.fps)
         if not np.isfinite(fps) or fps <= 0:
-            raise NloLabError(f"fps must be > 0, got {fps!r}")
+            raise SettingsError(f"fps must be > 0, got {fps!r}")
         self.fps = fps
         self._jpegs = [jpeg_bytes(f) for f in frames]
         h, w = frames.shape[1:3]
@@ -132,7 +132,7 @@ class VideoView:
     @frame.setter
     def frame(self, t: int) -> None:
         if not 0 <= int(t) < len(self):
-            raise NloLabError(f"frame {t} is outside 0..{len(self) - 1}")
+            raise SettingsError(f"frame {t} is outside 0..{len(self) - 1}")
         self.slider.value = int(t)
 
     def _show(self, t: int) -> None:

@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass, fields
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.settings import check_nonnegative, validate_fields
+from nlo_lab.settings import WEIGHT_RANGE, check_range, validate_fields
 
 __all__ = [
     "LossWeights",
@@ -52,7 +52,7 @@ class LossWeights:
     smooth: float = 10.0
 
     def __post_init__(self) -> None:
-        validate_fields(self, check_nonnegative, prefix="loss weight ")
+        validate_fields(self, lambda name, v: check_range(name, v, *WEIGHT_RANGE), prefix="loss weight ")
 
     @classmethod
     def from_string(cls, text: str) -> LossWeights:

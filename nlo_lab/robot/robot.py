@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from nlo_lab.errors import NloLabError, RobotDescriptionError
+from nlo_lab.errors import RobotDescriptionError, SettingsError, SettingsTypeError
 from nlo_lab.human.demonstration import SIDES
 from nlo_lab.paths import is_bundled, repair_hint
 from nlo_lab.robot.collision import segment_distance_ends
@@ -44,15 +44,15 @@ def check_angles(q, n_joints: int, robot: str = "robot", joint_names: Sequence[s
     try:
         a = np.asarray(q, dtype=np.float64)
     except (TypeError, ValueError):
-        raise NloLabError(f"angles for robot {robot!r} must be numbers, got {type(q).__name__}") from None
+        raise SettingsTypeError(f"angles for robot {robot!r} must be numbers, got {type(q).__name__}") from None
     if a.ndim == 1:
         a = a[None]
     if a.ndim != 2 or a.shape[1] != n_joints:
-        raise NloLabError(f"angles for robot {robot!r} must be ({n_joints},) or (T, {n_joints}), got shape {np.shape(q)}")
+        raise SettingsError(f"angles for robot {robot!r} must be ({n_joints},) or (T, {n_joints}), got shape {np.shape(q)}")
     if not np.isfinite(a).all():
         frame, joint = np.argwhere(~np.isfinite(a))[0]
         name = repr(joint_names[joint]) if joint_names is not None else str(joint)
-        raise NloLabError(f"angles for robot {robot!r} are not finite (frame {frame}, joint {name})")
+        raise SettingsError(f"angles for robot {robot!r} are not finite (frame {frame}, joint {name})")
     return a
 
 

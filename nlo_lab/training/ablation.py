@@ -16,6 +16,7 @@ import torch
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import RetargetInputs
 from nlo_lab.model import DEFAULT_ACTIVATION
+from nlo_lab.settings import EPOCHS_RANGE, SECONDS_RANGE
 from nlo_lab.training.supervised import train_supervised_model
 from nlo_lab.training.train import TrainSettings, new_model, train_model
 
@@ -55,10 +56,10 @@ def train_variant(robot, name: str, data: RetargetInputs, labels: torch.Tensor |
         raise SettingsError("train_variant needs a budget: steps or seconds")
     kind, objective_kind = VARIANTS[name]
     start = time.perf_counter()
-    max_seconds = float(seconds) if seconds is not None else 1e12
+    max_seconds = float(seconds) if seconds is not None else SECONDS_RANGE[1]
     if objective_kind == "fk":
         val = val_data if val_data is not None else data
-        settings = TrainSettings(kind=kind, epochs=100_000, max_seconds=max_seconds, max_steps=steps, val_every=100,
+        settings = TrainSettings(kind=kind, epochs=EPOCHS_RANGE[1], max_seconds=max_seconds, max_steps=steps, val_every=100,
                                  val_frames=min(600, len(val)), seed=seed, progress=False, activation=activation)
         r = train_model(robot, settings, train_data=data, val_data=val)
         model, taken = r.model, r.steps
@@ -67,7 +68,7 @@ def train_variant(robot, name: str, data: RetargetInputs, labels: torch.Tensor |
             raise SettingsError(f"variant {name!r} is supervised: it needs labels")
         torch.manual_seed(seed)
         model = new_model(robot, TrainSettings(kind=kind, activation=activation))
-        hist = train_supervised_model(model, data, labels, epochs=100_000, batch_size=64, lr=1e-3, seed=seed, max_seconds=max_seconds, max_steps=steps)
+        hist = train_supervised_model(model, data, labels, epochs=EPOCHS_RANGE[1], batch_size=64, lr=1e-3, seed=seed, max_seconds=max_seconds, max_steps=steps)
         per_epoch = (len(data) + 63) // 64
         taken = min(steps, len(hist) * per_epoch) if steps is not None else len(hist) * per_epoch
     return model.to(dtype=robot.lower_limits.dtype).eval(), time.perf_counter() - start, taken

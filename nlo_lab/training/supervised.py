@@ -29,7 +29,17 @@ from nlo_lab.inference import JointOptimizeSettings, RetargetInputs, optimize_jo
 from nlo_lab.model import EncoderInput
 from nlo_lab.model.checkpoint import load_torch_file
 from nlo_lab.objective import LossWeights, Targets
-from nlo_lab.settings import check_int, check_positive
+from nlo_lab.settings import (
+    BATCH_RANGE,
+    COUNT_RANGE,
+    EPOCHS_RANGE,
+    ITERATIONS_RANGE,
+    RATE_RANGE,
+    SEED_RANGE,
+    check_int,
+    check_range,
+    check_type,
+)
 from nlo_lab.training.data import corpus_inputs
 
 __all__ = [
@@ -69,13 +79,15 @@ class SupervisedSettings:
     corpus_seed: int = 0
 
     def __post_init__(self) -> None:
-        for name, minimum in (("frame_stride", 1), ("label_iterations", 0), ("epochs", 1), ("batch_size", 1), ("seed", 0), ("corpus_seed", 0)):
-            object.__setattr__(self, name, check_int(name, getattr(self, name), minimum))
+        for name, bounds in (("frame_stride", COUNT_RANGE), ("label_iterations", ITERATIONS_RANGE), ("epochs", EPOCHS_RANGE),
+                             ("batch_size", BATCH_RANGE), ("seed", SEED_RANGE), ("corpus_seed", SEED_RANGE)):
+            object.__setattr__(self, name, check_int(name, getattr(self, name), *bounds))
+        check_type("hidden", self.hidden, (tuple, list), "a tuple of layer widths")
         hidden = tuple(self.hidden)
-        if not hidden or any(isinstance(h, bool) or not isinstance(h, (int, np.integer)) or h < 1 for h in hidden):
-            raise SettingsError(f"hidden must be a non-empty tuple of widths >= 1, got {self.hidden!r}")
+        if not 1 <= len(hidden) <= 16 or any(isinstance(h, bool) or not isinstance(h, (int, np.integer)) or not 1 <= h <= 65536 for h in hidden):
+            raise SettingsError(f"hidden must be 1 to 16 layer widths in [1, 65536], got {self.hidden!r}")
         object.__setattr__(self, "hidden", tuple(int(h) for h in hidden))
-        object.__setattr__(self, "lr", check_positive("lr", self.lr))
+        object.__setattr__(self, "lr", check_range("lr", self.lr, *RATE_RANGE))
 
 
 class SupervisedNet(nn.Module):

@@ -33,7 +33,20 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.inference import FastPaths, RetargetInputs, fast_paths
 from nlo_lab.model import ACTIVATIONS, DEFAULT_ACTIVATION, MODEL_KINDS, EncoderInput, RetargetModel, build_model
 from nlo_lab.objective import COLLISION_FORMS, LossWeights, latent_loss, objective
-from nlo_lab.settings import check_choice, check_int, check_positive
+from nlo_lab.settings import (
+    BATCH_RANGE,
+    COUNT_RANGE,
+    EPOCHS_RANGE,
+    ITERATIONS_RANGE,
+    LATENT_RANGE,
+    RATE_RANGE,
+    SECONDS_RANGE,
+    SEED_RANGE,
+    check_bool,
+    check_choice,
+    check_int,
+    check_range,
+)
 from nlo_lab.training.autodecoder import LatentCodes, autodecoder_loss, validate_autodecoder
 from nlo_lab.training.data import demos_inputs, train_validation_split
 
@@ -92,13 +105,18 @@ class TrainSettings:
     val_iterations: int = 30
 
     def __post_init__(self) -> None:
-        for name in ("epochs", "batch_size", "latent_per_node", "val_every", "val_frames", "val_iterations"):
-            check_int(name, getattr(self, name), 1)
-        check_int("seed", self.seed, 0)
+        for name, bounds in (("epochs", EPOCHS_RANGE), ("batch_size", BATCH_RANGE), ("latent_per_node", LATENT_RANGE),
+                             ("val_every", COUNT_RANGE), ("val_frames", COUNT_RANGE), ("val_iterations", ITERATIONS_RANGE),
+                             ("seed", SEED_RANGE)):
+            check_int(name, getattr(self, name), *bounds)
+        if self.val_iterations < 1:
+            check_int("val_iterations", self.val_iterations, 1, ITERATIONS_RANGE[1])
         if self.max_steps is not None:
-            check_int("max_steps", self.max_steps, 1)
-        for name in ("lr", "clip", "max_seconds", "code_lr", "code_init_std"):
-            object.__setattr__(self, name, check_positive(name, getattr(self, name)))
+            check_int("max_steps", self.max_steps, 1, EPOCHS_RANGE[1] * BATCH_RANGE[1])
+        for name in ("lr", "clip", "code_lr", "code_init_std"):
+            object.__setattr__(self, name, check_range(name, getattr(self, name), *RATE_RANGE))
+        object.__setattr__(self, "max_seconds", check_range("max_seconds", self.max_seconds, *SECONDS_RANGE))
+        object.__setattr__(self, "progress", check_bool("progress", self.progress))
         check_choice("model kind", self.kind, MODEL_KINDS)
         check_choice("collision_form", self.collision_form, COLLISION_FORMS)
         check_choice("activation", self.activation, ACTIVATIONS)

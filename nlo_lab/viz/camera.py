@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nlo_lab.errors import NloLabError
+from nlo_lab.errors import SettingsError, SettingsTypeError
 from nlo_lab.viz.tracks import translation
 
 __all__ = ["CameraView", "frame_points", "style_viewer", "apply_view", "DEFAULT_FOV"]
@@ -48,14 +48,14 @@ class CameraView:
         for name in ("target", "position"):
             v = tuple(float(x) for x in getattr(self, name))
             if len(v) != 3 or not all(math.isfinite(x) for x in v):
-                raise NloLabError(f"CameraView.{name} must be 3 finite numbers, got {getattr(self, name)!r}")
+                raise SettingsError(f"CameraView.{name} must be 3 finite numbers, got {getattr(self, name)!r}")
             object.__setattr__(self, name, v)
         if not 1.0 <= float(self.fov) <= 170.0:
-            raise NloLabError(f"CameraView.fov must be in [1, 170] degrees, got {self.fov!r}")
+            raise SettingsError(f"CameraView.fov must be in [1, 170] degrees, got {self.fov!r}")
         if not math.isfinite(float(self.floor)):
-            raise NloLabError(f"CameraView.floor must be finite, got {self.floor!r}")
+            raise SettingsError(f"CameraView.floor must be finite, got {self.floor!r}")
         if np.allclose(self.target, self.position):
-            raise NloLabError("CameraView: the camera stands on its target")
+            raise SettingsError("CameraView: the camera stands on its target")
         object.__setattr__(self, "fov", float(self.fov))
         object.__setattr__(self, "floor", float(self.floor))
 
@@ -107,13 +107,13 @@ def frame_points(
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     p = p[np.isfinite(p).all(-1)]
     if len(p) == 0:
-        raise NloLabError("cannot frame a camera on a scene without finite points")
+        raise SettingsError("cannot frame a camera on a scene without finite points")
     if not 0.05 <= fill <= 1.0:
-        raise NloLabError(f"fill must be in [0.05, 1], got {fill!r}")
+        raise SettingsError(f"fill must be in [0.05, 1], got {fill!r}")
     if not -80.0 <= elevation <= 80.0:
-        raise NloLabError(f"elevation must be in [-80, 80] degrees (the view's up is +Z), got {elevation!r}")
+        raise SettingsError(f"elevation must be in [-80, 80] degrees (the view's up is +Z), got {elevation!r}")
     if not 1.0 <= fov <= 170.0 or aspect <= 0:
-        raise NloLabError(f"fov must be in [1, 170] degrees and aspect > 0, got fov={fov!r}, aspect={aspect!r}")
+        raise SettingsError(f"fov must be in [1, 170] degrees and aspect > 0, got fov={fov!r}, aspect={aspect!r}")
     d, right, up = _basis(azimuth, elevation)
     tv = math.tan(math.radians(fov) / 2) * fill  # tan of the half-angle the scene may use, vertically
     th = tv * aspect
@@ -166,6 +166,6 @@ def style_viewer(
     if not isinstance(camera, CameraView):
         pos = tuple(float(c) for c in camera)
         if len(pos) != 3:
-            raise NloLabError(f"camera must be a CameraView or an (x, y, z) position, got {camera!r}")
+            raise SettingsTypeError(f"camera must be a CameraView or an (x, y, z) position, got {camera!r}")
         camera = CameraView((0.0, 0.0, 0.0), pos, fov=DEFAULT_FOV, floor=0.0)
     apply_view(vis, camera)

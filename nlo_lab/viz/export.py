@@ -22,7 +22,7 @@ from meshcat.servers.tree import SceneTree, find_node, walk
 from meshcat.servers.zmqserver import VIEWER_ROOT, create_command
 
 from nlo_lab.atomic_files import atomic_path
-from nlo_lab.errors import NloLabError
+from nlo_lab.errors import OutputError, SettingsError
 from nlo_lab.viz._packing import packb_single
 
 __all__ = [
@@ -103,7 +103,7 @@ class RecordingWindow:
             else:
                 self.tree = SceneTree()
         else:
-            raise NloLabError(f"the static viewer cannot record meshcat command {cmd!r}")
+            raise SettingsError(f"the static viewer cannot record meshcat command {cmd!r}")
 
     def get_scene(self) -> str:
         return scene_html(self.tree)
@@ -199,7 +199,7 @@ def static_html(
     if times is not None:
         times = np.asarray(times, dtype=np.float64)
         if times.shape != (len(np.asarray(angles)),):
-            raise NloLabError(f"times must be ({len(np.asarray(angles))},) to match the angles, got shape {times.shape}")
+            raise SettingsError(f"times must be ({len(np.asarray(angles))},) to match the angles, got shape {times.shape}")
     if times is not None:
         times = times[::_decimation_step(np.asarray(angles), VIEWER_MAX_FRAMES)]  # the frames decimate keeps
     angles, demo, fps = decimate(angles, demo, fps)
@@ -211,7 +211,7 @@ def static_html(
             try:
                 set_key_times(anim, times)  # the trajectory's own time base (retimed): what the robot would play
             except ValueError as exc:
-                raise NloLabError(f"times: {exc}") from None
+                raise SettingsError(f"times: {exc}") from None
         vis.set_animation(anim, play=play, repetitions=LOOP if play else 1)
     return vis.static_html()
 
@@ -229,7 +229,7 @@ def export_html(path: str | os.PathLike, robot: Any, angles: Any, *args: Any, **
     page = static_html(robot, angles, *args, **options)
     target = Path(path)
     if not target.parent.is_dir():
-        raise NloLabError(f"{target}: folder {target.parent} does not exist")
+        raise OutputError(f"{target}: folder {target.parent} does not exist")
     with atomic_path(target) as tmp:
         tmp.write_text(page, encoding="utf-8")
     return target

@@ -20,7 +20,7 @@ import meshcat.geometry as g
 import numpy as np
 from meshcat.animation import Animation
 
-from nlo_lab.errors import NloLabError
+from nlo_lab.errors import NloLabError, SettingsError
 from nlo_lab.viz.tracks import add_pose_tracks, add_visible_track, cylinder, detail_of, material, sphere, translation
 
 __all__ = ["HUMAN_COLOURS", "HumanScene", "arm_factors"]
@@ -122,7 +122,7 @@ class HumanScene:
         else:
             arms = np.asarray(mapped, dtype=np.float64)
             if arms.shape != raw.shape:
-                raise NloLabError(f"mapped arm positions must have shape {raw.shape} (those of {demo.name!r}), got {arms.shape}")
+                raise SettingsError(f"mapped arm positions must have shape {raw.shape} (those of {demo.name!r}), got {arms.shape}")
             arm_ok &= np.isfinite(arms).all(-1)
             self.factors = arm_factors(raw, arms, arm_ok)
             wrist_raw, wrist_new = raw[:, :, 2, None, None, :], arms[:, :, 2, None, None, :]
@@ -268,7 +268,7 @@ class HumanScene:
     def set_frame(self, t: int) -> None:
         """Show frame ``t``: nodes masked in it are hidden."""
         if not 0 <= t < len(self):
-            raise NloLabError(f"frame {t} is outside 0..{len(self) - 1}")
+            raise SettingsError(f"frame {t} is outside 0..{len(self) - 1}")
         root = self.vis[self.path]
         for name, (T, scale, visible) in self._nodes().items():
             node = root[name]

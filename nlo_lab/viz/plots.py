@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from nlo_lab.errors import NloLabError
+from nlo_lab.errors import SettingsError
 
 __all__ = ["plot_convergence", "plot_joint_trajectories", "plot_loss_terms"]
 
@@ -45,7 +45,7 @@ def plot_convergence(histories: Mapping[str, Any] | Any, ax=None, log: bool = Tr
     for label, h in histories.items():
         y = _numpy(h).reshape(-1)
         if y.size == 0:
-            raise NloLabError(f"history {label!r} is empty")
+            raise SettingsError(f"history {label!r} is empty")
         positive &= bool((y > 0).all())
         ax.plot(np.arange(y.size), y, label=str(label))
     if log and positive:
@@ -75,7 +75,7 @@ def plot_joint_trajectories(angles: Any, joint_names: Sequence[str], lower: Any 
 
     q = _numpy(angles)
     if q.ndim != 2 or q.shape[1] != len(joint_names):
-        raise NloLabError(f"angles must be (T, {len(joint_names)}), got shape {q.shape}")
+        raise SettingsError(f"angles must be (T, {len(joint_names)}), got shape {q.shape}")
     idx = list(range(q.shape[1])) if joints is None else list(joints)
     lo = None if lower is None else _numpy(lower)
     hi = None if upper is None else _numpy(upper)

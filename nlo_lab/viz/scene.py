@@ -22,7 +22,7 @@ import meshcat.geometry as g
 import numpy as np
 from meshcat.animation import Animation
 
-from nlo_lab.errors import NloLabError, RobotDescriptionError
+from nlo_lab.errors import RobotDescriptionError, SettingsError
 from nlo_lab.viz.camera import CameraView, frame_points, style_viewer
 from nlo_lab.viz.human_scene import HUMAN_COLOURS, HumanScene
 from nlo_lab.viz.tracks import Y_TO_Z, add_pose_tracks, cylinder, detail_of, material, matrix_to_quaternion, sphere, translation
@@ -235,7 +235,7 @@ class RobotScene:
             q = q[None]
         n = self.robot.n_joints
         if q.ndim != 2 or q.shape[1] != n:
-            raise NloLabError(f"angles must be (T, {n}) for robot {self.robot.name!r}, got shape {np.shape(angles)}")
+            raise SettingsError(f"angles must be (T, {n}) for robot {self.robot.name!r}, got shape {np.shape(angles)}")
         ref = getattr(self.robot, "lower_limits", None)
         dtype = ref.dtype if isinstance(ref, torch.Tensor) else torch.float64
         device = ref.device if isinstance(ref, torch.Tensor) else None
@@ -317,22 +317,22 @@ class RetargetScene:
         camera: CameraView | None = None,
     ):
         if layout not in ("side", "overlay"):
-            raise NloLabError(f"layout must be 'side' or 'overlay', got {layout!r}")
+            raise SettingsError(f"layout must be 'side' or 'overlay', got {layout!r}")
         if human_scale not in HUMAN_SCALES:
-            raise NloLabError(f"human_scale must be one of {HUMAN_SCALES}, got {human_scale!r}")
+            raise SettingsError(f"human_scale must be one of {HUMAN_SCALES}, got {human_scale!r}")
         if layout == "overlay" and human_scale != "robot":
-            raise NloLabError("layout='overlay' draws the human in the robot's frame: it needs human_scale='robot'")
+            raise SettingsError("layout='overlay' draws the human in the robot's frame: it needs human_scale='robot'")
         q = np.array(angles, dtype=np.float64)  # a private, writable copy (set_angles edits it)
         if q.ndim == 1:
             q = q[None]
         if demo is not None and len(demo) != q.shape[0]:
-            raise NloLabError(f"angles have {q.shape[0]} frames but the demonstration {demo.name!r} has {len(demo)}")
+            raise SettingsError(f"angles have {q.shape[0]} frames but the demonstration {demo.name!r} has {len(demo)}")
         self.vis = vis
         self.angles = q
         self.layout = layout
         self.fps = float(fps if fps is not None else (demo.fps if demo is not None else 30.0))
         if not np.isfinite(self.fps) or self.fps <= 0:
-            raise NloLabError(f"fps must be > 0, got {fps!r}")
+            raise SettingsError(f"fps must be > 0, got {fps!r}")
         self.robot_scene = RobotScene(vis, robot, opacity=0.6 if (layout == "overlay" and demo is not None) else 1.0)
         self.robot_scene.link_poses(q[:1])  # check the angles' shape before the work below
         robot_pts = self.robot_scene.extent_points(q)
@@ -371,7 +371,7 @@ class RetargetScene:
     def set_frame(self, t: int) -> None:
         """Show frame ``t`` (robot pose and human skeleton)."""
         if not 0 <= t < len(self):
-            raise NloLabError(f"frame {t} is outside 0..{len(self) - 1}")
+            raise SettingsError(f"frame {t} is outside 0..{len(self) - 1}")
         self.robot_scene.set_pose(self.angles[t])
         if self.human_scene is not None:
             self.human_scene.set_frame(t)

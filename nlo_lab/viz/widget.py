@@ -36,7 +36,7 @@ import ipywidgets
 import traitlets
 from meshcat import Visualizer
 
-from nlo_lab.errors import NloLabError
+from nlo_lab.errors import SettingsError
 from nlo_lab.viz.export import RecordingWindow, scene_commands, viewer_js
 from nlo_lab.viz.tracks import DETAILS
 
@@ -58,7 +58,7 @@ def unpack_commands(data: bytes) -> list[dict]:
     while at + 4 <= len(data):
         (n,) = struct.unpack_from("<I", data, at)
         if at + 4 + n > len(data):
-            raise NloLabError(f"a framed command runs past the end of the buffer (at byte {at}, length {n})")
+            raise SettingsError(f"a framed command runs past the end of the buffer (at byte {at}, length {n})")
         commands.append(umsgpack.unpackb(bytes(data[at + 4:at + 4 + n])))
         at += 4 + n
     return commands
@@ -171,10 +171,10 @@ class SceneWidget(anywidget.AnyWidget):
         kwargs.setdefault("layout", ipywidgets.Layout(width="100%"))
         detail = type(self).default_detail if detail is None else detail
         if detail not in DETAILS:
-            raise NloLabError(f"detail must be one of {DETAILS}, got {detail!r}")
+            raise SettingsError(f"detail must be one of {DETAILS}, got {detail!r}")
         antialias = type(self).default_antialias if antialias is None else antialias
         if antialias is not None and not isinstance(antialias, bool):
-            raise NloLabError(f"antialias must be True, False or None, got {antialias!r}")
+            raise SettingsError(f"antialias must be True, False or None, got {antialias!r}")
         super().__init__(_bundle=meshcat_bundle(), height=int(height), message=message, detail=detail,
                          antialias=antialias, **kwargs)
         self.vis = Visualizer(window=WidgetWindow(self))
