@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nlo_lab.errors import NloLabError, SettingsError
+from nlo_lab.errors import NloLabError, OutputError, SettingsError
 from nlo_lab.paths import RECORDINGS_DIR
 
 __all__ = [
@@ -213,13 +213,13 @@ def work_folder(name: str = "") -> Path:
         NloLabError: ``name`` is not one plain folder name, or the folder cannot be created.
     """
     if name and (Path(name).name != name or name in (".", "..")):
-        raise NloLabError(f"work_folder takes one plain folder name, got {name!r}")
+        raise SettingsError(f"work_folder takes one plain folder name, got {name!r}")
     root = Path(os.environ.get(WORK_ENV) or "nlo_lab_work").expanduser()
     folder = root / name if name else root
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise NloLabError(f"cannot create the work folder {folder}: {exc.strerror or exc}") from None
+        raise OutputError(f"cannot create the work folder {folder}: {exc.strerror or exc}") from None
     return folder
 
 

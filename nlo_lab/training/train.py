@@ -106,11 +106,9 @@ class TrainSettings:
 
     def __post_init__(self) -> None:
         for name, bounds in (("epochs", EPOCHS_RANGE), ("batch_size", BATCH_RANGE), ("latent_per_node", LATENT_RANGE),
-                             ("val_every", COUNT_RANGE), ("val_frames", COUNT_RANGE), ("val_iterations", ITERATIONS_RANGE),
+                             ("val_every", COUNT_RANGE), ("val_frames", COUNT_RANGE), ("val_iterations", (1, ITERATIONS_RANGE[1])),
                              ("seed", SEED_RANGE)):
             check_int(name, getattr(self, name), *bounds)
-        if self.val_iterations < 1:
-            check_int("val_iterations", self.val_iterations, 1, ITERATIONS_RANGE[1])
         if self.max_steps is not None:
             check_int("max_steps", self.max_steps, 1, EPOCHS_RANGE[1] * BATCH_RANGE[1])
         for name in ("lr", "clip", "code_lr", "code_init_std"):
