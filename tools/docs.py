@@ -46,11 +46,21 @@ JS_FILES = {
     "mathjax": ["es5/tex-chtml.js", "es5/output/chtml/fonts/woff-v2/*.woff"],
 }
 
-# Told to every page: anywidget's front end comes from the site (before the widget manager asks a CDN for it).
+# Told to every page: anywidget's front end comes from the site (before the widget manager asks a CDN for it),
+# and the controls' labels typeset with MathJax 2's call (MathJax.Hub.Queue), which the site's MathJax 3 answers.
 WIDGETS_CONFIG = """// nlo_lab gallery: the widget manager finds anywidget's front end in the site, not on a CDN.
 (function () {
   var here = document.currentScript.src.replace(/[^/]*$/, "");
   window.requirejs.config({ paths: { anywidget: here + "anywidget/dist/index" } });
+  var mj = window.MathJax;
+  if (mj && !mj.Hub) {  // ipywidgets' controls call MathJax.Hub.Queue(["Typeset", MathJax.Hub, element])
+    mj.Hub = { Queue: function (job) {
+      var element = job && job[2];
+      var typeset = function () { return mj.typesetPromise ? mj.typesetPromise(element ? [element] : undefined) : null; };
+      (mj.startup && mj.startup.promise ? mj.startup.promise.then(typeset) : Promise.resolve().then(typeset))
+        .catch(function (err) { console.warn("MathJax:", err); });
+    } };
+  }
 }());
 """
 
@@ -109,7 +119,7 @@ def run_notebooks(sources: list[Path], stage: Path, scratch: Path, quick: bool) 
             client = NotebookClient(nb, timeout=1800, kernel_name="python3", store_widget_state=True,
                                     resources={"metadata": {"path": str(scratch)}})
             try:
-                client.execute()
+                client.execute(stderr=subprocess.DEVNULL)  # the kernel's own start-up notes; a cell's errors are its outputs
             except CellExecutionError as exc:
                 raise BuildError(f"{source.name} failed: {str(exc).strip().splitlines()[-1]}") from None
             nbformat.write(nb, stage / source.name)

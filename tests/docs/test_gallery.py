@@ -38,6 +38,7 @@ def site(tmp_path_factory) -> Path:
         nbformat.v4.new_code_cell("from nlo_lab.lab import TEST_MODE, setup, show_robot\nsetup()"),
         nbformat.v4.new_code_cell("import matplotlib.pyplot as plt\nplt.plot([0, 1], [1, 0]);"),
         nbformat.v4.new_code_cell("show_robot('nao')"),
+        nbformat.v4.new_code_cell("import ipywidgets\nipywidgets.FloatSlider(description='$x$ [m]')  # a control typesets its label"),
     ]
     nb = nbformat.v4.new_notebook(cells=cells)
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
