@@ -1,156 +1,369 @@
-"""Speed and quality of neural latent optimisation (prints a table).
+"""Retargeting speed on real recordings: the two targets, where the time goes, fast against readable.
 
-    python benchmarks/retarget_speed.py [--robot yumi] [--checkpoint PATH] [--clips N] [--threads 1] [--all]
+    python benchmarks/retarget_speed.py [--robot yumi] [--recording PATH ...] [--rounds 5]
+        [--frames 30] [--against REV] [--no-write]
 
-1. Retarget a 170-frame two-arm, two-hand clip (frames of the synthetic test
-   split) with 100 iterations (target <= 1.5 s), and the time of one iteration
-   at batch 170 and 1 split into decoder / FK (with the objective's points) /
-   capsules / remaining loss terms / backward / Adam step.
-2. Re-optimise one frame with 30 iterations, warm-started (target <= 50 ms median).
-3. Mean Fréchet distance (wrist + elbow, docs/DESIGN.md, "Metric") on the test split:
-   encoder output alone vs encoder-initialised latent optimisation (target >= 10 %
-   lower), plus zeros/random initialisation and the joint-space baseline.
+Cases, on every recording (default: the shipped ``assets/recordings/*.pose`` and, beside a
+checkout, the real recordings of ``../shared/data/pose``) and on a 170-frame clip of the
+synthetic test split:
+
+1. **Whole clip**: ``RetargetConfig(settings=100 iterations, no early stop).build()(demo)``;
+   the time is ``RetargetResult.seconds`` (targets, encoder, latent optimisation), as
+   ``benchmarks/speed.py`` measures it. Target: 170 frames to YuMi in at most 1.5 s (stretch 0.5 s).
+2. **One frame**: ``Retargeter.optimize_frame`` with 30 iterations from the encoder's latent,
+   inside ``single_thread()`` as the lab's panel calls it; median over ``--frames`` frames
+   spread over the clip. Target: at most 50 ms (stretch 10 ms).
+
+Variants, each in its own process and alternated round by round (the order reversed every
+other round), so that all see the same machine: ``fast`` (``RetargetConfig``'s default:
+the fast forms chosen by batch size), ``readable`` (``fast=False``: the paper's decoder, the
+term functions, autograd through FK) and, with ``--against REV``, the package as it was at
+commit REV (``git archive``; its own defaults). Medians over rounds of each process's
+median; ratios from the same run. Wall time and CPU time (of the process: on a shared
+machine the CPU time is the steadier one) are both reported, with the load average.
+
+3. **Where the time goes** in one iteration (fast forms, CPU time, medians), at batch T and
+   1: encoder (once per run), decoder, FK (the points the terms need), the objective's
+   terms, the backward pass, the Adam step, and the rest (the loop's bookkeeping and
+   Python: the measured iteration minus the stages). With ``--against REV`` also REV's.
+4. **Quality**: Fréchet distance (wrist + elbow) and the final loss of every variant: the
+   forms are equal, so are these (to rounding).
+
+Writes the section ``retarget-speed:ROBOT`` of ``docs/RESULTS.md``. A benchmark prints
+numbers; no test times anything.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import statistics
+import subprocess
+import sys
+import tarfile
+import tempfile
 import time
+import warnings
+from pathlib import Path
 
-import torch
-
-from nlo_lab.corpus import sign_corpus
-from nlo_lab.human.demonstration import Demonstration
-from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetInputs, optimize_joints, optimize_latent
-from nlo_lab.metrics import tracking_errors
-from nlo_lab.model import EncoderInput, load_checkpoint, load_pretrained
-from nlo_lab.objective import Targets
-from nlo_lab.robot import load_robot
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+SHARED_POSE = ROOT.parent / "shared" / "data" / "pose"  # beside a checkout; a user's clone does not have it
+NO_STOP = 10_000
+SYNTHETIC = "synthetic test clips, 170 frames"
 
 
-def concat_demos(demos: list[Demonstration], frames: int) -> Demonstration:
-    """The first ``frames`` frames of the concatenated clips."""
+def recordings(given: list[str] | None) -> list[Path]:
+    """The recordings to measure: those given, else the shipped ones and the shared ones when present."""
+    if given:
+        return [Path(p).resolve() for p in given]
+    found = sorted((ROOT / "assets" / "recordings").glob("*.pose"))
+    return found + (sorted(SHARED_POSE.glob("*.pose")) if SHARED_POSE.is_dir() else [])
+
+
+# ------------------------------------------------------------------ the worker (one process per variant and round)
+def _demos(paths: list[str]):
+    """``{name: demonstration}``: the recordings, then the synthetic 170-frame clip."""
+    from speed import demo_of_length
+
+    from nlo_lab.corpus import sign_corpus
+    from nlo_lab.human import load_demonstration
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # image-only recordings warn that their depth is reconstructed
+        demos = {Path(p).name: load_demonstration(p) for p in paths}
+    demos[SYNTHETIC] = demo_of_length(sign_corpus("test"), 170)
+    return demos
+
+
+def _config(robot, model, iterations: int, variant: str):
+    from nlo_lab.inference import OptimizeSettings, RetargetConfig
+
+    settings = OptimizeSettings(iterations=iterations, patience=NO_STOP)
+    if variant == "readable":
+        return RetargetConfig(robot, settings, model=model, fast=False)
+    return RetargetConfig(robot, settings, model=model)  # fast: the default (and REV's default)
+
+
+def _clock():
+    return time.perf_counter(), time.process_time()
+
+
+def _since(start) -> tuple[float, float]:
+    wall, cpu = _clock()
+    return wall - start[0], cpu - start[1]
+
+
+def worker(args) -> dict:
+    """Every case once for ``args.worker`` (a variant): medians of wall and CPU time, and the quality."""
     import numpy as np
+    import torch
 
-    keys = ("arm_positions", "arm_mask", "wrist_rotations", "wrist_mask", "finger_positions", "finger_mask")
-    arrays = {k: np.concatenate([getattr(d, k) for d in demos])[:frames] for k in keys}
-    return Demonstration(fps=demos[0].fps, name=f"{frames} frames", **arrays)
+    from nlo_lab.model import load_pretrained
+    from nlo_lab.robot import load_robot
+    from nlo_lab.threads import single_thread
 
-
-def latent(model, robot, demo: Demonstration, settings: OptimizeSettings, **options):
-    """Targets and encoder input of ``demo`` (timed with the optimisation), then :func:`optimize_latent`."""
-    x = RetargetInputs.from_demonstration(demo)
-    return optimize_latent(model, robot, x.targets, settings, encoder_input=x.encoder, fast=True, **options)
-
-
-def profile_iteration(model, robot, targets: Targets, features: EncoderInput, reps: int = 20) -> dict[str, float]:
-    """Median wall time [ms] of each stage of one latent-optimisation iteration (the optimiser's own path)."""
-    from nlo_lab.inference import Adam as _Adam
-    from nlo_lab.objective import Objective
-
-    z = model.encode(features.node_features, features.edge_features).detach().requires_grad_(True)
-    for p in model.parameters():
-        p.requires_grad_(False)
-    from nlo_lab.inference import FastPaths
-
-    paths = FastPaths.for_frames(len(targets))  # what the optimiser runs
-    loss_fn = Objective(robot, targets, **paths.objective_options())
-    adam = _Adam(z, 0.01)
-    parts: dict[str, list[float]] = {k: [] for k in ("decoder", "fk points", "loss terms", "backward", "adam")}
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        q = model.decode(z, paths.decoder)
-        t1 = time.perf_counter()
-        loss_fn.plan.map(q, paths.analytic_fk)  # FK + every point the terms need (timed alone)
-        t2 = time.perf_counter()
-        total, _ = loss_fn(q)  # FK points again + the terms; the FK time is subtracted below
-        loss = torch.add(total, z.pow(2).flatten(1).sum(1))
-        t3 = time.perf_counter()
-        (g,) = torch.autograd.grad(loss.sum(), z)
-        t4 = time.perf_counter()
-        adam.update(z, g)
-        t5 = time.perf_counter()
-        for k, dt in zip(parts, (t1 - t0, t2 - t1, (t3 - t2) - (t2 - t1), t4 - t3, t5 - t4), strict=True):
-            parts[k].append(dt * 1000)
-    for p in model.parameters():
-        p.requires_grad_(True)
-    return {k: statistics.median(v) for k, v in parts.items()}
-
-
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--robot", default="yumi")
-    ap.add_argument("--checkpoint", default=None)
-    ap.add_argument("--clips", type=int, default=25, help="test clips for the Fréchet comparison")
-    ap.add_argument("--threads", type=int, default=1, help="2 threads oversubscribe when other work shares the cores (10x slower measured)")
-    ap.add_argument("--all", action="store_true", help="also zeros/random initialisation and the joint-space baseline")
-    args = ap.parse_args()
-    torch.set_num_threads(args.threads)
+    torch.set_num_threads(1)
     robot = load_robot(args.robot)
-    model = load_checkpoint(args.checkpoint, robot) if args.checkpoint else load_pretrained(robot)
-    test = sign_corpus("test")
-    print(f"robot {robot.name}, {robot.n_joints} joints, torch threads {torch.get_num_threads()}")
-
-    # 1. 170-frame clip, 100 iterations.
-    clip = concat_demos(test, 170)
-    settings = OptimizeSettings(init="encoder", iterations=100, patience=100)  # no early stop: the full budget
-    latent(model, robot, clip, OptimizeSettings(iterations=3))  # warm-up
-    times = []
-    for _ in range(3):
-        t0 = time.perf_counter()
-        r = latent(model, robot, clip, settings)
-        times.append(time.perf_counter() - t0)
-    print(f"170 frames x 100 iterations: {statistics.median(times):.3f} s median of 3 (target <= 1.5 s), "
-          f"{r.iterations} steps, loss {r.history[0]:.1f} -> {min(r.history):.1f}")
-    for frames in (170, 1):
-        x = RetargetInputs.from_demonstration(clip).index(slice(0, frames))
-        parts = profile_iteration(model, robot, x.targets, x.encoder, reps=20 if frames > 1 else 200)
-        print(f"  per iteration at batch {frames} [ms, median]: " + ", ".join(f"{k} {v:.2f}" for k, v in parts.items()) + f"; sum {sum(parts.values()):.2f}")
-    t_def = time.perf_counter()
-    r = latent(model, robot, clip, OptimizeSettings())
-    print(f"  with the default stop (patience 5): {time.perf_counter() - t_def:.3f} s, {r.iterations} steps")
-
-    # 2. One frame, 30 iterations, warm-started from the clip's result.
-    one = RetargetInputs.from_demonstration(clip).targets.index(slice(80, 81))
-    z_prev = r.z[79:80]
-    ms = []
-    for _ in range(20):
-        t0 = time.perf_counter()
-        optimize_latent(model, robot, one, OptimizeSettings(iterations=30, patience=30), z0=z_prev, fast=True)
-        ms.append((time.perf_counter() - t0) * 1000)
-    print(f"1 frame x 30 iterations: {statistics.median(ms):.1f} ms median of 20 (target <= 50 ms)")
-
-    # 3. Fréchet on the test split.
-    rows = {"encoder only": [], "encoder + latent opt": [], "zeros + latent opt": [], "random + latent opt": [], "joint space (clamp)": []}
-    secs = {k: 0.0 for k in rows}
-    for demo in test[: args.clips]:
-        x = RetargetInputs.from_demonstration(demo)
-        t = x.targets
-        runs = {  # each run binds this clip's targets and inputs
-            "encoder only": lambda t=t, x=x: optimize_latent(model, robot, t, OptimizeSettings(iterations=0), encoder_input=x.encoder, fast=True),
-            "encoder + latent opt": lambda t=t, x=x: optimize_latent(model, robot, t, OptimizeSettings(), encoder_input=x.encoder, fast=True),
-            "zeros + latent opt": lambda t=t: optimize_latent(model, robot, t, OptimizeSettings(init="zeros"), fast=True),
-            "random + latent opt": lambda t=t: optimize_latent(model, robot, t, OptimizeSettings(init="random"), fast=True),
-            "joint space (clamp)": lambda t=t: optimize_joints(robot, t, JointOptimizeSettings(), fast=True),
+    model = load_pretrained(robot)
+    out: dict = {}
+    clip = _config(robot, model, 100, args.worker).build()
+    one = _config(robot, model, 30, args.worker).build()
+    for name, demo in _demos(args.recording).items():
+        clip(demo)  # warm-up: caches (point plans, folded weights) as a running program has them
+        runs = []
+        for _ in range(args.repeats):
+            start = _clock()
+            result = clip(demo)
+            cpu = _since(start)[1]
+            runs.append((result.seconds, cpu))
+        inputs = one.inputs(demo)
+        frames = np.linspace(0, len(demo) - 1, min(args.frames, len(demo))).astype(int)
+        one.optimize_frame(inputs, int(frames[0]))
+        per_frame = []
+        with single_thread():  # as the lab's panel calls it
+            for t in frames:
+                start = _clock()
+                one.optimize_frame(inputs, int(t))
+                per_frame.append(_since(start))
+        out[name] = {
+            "frames": len(demo),
+            "clip_wall": statistics.median(w for w, _ in runs),
+            "clip_cpu": statistics.median(c for _, c in runs),
+            "frame_wall": statistics.median(w for w, _ in per_frame),
+            "frame_cpu": statistics.median(c for _, c in per_frame),
+            "frechet_m": float(result.summary["frechet_m"]),
+            "final_loss": float(result.summary["final_loss"]),
         }
-        if not args.all:
-            runs = {k: runs[k] for k in ("encoder only", "encoder + latent opt")}
-        for name, run in runs.items():
-            t0 = time.perf_counter()
-            res = run()
-            secs[name] += time.perf_counter() - t0
-            rows[name].append(tracking_errors(demo, robot, res.q)["frechet_m"])
-    if not rows["encoder only"]:
-        return
-    base = statistics.mean(rows["encoder only"])
-    print(f"mean Fréchet (wrist+elbow) on {len(rows['encoder only'])} test clips:")
-    for name, values in rows.items():
-        if not values:
-            continue
-        m = statistics.mean(values)
-        print(f"  {name:<22} {m:.4f} m  ({100 * (m - base) / base:+.1f} % vs encoder only)  {secs[name]:.1f} s total")
+    if args.profile:
+        demo = _demos(args.recording)[args.profile]
+        out["profile"] = {str(b): stage_profile(robot, model, demo, b) for b in (len(demo), 1)}
+    return out
+
+
+def _thread_seconds(fn) -> float:
+    start = time.thread_time()
+    fn()
+    return time.thread_time() - start
+
+
+def stage_profile(robot, model, demo, frames: int, reps: int = 30) -> dict[str, float]:
+    """CPU milliseconds of one latent-optimisation iteration by stage (fast forms, batch ``frames``).
+
+    The stages are timed one by one on the objects the optimiser builds; the whole
+    iteration is measured on ``optimize_latent`` itself ((100 iterations - 0 iterations) / 100);
+    "rest" is the difference (the loop's bookkeeping, Python).
+    """
+    import numpy as np
+    import torch
+
+    from nlo_lab.inference import Adam, OptimizeSettings, RetargetInputs, optimize_latent, smoothness_term
+    from nlo_lab.objective import LossWeights, Objective
+    from nlo_lab.threads import single_thread
+
+    try:  # this tree: the forms are explicit
+        from nlo_lab.inference import FastPaths
+
+        paths = FastPaths.for_frames(frames)
+        options, decode = paths.objective_options(), (lambda z: model.decode(z, paths.decoder))
+        fast = {"fast": paths}
+    except ImportError:  # an older tree: its process-wide defaults were the fast forms
+        paths, options, decode, fast = None, {}, model.decode, {}
+
+    def cpu_ms(fn, n: int = reps) -> float:
+        """Median CPU time of ``fn()`` [ms] (this thread's: time spent waiting for a core does not count)."""
+        return 1e3 * statistics.median(_thread_seconds(fn) for _ in range(n))
+
+    x = RetargetInputs.from_demonstration(demo).index(slice(0, frames))
+    out: dict[str, float] = {}
+    with single_thread(), torch.no_grad():
+        for p in model.parameters():
+            p.requires_grad_(False)
+        model.eval()
+        out["encoder"] = cpu_ms(lambda: model.encode(x.encoder.node_features, x.encoder.edge_features))
+        z = model.encode(x.encoder.node_features, x.encoder.edge_features)
+    loss_fn = Objective(robot, x.targets, **options)
+    smooth = smoothness_term(robot, x.targets, LossWeights())  # None for one frame
+    numpy_step = paths is not None and paths.numpy_iteration and frames == 1
+    with single_thread():
+        if numpy_step:  # the whole iteration in numpy
+            from nlo_lab.inference.numpy_descent import NumpyLatentLoss
+
+            f = NumpyLatentLoss.build(model, robot, loss_fn, LossWeights().latent)
+            zn = z.numpy().copy()
+            q, ds = f.decoder.forward(zn)
+            pts, ps = f.points.forward(q)
+            terms, ts = f.terms.forward(pts)
+            g_terms = np.tile(f.weights, (len(terms), 1)).astype(terms.dtype)
+            out["decoder"] = cpu_ms(lambda: f.decoder.forward(zn))
+            out["FK"] = cpu_ms(lambda: f.points.forward(q))
+            out["terms"] = cpu_ms(lambda: f.terms.forward(pts))
+
+            def backward():
+                g_points = f.terms.backward(g_terms, ts)
+                f.decoder.backward(f.points.backward(g_points, ps), ds)
+
+            out["backward"] = cpu_ms(backward)
+            adam, g = Adam(zn, 0.01), np.ones_like(zn)
+        else:
+            zr = z.clone().requires_grad_(True)
+            q = decode(zr).to(robot.lower_limits.dtype)
+            qd = q.detach().clone().requires_grad_(True)
+            out["decoder"] = cpu_ms(lambda: decode(zr))
+            out["FK"] = cpu_ms(lambda: loss_fn.plan.map(qd, **({"analytic_gradient": True} if paths else {})))
+            def objective(q):  # the objective maps its points, then the terms; + the smoothness term
+                total, _ = loss_fn(q)
+                return total if smooth is None else total + smooth(q)
+
+            out["terms"] = cpu_ms(lambda: objective(qd)) - out["FK"]
+
+            def forward_backward():
+                total = objective(decode(zr).to(robot.lower_limits.dtype))
+                torch.autograd.grad(torch.add(total, zr.pow(2).flatten(1).sum(1)).sum(), zr)
+
+            out["backward"] = cpu_ms(forward_backward) - out["decoder"] - out["FK"] - out["terms"]
+            adam, g = Adam(zr.detach().clone(), 0.01), torch.ones_like(zr)
+        target = zn.copy() if numpy_step else zr.detach().clone()
+        out["Adam"] = cpu_ms(lambda: adam.update(target, g))
+        settings = {n: OptimizeSettings(iterations=n, patience=NO_STOP, warm_start=False) for n in (0, 100)}
+        whole = {n: cpu_ms(lambda s=s: optimize_latent(model, robot, x.targets, s, z0=z, **fast), 5 if n else 15) for n, s in settings.items()}
+    out["iteration"] = (whole[100] - whole[0]) / 100
+    out["rest"] = out["iteration"] - sum(out[k] for k in ("decoder", "FK", "terms", "backward", "Adam"))
+    out["numpy iteration"] = float(numpy_step)
+    return out
+
+
+# ------------------------------------------------------------------ the parent: rounds, report
+def _tree_of(rev: str, into: Path) -> Path:
+    """The package and assets as at commit ``rev`` (git archive), unpacked into ``into``."""
+    archive = into / "tree.tar"
+    with open(archive, "wb") as fh:
+        subprocess.run(["git", "-C", str(ROOT), "archive", rev, "nlo_lab", "assets"], stdout=fh, check=True)
+    with tarfile.open(archive) as tar:
+        tar.extractall(into / "tree", filter="data")
+    return into / "tree"
+
+
+def _run(variant: str, tree: Path, args, profile: str | None) -> dict:
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--robot", args.robot, "--worker", variant, "--frames", str(args.frames),
+           "--repeats", str(args.repeats), *[a for p in args.recording for a in ("--recording", p)]]
+    if profile:
+        cmd += ["--profile", profile]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(tree), str(ROOT / "benchmarks")]))
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"the {variant} worker failed:\n{done.stderr[-3000:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _median(runs: list[dict], name: str, key: str) -> float:
+    return statistics.median(r[name][key] for r in runs)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    options = {
+        "--robot": {"default": "yumi"},
+        "--recording": {"action": "append", "help": "a .pose (or other) recording; repeatable (default: see above)"},
+        "--rounds": {"type": int, "default": 5, "help": "processes per variant, alternated"},
+        "--repeats": {"type": int, "default": 3, "help": "whole-clip runs per process"},
+        "--frames": {"type": int, "default": 30, "help": "frames re-optimised per recording and process"},
+        "--against": {"metavar": "REV", "help": "also the package as at this commit (e.g. the one before a change)"},
+        "--no-write": {"action": "store_true"},
+        "--worker": {"help": argparse.SUPPRESS},  # the worker processes
+        "--profile": {"help": argparse.SUPPRESS},
+    }
+    for flag, kwargs in options.items():
+        p.add_argument(flag, **kwargs)
+    args = p.parse_args(argv)
+    args.recording = [str(r) for r in recordings(args.recording)]
+    if args.worker:
+        print(json.dumps(worker(args)))
+        return 0
+
+    import results_doc
+
+    load_start = os.getloadavg()
+    from nlo_lab.human import load_demonstration
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lengths = {Path(r).name: len(load_demonstration(r)) for r in args.recording}
+    profile_on = max(lengths, key=lambda n: lengths[n])  # the longest real recording
+    with tempfile.TemporaryDirectory() as tmp:
+        trees = {"fast": ROOT, "readable": ROOT}
+        if args.against:
+            trees[args.against] = _tree_of(args.against, Path(tmp))
+        runs: dict[str, list[dict]] = {v: [] for v in trees}
+        for r in range(args.rounds):
+            order = list(trees) if r % 2 == 0 else list(reversed(trees))
+            for variant in order:
+                profile = profile_on if r == 0 and variant != "readable" else None
+                runs[variant].append(_run("fast" if variant == args.against else variant, trees[variant], args, profile))
+                print(f"round {r + 1}/{args.rounds} {variant}: load {os.getloadavg()[0]:.1f}", file=sys.stderr)
+    load_end = os.getloadavg()
+    names = [n for n in runs["fast"][0] if n != "profile"]
+    variants = list(runs)
+    text = report(args, runs, names, variants, profile_on, load_start, load_end, results_doc)
+    print(text)
+    if not args.no_write:
+        print(f"wrote {results_doc.update_section(f'retarget-speed:{args.robot}', text)}")
+    return 0
+
+
+def report(args, runs, names, variants, profile_on, load_start, load_end, results_doc) -> str:
+    busy = max(load_start[0], load_end[0]) > 1.5
+    out = [f"## Retargeting speed on real recordings ({args.robot})", "", results_doc.stamp(), ""]
+    out.append(
+        f"Variants alternated in one run, each in its own process, {args.rounds} rounds: `fast` (the default: the fast forms"
+        " chosen by batch size), `readable` (`RetargetConfig(fast=False)`: the paper's decoder, the term functions, autograd"
+        " through FK)" + (f", `{args.against}` (the package as at that commit)" if args.against else "") + ". Whole clip:"
+        f" `RetargetResult.seconds` (targets, encoder, 100 iterations without early stop), median of {args.repeats} per"
+        f" process; one frame: `Retargeter.optimize_frame`, 30 iterations, median over {args.frames} frames per process."
+        " Figures are medians over the rounds; CPU = the process's CPU time (steadier than wall time on a shared machine)."
+    )
+    if busy:
+        out += ["", f"**Provisional**: the machine was busy (load {load_start[0]:.1f} at the start, {load_end[0]:.1f} at the end,"
+                f" {os.cpu_count()} cores); wall times are then longer than on a quiet machine, the ratios less so."]
+    head = "| recording | frames | variant | whole clip wall [s] | CPU [s] | one frame wall [ms] | CPU [ms] | Fréchet [m] | final loss |"
+    out += ["", head, "|---|---|---|---|---|---|---|---|---|"]
+    for name in names:
+        for v in variants:
+            rs = runs[v]
+            out.append(
+                f"| {name} | {rs[0][name]['frames']} | {v} | {_median(rs, name, 'clip_wall'):.3f} | {_median(rs, name, 'clip_cpu'):.3f} |"
+                f" {1e3 * _median(rs, name, 'frame_wall'):.1f} | {1e3 * _median(rs, name, 'frame_cpu'):.1f} |"
+                f" {rs[0][name]['frechet_m']:.4f} | {rs[0][name]['final_loss']:.2f} |"
+            )
+    out += ["", "Ratios (other variant / fast, same run; > 1: fast is faster):", "",
+            "| recording | against | whole clip wall | CPU | one frame wall | CPU |", "|---|---|---|---|---|---|"]
+    for name in names:
+        for v in variants[1:]:
+            ratio = [_median(runs[v], name, k) / _median(runs["fast"], name, k) for k in ("clip_wall", "clip_cpu", "frame_wall", "frame_cpu")]
+            out.append(f"| {name} | {v} | " + " | ".join(f"{x:.2f}×" for x in ratio) + " |")
+    targets = [(n, runs["fast"]) for n in names if runs["fast"][0][n]["frames"] == 170]
+    out += ["", "### Targets", "", "| target | measured (fast, wall) | met | stretch met |", "|---|---|---|---|"]
+    for name, rs in targets:
+        t = _median(rs, name, "clip_wall")
+        out.append(f"| 170 frames ({name}), 100 iterations ≤ 1.5 s (stretch 0.5 s) | {t:.3f} s | {'yes' if t <= 1.5 else '**no**'} | {'yes' if t <= 0.5 else 'no'} |")
+    for name, rs in targets:
+        t = 1e3 * _median(rs, name, "frame_wall")
+        out.append(f"| one frame ({name}), 30 iterations ≤ 50 ms (stretch 10 ms) | {t:.1f} ms | {'yes' if t <= 50 else '**no**'} | {'yes' if t <= 10 else 'no'} |")
+    profiled = [v for v in variants if "profile" in runs[v][0]]
+    if profiled:
+        stages = ("encoder", "decoder", "FK", "terms", "backward", "Adam", "rest", "iteration")
+        out += ["", f"### Where the time goes: one iteration on {profile_on} (CPU ms, medians)", "",
+                "Encoder: once per run. Decoder, FK (the points the terms need), terms: forward; backward: the whole"
+                " backward pass; rest: the measured iteration (from `optimize_latent` itself) minus the stages (the loop's"
+                " bookkeeping, Python, the autograd engine). At batch 1 the fast forms run the whole iteration in numpy.", "",
+                "| batch | variant | " + " | ".join(stages) + " |", "|---|---|" + "---|" * len(stages)]
+        for batch in runs[profiled[0]][0]["profile"]:
+            for v in profiled:
+                prof = runs[v][0]["profile"][batch]
+                out.append(f"| {batch} | {v} | " + " | ".join(f"{prof[s]:.3f}" for s in stages) + " |")
+    return "\n".join(out) + "\n"
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,4 +1,4 @@
-"""How many CPU threads torch uses for our (small) problems.
+"""How many CPU threads torch and numpy's BLAS use for our (small) problems.
 
 Retargeting is hundreds of tiny tensor operations per iteration. With more
 than one intra-op thread, each operation hands work to a thread pool; on a
@@ -6,6 +6,11 @@ than one intra-op thread, each operation hands work to a thread pool; on a
 a 1.5 s job can take a minute (measured: FK of 133 frames of YuMi, 1.5 ms on
 one thread against 95 ms on two, with a second process busy). So the command
 line, the notebooks and :func:`nlo_lab.inference.retarget` use one thread.
+
+numpy's BLAS (OpenBLAS in numpy's wheels) keeps its own pool, one thread per core, which
+torch's setting does not reach: the numpy forms of the decoder, FK and the objective
+(:mod:`nlo_lab.inference.fast_paths`) then spent 15-20 ms in one 30 us product now and
+then on a busy machine. :func:`single_thread` limits that pool too (threadpoolctl).
 
 ``NLO_LAB_THREADS`` is validated like the ``--threads`` flag: a whole number in
 :data:`THREADS_RANGE` (1..256), else a :class:`~nlo_lab.errors.SettingsError` naming the
@@ -16,6 +21,7 @@ threads, so a bad value is refused before any thread is made.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 from collections.abc import Iterator
 
@@ -61,13 +67,22 @@ def default_threads() -> int:
 
 @contextlib.contextmanager
 def single_thread(n: int | None = None) -> Iterator[None]:
-    """Run the block with ``n`` torch threads (default :func:`default_threads`), then restore."""
+    """Run the block with ``n`` torch and BLAS threads (default :func:`default_threads`), then restore."""
     import torch
 
     n = default_threads() if n is None else check_threads("threads", n)
     previous = torch.get_num_threads()
     torch.set_num_threads(n)
     try:
-        yield
+        with _blas().limit(limits=n, user_api="blas"):  # about 10 us to enter and leave
+            yield
     finally:
         torch.set_num_threads(previous)
+
+
+@functools.cache
+def _blas():
+    """The loaded BLAS libraries' thread pools (threadpoolctl; found once, the search takes about 0.5 ms)."""
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()

@@ -23,6 +23,23 @@ def test_single_thread_sets_and_restores():
         torch.set_num_threads(before)
 
 
+def test_single_thread_limits_numpys_blas_too():
+    """numpy's BLAS pool (OpenBLAS in numpy's wheels) is not torch's: single_thread limits it and restores it."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    import numpy  # noqa: F401  (its BLAS must be loaded to be seen)
+
+    def blas_threads():
+        return [p["num_threads"] for p in threadpoolctl.threadpool_info() if p["user_api"] == "blas"]
+
+    before = blas_threads()
+    if not before:
+        pytest.skip("numpy has no BLAS library that threadpoolctl can see here")
+    with threadpoolctl.threadpool_limits(2, user_api="blas"):
+        with single_thread():
+            assert blas_threads() == [1] * len(before)
+        assert blas_threads() == [min(2, b) for b in before]
+
+
 def test_environment_overrides(monkeypatch):
     monkeypatch.setenv("NLO_LAB_THREADS", "3")
     assert default_threads() == 3

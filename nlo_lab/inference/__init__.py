@@ -2,6 +2,7 @@
 
 - :mod:`~nlo_lab.inference.settings`: :class:`OptimizeSettings`, :class:`JointOptimizeSettings`, :data:`INITS`.
 - :mod:`~nlo_lab.inference.fast_paths`: :class:`FastPaths`, which evaluation of the decoder, objective and FK runs.
+- :mod:`~nlo_lab.inference.numpy_descent`: the loss and gradient of one iteration in numpy (a few frames).
 - :mod:`~nlo_lab.inference.descent`: the one descent (Adam, best point, patience), :class:`OptimizeResult`.
 - :mod:`~nlo_lab.inference.latent`: latent optimisation (:func:`initial_latent`, :func:`sequence_start`,
   :func:`optimize_latent`, :func:`optimize_stream`).

@@ -17,6 +17,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
 import torch
 
 from nlo_lab.objective import LossWeights, Targets, smoothness_loss
@@ -106,29 +107,44 @@ def smoothness_term(robot, targets: Targets, weights: LossWeights, anchor: torch
     return lambda q: w * smoothness_loss(torch.cat([anchor, q]), fps, limits)[1:]
 
 
-def _select(better: torch.Tensor, new, old):
-    """Per sample ``new`` where ``better (B,)`` else ``old``; tensors ``(B, ...)`` or dicts of them."""
+def _copy(a):
+    """A detached copy of a tensor, an array, or a dict of them."""
+    if isinstance(a, dict):
+        return {k: _copy(v) for k, v in a.items()}
+    return a.copy() if isinstance(a, np.ndarray) else a.detach().clone()
+
+
+def _select(better, new, old):
+    """Per sample ``new`` where ``better (B,)`` else ``old``; tensors or arrays ``(B, ...)``, or dicts of them."""
     if isinstance(new, dict):
         return {k: _select(better, new[k], old[k]) for k in old}
-    return torch.where(better.view(-1, *([1] * (new.ndim - 1))), new.detach(), old)
+    where = np.where if isinstance(new, np.ndarray) else torch.where
+    return where(better.reshape(-1, *([1] * (new.ndim - 1))), new, old)
 
 
 class Adam:
-    """Adam on one tensor, the same arithmetic as ``torch.optim.Adam``'s default
-    (single-tensor) step, without the optimiser's per-step bookkeeping (a few
+    """Adam on one tensor (or numpy array), the same arithmetic as ``torch.optim.Adam``'s
+    default (single-tensor) step, without the optimiser's per-step bookkeeping (a few
     hundred microseconds matter when one iteration at batch 1 is about a millisecond)."""
 
-    def __init__(self, x: torch.Tensor, lr: float, betas=(0.9, 0.999), eps: float = 1e-8):
+    def __init__(self, x: torch.Tensor | np.ndarray, lr: float, betas=(0.9, 0.999), eps: float = 1e-8):
         self.lr, self.betas, self.eps, self.step = lr, betas, eps, 0
-        self.m, self.v = torch.zeros_like(x), torch.zeros_like(x)
+        zeros = np.zeros_like if isinstance(x, np.ndarray) else torch.zeros_like
+        self.m, self.v = zeros(x), zeros(x)
 
     @torch.no_grad()
-    def update(self, x: torch.Tensor, grad: torch.Tensor) -> None:
+    def update(self, x: torch.Tensor | np.ndarray, grad: torch.Tensor | np.ndarray) -> None:
         b1, b2 = self.betas
         self.step += 1
+        bias1, bias2 = 1 - b1**self.step, 1 - b2**self.step
+        if isinstance(x, np.ndarray):  # the same steps on arrays (the numpy descent)
+            self.m += (1 - b1) * (grad - self.m)
+            self.v *= b2
+            self.v += (1 - b2) * grad * grad
+            x += (-self.lr / bias1) * (self.m / (np.sqrt(self.v) / math.sqrt(bias2) + self.eps))
+            return
         self.m.lerp_(grad, 1 - b1)
         self.v.mul_(b2).addcmul_(grad, grad, value=1 - b2)
-        bias1, bias2 = 1 - b1**self.step, 1 - b2**self.step
         denom = (self.v.sqrt() / math.sqrt(bias2)).add_(self.eps)
         x.addcdiv_(self.m, denom, value=-self.lr / bias1)
 
@@ -145,35 +161,38 @@ def descend(
 ):
     """Adam on ``params`` (B, ...) with per-sample best tracking and patience.
 
+    ``params`` a tensor (autograd gives the gradient unless ``evaluate`` returns it), or a
+    numpy array (``evaluate`` returns arrays and the gradient: a descent without torch,
+    :mod:`nlo_lab.inference.numpy_descent`); the results are of the same kind.
+
     ``evaluate(x)`` returns ``loss (B,)``, ``q (B, n)`` and the terms (a ``(B, K)``
-    tensor or a dict of ``(B,)``), all tracked at each sample's best point; with
+    tensor or a dict of ``(B,)``), all tracked at each sample's best point, and optionally
+    a fourth item, the gradient of ``loss.sum()`` in ``x`` (else autograd computes it); with
     ``per_sample=False`` (samples coupled by a sequence term) at the best mean instead.
     ``project(x)`` runs in place after every step (the joint limits' clamp), or None.
 
     Returns:
         ``(best_x, best_q, best_loss, best_terms, history, steps)``.
     """
-    x = params.detach().clone().requires_grad_(True)
+    x = params.copy() if isinstance(params, np.ndarray) else params.detach().clone().requires_grad_(True)
     adam = Adam(x, lr)
     best_loss = best_x = best_q = best_terms = None
     history: list[float] = []
     best_mean, stale, steps = float("inf"), 0, 0
     for it in range(iterations + 1):
-        loss, q, terms = evaluate(x)  # loss (B,)
+        loss, q, terms, *grad = evaluate(x)  # loss (B,); grad: [dL/dx] when evaluate writes it out
         with torch.no_grad():
             mean = float(loss.mean())
             history.append(mean)
             if best_loss is None:
-                best_loss, best_x, best_q = loss.detach().clone(), x.detach().clone(), q.detach().clone()
-                best_terms = {k: v.detach().clone() for k, v in terms.items()} if isinstance(terms, dict) else terms.detach().clone()
+                best_loss, best_x, best_q, best_terms = _copy(loss), _copy(x), _copy(q), _copy(terms)
             elif per_sample:
                 better = loss < best_loss  # (B,)
                 best_loss, best_x, best_q, best_terms = (
                     _select(better, new, old) for new, old in ((loss, best_loss), (x, best_x), (q, best_q), (terms, best_terms))
                 )
             elif mean < best_mean:  # coupled samples: the whole point at the best mean (no per-sample select)
-                best_loss, best_x, best_q = loss.detach(), x.detach().clone(), q.detach().clone()  # q may be x
-                best_terms = {k: v.detach() for k, v in terms.items()} if isinstance(terms, dict) else terms.detach()
+                best_loss, best_x, best_q, best_terms = _copy(loss), _copy(x), _copy(q), _copy(terms)  # q may be x
             if mean < best_mean:
                 best_mean, stale = mean, 0
             else:
@@ -182,8 +201,9 @@ def descend(
             callback(it, mean)
         if it == iterations or stale >= patience:
             break
-        (grad,) = torch.autograd.grad(loss.sum(), x)
-        adam.update(x, grad)
+        if not grad:
+            grad = torch.autograd.grad(loss.sum(), x)
+        adam.update(x, grad[0])
         steps += 1
         if project is not None:
             with torch.no_grad():

@@ -9,7 +9,9 @@ values and gradients), taken only when a caller asks for it by an argument:
   folded in) or ``"numpy"`` (that in numpy with a written-out gradient; frozen weights);
 * the objective's ``fused`` (the terms in numpy with a written-out gradient) and ``cull``
   (exact capsule distances only for the pairs that may be within their margin);
-* FK's ``analytic_gradient`` (the closed-form derivative of the mapped points).
+* FK's ``analytic_gradient`` (the closed-form derivative of the mapped points);
+* and for a few frames the whole iteration in numpy (loss and gradient written out, no
+  autograd: :mod:`nlo_lab.inference.numpy_descent`).
 
 :class:`FastPaths` holds one such choice; :meth:`FastPaths.for_frames` makes it from the
 batch size, with the measured crossovers below. Nothing is process-wide: the pipeline
@@ -46,16 +48,20 @@ class FastPaths:
         fused_objective: the objective's terms in numpy (``Objective(fused=True)``).
         cull_far_pairs: exact capsule distances only where a pair may be near (``Objective(cull=True)``).
         analytic_fk: FK's closed-form gradient (``Objective(analytic_fk=True)``).
+        numpy_iteration: latent optimisation evaluates its loss and gradient in numpy
+            (:class:`~nlo_lab.inference.numpy_descent.NumpyLatentLoss`), where the decoder and
+            the objective have numpy forms and no sequence term couples the frames.
     """
 
     decoder: str = "paper"
     fused_objective: bool = False
     cull_far_pairs: bool = False
     analytic_fk: bool = False
+    numpy_iteration: bool = False
 
     def __post_init__(self) -> None:
         check_choice("decoder form", self.decoder, DECODER_FORMS)
-        for name in ("fused_objective", "cull_far_pairs", "analytic_fk"):
+        for name in ("fused_objective", "cull_far_pairs", "analytic_fk", "numpy_iteration"):
             if not isinstance(getattr(self, name), bool):
                 raise SettingsError(f"FastPaths {name} must be True or False, got {getattr(self, name)!r}")
 
@@ -73,6 +79,7 @@ class FastPaths:
             fused_objective=cpu and frames <= OBJECTIVE_NUMPY_MAX_FRAMES,
             cull_far_pairs=True,
             analytic_fk=True,
+            numpy_iteration=cpu and frames <= DECODER_NUMPY_MAX_BATCH,
         )
 
     def objective_options(self) -> dict[str, bool]:

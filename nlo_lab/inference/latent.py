@@ -27,11 +27,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
+import numpy as np
 import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference.descent import OptimizeResult, descend, frozen, join_results, smoothness_term
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
+from nlo_lab.inference.numpy_descent import NumpyLatentLoss
 from nlo_lab.inference.settings import PAPER_LR, SMOOTH_LR, OptimizeSettings
 from nlo_lab.model import EncoderInput
 from nlo_lab.objective import TERMS, LossWeights, Objective, Targets, step_cost
@@ -199,10 +201,12 @@ def optimize_latent(
 
     with frozen(model):
         lr = settings.lr if settings.lr is not None else (PAPER_LR if smooth is None else SMOOTH_LR)
-        z, q, loss, terms, history, steps = descend(
-            z0.to(_model_dtype(model)), evaluate, None, settings.iterations, settings.patience, lr, callback,
-            per_sample=smooth is None,
-        )
+        start_z = z0.to(_model_dtype(model))
+        numpy_loss = NumpyLatentLoss.build(model, robot, loss_fn, weights.latent) if paths.numpy_iteration and smooth is None else None
+        if numpy_loss is not None:  # the same descent on arrays, loss and gradient written out
+            evaluate, start_z = numpy_loss, start_z.detach().cpu().numpy()
+        found = descend(start_z, evaluate, None, settings.iterations, settings.patience, lr, callback, per_sample=smooth is None)
+    z, q, loss, terms, history, steps = (torch.from_numpy(a) if isinstance(a, np.ndarray) else a for a in found)
     return OptimizeResult(q, z, history, dict(zip(TERMS, terms.unbind(1), strict=True)), loss, steps, time.perf_counter() - start, init)
 
 

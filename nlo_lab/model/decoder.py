@@ -133,6 +133,11 @@ class GraphDecoder(nn.Module):
         """``a (B, n)`` -> ``q (B, n)`` inside the limits (tanh, then the linear remap)."""
         return remap_to_limits(a, self.lower, self.upper)
 
+    def numpy_plan(self) -> DecoderPlan | None:
+        """The ``"numpy"`` form's arrays (:class:`~nlo_lab.model.numpy_backend.DecoderPlan`: forward and
+        the gradient to ``z``) while the weights are frozen and on the CPU; None otherwise."""
+        return self._weights().get("plan")
+
     def _node_major_preactivation(self, z: torch.Tensor, w: dict) -> torch.Tensor:
         x = z.transpose(0, 1)  # (N_r, B, k): node-major, see GraphLayer.forward_node_major
         for layer, wl in zip(self.layers, w["layers"], strict=True):

@@ -153,7 +153,7 @@ class GraphLayer(nn.Module):
 
     def node_major_weights(
         self, edge_index: torch.Tensor, edge_attr: torch.Tensor, node_type: torch.Tensor, fixed: torch.Tensor | None = None
-    ) -> dict[str, torch.Tensor]:
+    ) -> dict:
         """This layer's weights gathered per edge and per node, for :meth:`forward_node_major`.
 
         Static edge features, the bias and the contribution of constant input
@@ -170,9 +170,14 @@ class GraphLayer(nn.Module):
         Returns:
             ``src, dst (E,)``, ``self (E, C', O)``, ``nbr (E, C', O)``, ``bias (E, 1, O)``,
             ``skip (N, C', O)`` or None (identity), ``skip_bias (N, 1, O)`` or None;
-            ``C' = C_in - D``.
+            ``C' = C_in - D``; ``one_in``: every node receives exactly one message (the robots'
+            structure graphs), the edges then in the order of their receiving nodes (``dst = 0..N-1``).
         """
         src, dst = edge_index[0], edge_index[1]
+        one_in = dst.numel() == len(node_type) and bool((torch.bincount(dst, minlength=len(node_type)) == 1).all())
+        if one_in:
+            order = torch.argsort(dst)
+            src, dst, edge_attr = src[order], dst[order], edge_attr[order]
         C, D = self.in_features, 0 if fixed is None else fixed.shape[-1]
         t_edge = node_type[dst]  # weights of the receiving node's type
         w_self, w_nbr, w_edge = self.weight.index_select(0, t_edge).split([C, C, self.edge_features], dim=-1)  # (E, O, .)
@@ -194,6 +199,7 @@ class GraphLayer(nn.Module):
             "bias": bias[:, None],
             "skip": None if skip is None else skip.mT,
             "skip_bias": skip_bias,
+            "one_in": one_in,
         }
 
     def forward_node_major(self, x: torch.Tensor, w: dict[str, torch.Tensor]) -> torch.Tensor:
@@ -203,7 +209,8 @@ class GraphLayer(nn.Module):
         in a handful of batched matmuls over edges and nodes, which at small
         batch is what matters (per-op overhead).
         """
-        msg = torch.baddbmm(w["bias"], x.index_select(0, w["dst"]), w["self"])  # (E, B, O)
+        receivers = x if w["one_in"] else x.index_select(0, w["dst"])  # one_in: edge i is node i's message
+        msg = torch.baddbmm(w["bias"], receivers, w["self"])  # (E, B, O)
         msg = torch.baddbmm(msg, x.index_select(0, w["src"]), w["nbr"])
         msg = self.g(msg)
         if w["skip"] is None:
@@ -212,7 +219,7 @@ class GraphLayer(nn.Module):
             res = torch.bmm(x, w["skip"])
         else:
             res = torch.baddbmm(w["skip_bias"], x, w["skip"])
-        return res.index_add(0, w["dst"], msg)  # + sum over incoming edges
+        return res + msg if w["one_in"] else res.index_add(0, w["dst"], msg)  # + sum over incoming edges
 
 
 class GraphBuffers(nn.Module):

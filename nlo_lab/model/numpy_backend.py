@@ -58,7 +58,7 @@ class DecoderPlan:
                 "self_t": np.ascontiguousarray(w_self.swapaxes(1, 2)),
                 "nbr_t": np.ascontiguousarray(w_nbr.swapaxes(1, 2)),
                 "skip": skip, "skip_t": None if skip is None else np.ascontiguousarray(skip.swapaxes(1, 2)),
-                "skip_bias": _np(w["skip_bias"]),
+                "skip_bias": _np(w["skip_bias"]), "one_in": w["one_in"],
             })  # fmt: skip
         self.mid, self.half = _np(weights["mid"]), _np(weights["half"])
         self.lower, self.upper = _np(weights["lower"]), _np(weights["upper"])
@@ -69,7 +69,8 @@ class DecoderPlan:
         x = np.ascontiguousarray(z.swapaxes(0, 1), dtype=self.dtype)  # (N, B, k)
         saved = []
         for L in self.layers:
-            m = np.matmul(x[L["dst"]], L["self"]) + np.matmul(x[L["src"]], L["nbr"]) + L["bias"]  # (E, B, O)
+            receivers = x if L["one_in"] else x[L["dst"]]  # one_in: edge i is node i's one message
+            m = np.matmul(receivers, L["self"]) + np.matmul(x[L["src"]], L["nbr"]) + L["bias"]  # (E, B, O)
             a = np.where(m > 0, m, self.slope * m)
             if L["skip"] is None:
                 res = x
@@ -78,7 +79,7 @@ class DecoderPlan:
                 if L["skip_bias"] is not None:
                     res = res + L["skip_bias"]
             E, B, O = m.shape
-            y = res + (L["a_dst"] @ a.reshape(E, B * O)).reshape(-1, B, O)
+            y = res + (a if L["one_in"] else (L["a_dst"] @ a.reshape(E, B * O)).reshape(-1, B, O))
             saved.append((x.shape[-1], m))
             x = y
         t = np.tanh(x[..., 0].T + self.rest_pre)  # (B, N)
@@ -94,11 +95,12 @@ class DecoderPlan:
         gy = np.ascontiguousarray(ga.T[..., None], dtype=self.dtype)  # (N, B, 1)
         for L, (c_in, m) in zip(reversed(self.layers), reversed(saved), strict=True):
             E, B, O = m.shape
-            gm = gy[L["dst"]] * np.where(m > 0, 1.0, self.slope).astype(self.dtype)  # (E, B, O)
+            gm = (gy if L["one_in"] else gy[L["dst"]]) * np.where(m > 0, 1.0, self.slope).astype(self.dtype)  # (E, B, O)
             gx = gy if L["skip"] is None else np.matmul(gy, L["skip_t"])  # (N, B, C)
             g_self = np.matmul(gm, L["self_t"]).reshape(E, B * c_in)  # onto the receiving nodes
             g_nbr = np.matmul(gm, L["nbr_t"]).reshape(E, B * c_in)  # onto the sending nodes
-            gy = gx + (L["a_dst"] @ g_self + L["a_src"] @ g_nbr).reshape(-1, B, c_in)
+            to_receivers = g_self if L["one_in"] else L["a_dst"] @ g_self
+            gy = gx + (to_receivers + L["a_src"] @ g_nbr).reshape(-1, B, c_in)
         return gy.swapaxes(0, 1)
 
 

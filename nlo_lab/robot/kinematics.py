@@ -363,7 +363,7 @@ class KinematicTree:
             return MapPoints.apply(q, self, body, vectors)
         compose = self.fast_compose(q.shape[0]) if analytic_gradient else "levels"
         T = self.body_poses(q, compose).index_select(1, body)[..., :3, :]  # (B, k, 3, 4)
-        return (T * vectors[:, None, :]).sum(-1)  # not matmul: B*k tiny matmuls are slow
+        return (T @ vectors[:, :, None])[..., 0]  # B*k products of (3, 4) by (4,)
 
     def moved_by(self, body: torch.Tensor) -> torch.Tensor:
         """``(M, k)`` 0/1: moving joint ``j`` moves body ``body[i]`` (it is its child frame or an ancestor's)."""
@@ -385,6 +385,13 @@ class KinematicTree:
         if "axis" not in c:
             c["axis"] = torch.as_tensor(self._np["axis"], dtype=dtype, device=device)
         return c["axis"]
+
+    def numpy_constants(self) -> dict:
+        """The float64 constants of :meth:`body_poses` (read-only): ``theta_map (n, M)``, ``off (M,)``,
+        ``local_const``, ``local_coef`` (the local transforms, linear in ``[sin | cos]``), ``jumps``
+        (the ancestor index of each pointer-jumping round) and ``parent_body (1+M,)``."""
+        names = ("theta_map", "off", "local_const", "local_coef", "jumps")
+        return {k: self._np[k] for k in names} | {"parent_body": np.array([0] + [p + 1 for p in self.moving_parent])}
 
     def angle_map(self, device: torch.device, dtype: torch.dtype) -> torch.Tensor:
         """``(n, M)``: the moving joints' angles are ``q @ angle_map + offset`` (mimic joints included)."""

@@ -35,13 +35,14 @@ def _raise(*args, **kwargs):
 
 
 def test_the_choice_by_batch_size():
-    assert FastPaths.readable() == FastPaths() == FastPaths("paper", False, False, False)
+    assert FastPaths.readable() == FastPaths() == FastPaths("paper", False, False, False, False)
     one, small, many = (FastPaths.for_frames(n) for n in (1, OBJECTIVE_NUMPY_MAX_FRAMES, OBJECTIVE_NUMPY_MAX_FRAMES + 1))
-    assert one == FastPaths("numpy", True, True, True)
-    assert FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH).decoder == "numpy" != FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH + 1).decoder
+    assert one == FastPaths("numpy", True, True, True, True)
+    edge, above = FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH), FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH + 1)
+    assert edge.decoder == "numpy" and edge.numpy_iteration and above.decoder == "node-major" and not above.numpy_iteration
     assert small.decoder == "node-major" and small.fused_objective
-    assert many == FastPaths("node-major", False, True, True)
-    assert FastPaths.for_frames(1, "meta") == FastPaths("node-major", False, True, True)  # numpy forms: the CPU only
+    assert many == FastPaths("node-major", False, True, True, False)
+    assert FastPaths.for_frames(1, "meta") == FastPaths("node-major", False, True, True, False)  # numpy forms: the CPU only
     assert fast_paths(True, 1) == one and fast_paths(False, 1) == FastPaths() and fast_paths(many, 1) is many
     assert one.objective_options() == {"fused": True, "cull": True, "analytic_fk": True}
 
@@ -76,16 +77,20 @@ def test_joint_space_gives_the_same_result_fast_or_readable(nao64, inputs):
 
 
 def test_optimisers_run_the_readable_forms_unless_asked(nao64, model64, inputs, monkeypatch):
+    from nlo_lab.inference.numpy_descent import NumpyLatentLoss
     from nlo_lab.model import decoder
     from nlo_lab.objective import total
 
     monkeypatch.setattr(decoder, "decode_numpy", _raise)
     monkeypatch.setattr(total, "point_terms", _raise)
-    x = inputs.index(slice(0, 1))
+    monkeypatch.setattr(NumpyLatentLoss, "__call__", _raise)
     settings = OptimizeSettings(iterations=2, patience=2)
-    optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder)
-    with pytest.raises(AssertionError, match="fast path"):
-        optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder, fast=True)
+    for frames in (1, 12):
+        x = inputs.index(slice(0, frames))
+        optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder)
+        for fast in (True, FastPaths(decoder="numpy"), FastPaths(fused_objective=True), FastPaths(numpy_iteration=True, decoder="numpy", fused_objective=True)):
+            with pytest.raises(AssertionError, match="fast path"):
+                optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder, fast=fast)
 
 
 def test_the_pipeline_chooses_by_batch_size_or_takes_the_choice(nao64, model64, monkeypatch):

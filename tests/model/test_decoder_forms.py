@@ -111,3 +111,23 @@ def test_unknown_form_is_refused_in_one_line(robot):
         assert "\n" not in str(info.value)
         for form in DECODER_FORMS:  # the MLP has one form: every name runs it
             assert dec(z, form=form).shape == (1, robot.n_joints)
+
+
+@pytest.mark.parametrize("edges", [
+    [[0, 1, 2, 3, 4], [1, 2, 3, 4, 0]],  # every node receives one message (as the robots' graphs)
+    [[0, 1, 2, 1, 4], [1, 2, 3, 4, 3]],  # a root (no message) and a node with two
+], ids=["one-in", "general"])
+def test_faster_forms_equal_the_paper_form_on_any_graph(edges):
+    from nlo_lab.graph import NODE_ARM, NODE_HAND, Graph
+
+    torch.manual_seed(4)
+    edge_index = torch.tensor(edges)
+    graph = Graph(tuple(f"j{i}" for i in range(5)), edge_index, torch.randn(5, 6), torch.tensor([NODE_ARM] * 3 + [NODE_HAND] * 2))
+    lower, upper = -torch.rand(5) - 0.5, torch.rand(5) + 0.5
+    dec = GraphDecoder(graph, lower, upper, latent_per_node=3, widths=(8, 4, 1)).double().requires_grad_(False)
+    assert [w["one_in"] for w in dec._weights()["layers"]] == [edges == [[0, 1, 2, 3, 4], [1, 2, 3, 4, 0]]] * 3
+    z = torch.randn(3, 5, 3, dtype=torch.float64)
+    ref = _value_and_grad(dec, z, "paper")
+    for form in ("node-major", "numpy"):
+        for a, b in zip(_value_and_grad(dec, z, form), ref, strict=True):
+            torch.testing.assert_close(a, b, atol=1e-10, rtol=1e-10)

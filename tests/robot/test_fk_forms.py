@@ -68,3 +68,19 @@ def test_fk_called_directly_is_the_readable_form(robot, random_angles, monkeypat
 def test_unknown_composition_is_refused(robot, random_angles):
     with pytest.raises(ValueError, match="compose"):
         robot.tree.body_poses(random_angles(robot, 1, seed=4), compose="fast")
+
+
+def test_numpy_point_map_equals_the_torch_forms(robot, random_angles):
+    """NumpyPointMap (the numpy descent's FK): points and their gradient as map_points gives them."""
+    import numpy as np
+
+    from nlo_lab.robot.point_gradient import NumpyPointMap
+
+    body, vec = _wrist_points(robot)
+    q = random_angles(robot, 3, seed=6)
+    ref = value_and_grad(lambda x: robot.map_points(x, body, vec), q)  # autograd through level-by-level FK
+    w = torch.linspace(0.5, 1.5, ref[0].numel(), dtype=torch.float64).view_as(ref[0])
+    numpy_map = NumpyPointMap(robot.tree, body.numpy(), vec.numpy(), np.float64)
+    pts, state = numpy_map.forward(q.numpy())
+    torch.testing.assert_close(torch.from_numpy(pts), ref[0], atol=1e-12, rtol=1e-12)
+    torch.testing.assert_close(torch.from_numpy(numpy_map.backward(w.numpy(), state)), ref[1], atol=1e-10, rtol=1e-10)

@@ -1,0 +1,70 @@
+"""One latent-optimisation iteration in numpy, loss and gradient written out: a faster
+evaluation for a few frames (the live panel re-optimises one frame per slider move).
+
+At batch 1 an iteration of :func:`nlo_lab.inference.optimize_latent` is some 150 torch
+operations and an autograd graph, each costing microseconds of dispatch, far more than its
+arithmetic. :class:`NumpyLatentLoss` evaluates the same latent loss
+
+``L(z) = sum_i w_i L_i(D, K(f_psi(z))) + w_lat ||z||²``
+
+and its gradient in ``z`` with the numpy forms the pieces already have, chained by hand:
+the frozen decoder (:class:`~nlo_lab.model.numpy_backend.DecoderPlan`), FK's mapped points
+(:class:`~nlo_lab.robot.point_gradient.NumpyPointMap`) and the terms
+(:class:`~nlo_lab.objective.numpy_backend.PointTerms`), each forward then each backward in
+reverse order. The tests hold it equal to the readable torch path (values and gradients)
+and the optimisation's result equal either way.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nlo_lab.objective import Objective
+from nlo_lab.robot.point_gradient import NumpyPointMap
+
+__all__ = ["NumpyLatentLoss"]
+
+
+class NumpyLatentLoss:
+    """``z (B, N_r, k)`` -> the latent loss ``(B,)``, the angles, the unweighted terms and ``dL/dz``, in numpy.
+
+    Build it with :meth:`build`, which declines (None) where a piece has no numpy form.
+    """
+
+    def __init__(self, decoder_plan, point_map: NumpyPointMap, objective: Objective, latent_weight: float):
+        self.decoder, self.points, self.terms = decoder_plan, point_map, objective.numpy_terms
+        self.weights = objective.weights.numpy()  # (5,) in the targets' dtype
+        self.latent_weight = float(latent_weight)
+        self.dtype = self.points.dtype
+        self._g_terms: dict[int, np.ndarray] = {}  # batch -> d sum(loss) / d terms: each row the weights
+
+    @classmethod
+    def build(cls, model, robot, objective: Objective, latent_weight: float) -> NumpyLatentLoss | None:
+        """The numpy loss of ``model``'s frozen decoder and ``objective`` (built with ``fused=True``), or None
+        when the decoder has no numpy form (weights not frozen, off the CPU, another kind) or the
+        objective has no numpy terms."""
+        plan = getattr(model.decoder, "numpy_plan", lambda: None)()
+        if plan is None or objective.numpy_terms is None:
+            return None
+        dtype = objective.weights.numpy().dtype
+        key = ("numpy_point_map", np.dtype(dtype).str)
+        point_map = objective.plan.__dict__.get(key)
+        if point_map is None:  # one per point plan (robot and dtype), built on first use
+            point_map = objective.plan.__dict__[key] = NumpyPointMap(robot.tree, objective.plan.body.numpy(), objective.plan.vectors.numpy(), dtype)
+        return cls(plan, point_map, objective, latent_weight)
+
+    def __call__(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``loss (B,)``, ``q (B, n)``, ``terms (B, 5)`` (unweighted, ``TERMS`` order) and ``dL/dz`` (``z``'s shape)."""
+        q, decoder_state = self.decoder.forward(z)
+        q = q.astype(self.dtype, copy=False)
+        points, point_state = self.points.forward(q)
+        terms, term_state = self.terms.forward(points)
+        latent = (z * z).reshape(z.shape[0], -1).sum(1)
+        loss = terms @ self.weights + (self.latent_weight * latent).astype(self.dtype, copy=False)
+        g_terms = self._g_terms.get(len(terms))
+        if g_terms is None:  # backward of sum(loss): each term's gradient is its weight
+            g_terms = self._g_terms[len(terms)] = np.tile(self.weights, (len(terms), 1)).astype(terms.dtype)
+        g_points = self.terms.backward(g_terms, term_state)
+        g_q = self.points.backward(g_points, point_state)
+        g_z = self.decoder.backward(g_q, decoder_state) + (2.0 * self.latent_weight) * z
+        return loss, q, terms, g_z.astype(z.dtype, copy=False)
