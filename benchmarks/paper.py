@@ -59,6 +59,7 @@ from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.model import ACTIVATIONS, EncoderInput, load_checkpoint, save_checkpoint  # noqa: E402
 from nlo_lab.objective import LossWeights  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
+from nlo_lab.settings import SECONDS_RANGE  # noqa: E402
 from nlo_lab.threads import single_thread  # noqa: E402
 from nlo_lab.training import TrainSettings, cache_dir, demos_inputs, train_model, train_validation_split  # noqa: E402
 
@@ -70,7 +71,7 @@ SHIPPED_STEPS = {"yumi": 23200, "nao": 10440, "pepper": 10440}  # assets/checkpo
 # ---------------------------------------------------------------------- models (cached)
 def train_settings(args, **kw) -> TrainSettings:
     """The benchmark's budget: ``args.steps`` steps, no wall-clock cap, defaults otherwise."""
-    return TrainSettings(**{"epochs": 10_000, "max_steps": args.steps, "max_seconds": 1e9, "val_every": args.val_every, "progress": True, **kw})
+    return TrainSettings(**{"epochs": 10_000, "max_steps": args.steps, "max_seconds": SECONDS_RANGE[1], "val_every": args.val_every, "progress": True, **kw})
 
 
 def sliced(x: RetargetInputs, features: int | None) -> RetargetInputs:
@@ -260,6 +261,8 @@ def departures(args) -> list[tuple[str, str, dict, dict]]:
         ("encoder reads positions only (3 features per node)", "3 input channels per node", {}, {"features": 3}),
         ("the paper's collision term exp(-d²) for d < d_min (training and optimisation)", "exp(-d²)",
          {"collision_form": "paper"}, {"collision_form": "paper"}),
+        ("the decoder starts at the limits' midpoint (not the neutral pose)", "tanh remapped around the midpoint",
+         {"decoder_rest": "midpoint"}, {}),
     ]
 
 

@@ -1,9 +1,9 @@
 """Where the package's bundled files live, in a checkout and in an installed wheel.
 
-The repository keeps ``assets/`` and ``notebooks/`` at its top level, beside the
+The repository keeps ``assets/``, ``notebooks/`` and ``docs/`` at its top level, beside the
 package. The wheel carries the same folders inside the package
-(``nlo_lab/assets``, ``nlo_lab/notebooks``; ``pyproject.toml`` maps them in at
-build time). An editable install (``pip install -e .``, what ``make setup`` does)
+(``nlo_lab/assets``, ``nlo_lab/notebooks``, ``nlo_lab/docs``: the documents and
+``RESULTS.md``'s figures; ``pyproject.toml`` maps them in at build time). An editable install (``pip install -e .``, what ``make setup`` does)
 uses the checkout in place. This module looks inside the package first, then
 beside it, so both kinds of install find the same files.
 
@@ -23,6 +23,7 @@ __all__ = [
     "CHECKPOINTS_DIR",
     "RECORDINGS_DIR",
     "NOTEBOOKS_DIR",
+    "DOCS_DIR",
     "BUNDLED_ROBOTS",
     "is_editable_checkout",
     "is_bundled",
@@ -44,6 +45,7 @@ ROBOTS_DIR = ASSETS / "robots"
 CHECKPOINTS_DIR = ASSETS / "checkpoints"
 RECORDINGS_DIR = ASSETS / "recordings"
 NOTEBOOKS_DIR = _bundled_folder("notebooks")
+DOCS_DIR = _bundled_folder("docs")  # PAPER.md (the paper against this code), RESULTS.md (the measurements), DESIGN.md, ...
 BUNDLED_ROBOTS = ("yumi", "nao", "pepper")  # a spec, a URDF and a checkpoint each ship with the package (the paper's robot first)
 
 

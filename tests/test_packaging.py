@@ -53,12 +53,15 @@ def test_the_version_has_one_source():
 def test_pyproject_maps_the_top_level_folders_into_the_package():
     tomllib = pytest.importorskip("tomllib")
     setup = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
-    assert setup["package-dir"] == {"nlo_lab.assets": "assets", "nlo_lab.notebooks": "notebooks"}
+    assert setup["package-dir"] == {"nlo_lab.assets": "assets", "nlo_lab.notebooks": "notebooks", "nlo_lab.docs": "docs"}
     data = setup["package-data"]
     for robot in paths.BUNDLED_ROBOTS:  # every bundled file matches a package-data pattern
         for f in (f"robots/{robot}.json", f"robots/{robot}.urdf", f"checkpoints/{robot}.pt"):
             assert any(Path(f).match(pattern) for pattern in data["nlo_lab.assets"]), f
     assert any(Path("01_x.ipynb").match(p) for p in data["nlo_lab.notebooks"])
+    for doc in ("PAPER.md", "RESULTS.md", "figures/yumi_table3.png"):  # the paper's page and the results a notebook cites
+        assert any(Path(doc).match(p) for p in data["nlo_lab.docs"]), doc
+    assert (paths.DOCS_DIR / "PAPER.md").is_file() and (paths.DOCS_DIR / "RESULTS.md").is_file()
 
 
 # ----------------------------------------------------------------------------- nlo-lab lab

@@ -61,6 +61,7 @@ class Step:
 # One line per benchmark (in the order they run; the longest last). The sections each writes are
 # named in its docstring; docs/RESULTS.md lists them all.
 STEPS: tuple[Step, ...] = (
+    Step("checkpoints", "benchmarks/checkpoints.py", "", "", minutes=0.2),
     Step("fk", "benchmarks/fk.py", "--robot yumi --threads 1", "--robot yumi --threads 1 --runs 3", minutes=1),
     Step("retarget-speed:yumi", "benchmarks/retarget_speed.py", "--robot yumi --against df18d97",
          "--robot yumi --rounds 1 --repeats 1 --frames 3", minutes=7),
@@ -74,7 +75,8 @@ STEPS: tuple[Step, ...] = (
     Step("quality:nao", "benchmarks/quality.py", "--robot nao --skip init,table3", "--robot nao --quick --skip init,table3", minutes=3),
     Step("quality:pepper", "benchmarks/quality.py", "--robot pepper --skip init,table3", "--robot pepper --quick --skip init,table3", minutes=3),
     Step("quality:yumi", "benchmarks/quality.py", "--robot yumi", "--robot yumi --quick", minutes=40),
-    Step("paper", "benchmarks/paper.py", "", "--robots nao --quick", minutes=30),
+    Step("viewer", "benchmarks/viewer.py", "--moves 5 --rounds 3", "--moves 1 --rounds 1", needs="chromium", minutes=5),
+    Step("paper", "benchmarks/paper.py", "", "--robots nao --quick", minutes=45),
 )
 
 

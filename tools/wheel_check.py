@@ -121,6 +121,8 @@ def check_wheel_contents(wheel: Path) -> None:
     needed = [f"nlo_lab/assets/robots/{r}.{ext}" for r in ROBOTS for ext in ("json", "urdf")]
     needed += [f"nlo_lab/assets/checkpoints/{r}.pt" for r in ROBOTS]
     needed += ["nlo_lab/assets/recordings/holistic_both_hands_47f.pose", "nlo_lab/notebooks/README.md"]
+    needed += ["nlo_lab/docs/PAPER.md", "nlo_lab/docs/RESULTS.md"]
+    needed += [f"nlo_lab/docs/figures/{p.name}" for p in sorted((ROOT / "docs" / "figures").glob("*.png"))]
     needed += [f"nlo_lab/notebooks/{p.name}" for p in sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb"))]
     missing = [n for n in needed if n not in names]
     if missing:
@@ -166,6 +168,7 @@ from nlo_lab.robot import load_robot, known_robots
 from nlo_lab.model import load_pretrained
 assert "site-packages" in nlo_lab.__file__, nlo_lab.__file__
 assert paths.ASSETS.parent == paths.PACKAGE_DIR, paths.ASSETS
+assert paths.DOCS_DIR.parent == paths.PACKAGE_DIR and (paths.DOCS_DIR / "PAPER.md").is_file(), paths.DOCS_DIR  # docs a notebook cites
 out = {"version": nlo_lab.__version__, "robots": known_robots(), "assets": str(paths.ASSETS)}
 for name in known_robots():
     robot = load_robot(name)

@@ -52,7 +52,8 @@ from nlo_lab.training.data import demos_inputs, train_validation_split
 
 __all__ = ["TRAIN_MODES", "TrainSettings", "TrainResult", "new_model", "train_model", "latent_statistics"]
 
-TRAIN_MODES = ("encoder", "autodecoder")  # paper Eq. 10 (encoder + decoder), Eq. autodecoder (decoder + codes)
+TRAIN_MODES = ("encoder", "autodecoder")
+DECODER_RESTS = ("neutral", "midpoint")  # TrainSettings.decoder_rest  # paper Eq. 10 (encoder + decoder), Eq. autodecoder (decoder + codes)
 
 @dataclass(frozen=True)
 class TrainSettings:
@@ -83,6 +84,9 @@ class TrainSettings:
             step than the decoder's weights).
         code_init_std: auto-decoder only: the codes start at ``N(0, code_init_std²)``.
         val_iterations: auto-decoder only: latent optimisation steps per validation.
+        decoder_rest: what a new decoder decodes before training: ``"neutral"`` (the robot's
+            collision-free neutral pose; ``assets/checkpoints/README.md`` says why) or
+            ``"midpoint"`` (the middle of every joint's limits: the paper's remap).
     """
 
     epochs: int = 30
@@ -103,6 +107,7 @@ class TrainSettings:
     code_lr: float = 0.01
     code_init_std: float = 0.01
     val_iterations: int = 30
+    decoder_rest: str = "neutral"
 
     def __post_init__(self) -> None:
         for name, bounds in (("epochs", EPOCHS_RANGE), ("batch_size", BATCH_RANGE), ("latent_per_node", LATENT_RANGE),
@@ -119,6 +124,7 @@ class TrainSettings:
         check_choice("collision_form", self.collision_form, COLLISION_FORMS)
         check_choice("activation", self.activation, ACTIVATIONS)
         check_choice("training mode", self.mode, TRAIN_MODES)
+        check_choice("decoder_rest", self.decoder_rest, DECODER_RESTS)
 
 
 @dataclass
@@ -171,7 +177,7 @@ def new_model(robot, settings: TrainSettings | None = None, in_features: int | N
         edge_features=int(human.edge_attr.shape[-1]),
         kind=settings.kind,
         latent_per_node=settings.latent_per_node,
-        rest=robot.neutral_q,
+        rest=robot.neutral_q if settings.decoder_rest == "neutral" else None,
         activation=settings.activation,
     )
 
