@@ -42,9 +42,9 @@ class NumpyLatentLoss:
     def build(cls, model, robot, objective: Objective, latent_weight: float) -> NumpyLatentLoss | None:
         """The numpy loss of ``model``'s frozen decoder and ``objective`` (built with ``fused=True``), or None
         when the decoder has no numpy form (weights not frozen, off the CPU, another kind) or the
-        objective has no numpy terms."""
+        objective has terms its numpy form does not compute."""
         plan = getattr(model.decoder, "numpy_plan", lambda: None)()
-        if plan is None or objective.numpy_terms is None:
+        if plan is None or objective.numpy_terms is None or len(objective.weights) != objective.numpy_terms.n_terms:
             return None
         dtype = objective.weights.numpy().dtype
         key = ("numpy_point_map", np.dtype(dtype).str)

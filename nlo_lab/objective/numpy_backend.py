@@ -54,6 +54,8 @@ class PointTerms:
         form: ``"hinge"`` or ``"paper"`` (see :func:`nlo_lab.objective.terms.collision_loss`).
     """
 
+    n_terms = 5  # the paper's five: ee, ori, elbow, finger, collision
+
     def __init__(self, rows, finger_row, row_term, goal, mask, pair_points, pair_radii, margins, form: str):
         self.rows = np.ascontiguousarray(rows)
         self.rows_t = np.ascontiguousarray(self.rows.T)

@@ -96,3 +96,11 @@ def test_one_frame_optimisation_runs_the_numpy_iteration(robot, monkeypatch):
     assert len(calls) == 6
     torch.testing.assert_close(fast.q, readable.q, atol=1e-9, rtol=1e-9)
     assert isinstance(fast.z, torch.Tensor) and fast.z.shape == readable.z.shape
+
+
+def test_it_declines_when_the_objective_has_a_term_without_a_numpy_form(robot):
+    """A term the numpy terms do not compute (the weights say the objective has it) means torch runs."""
+    x = _inputs(1)
+    fused = Objective(robot, x.targets, fused=True)
+    fused.weights = torch.cat([fused.weights, torch.zeros(1, dtype=fused.weights.dtype)])  # one more term, even at weight 0
+    assert NumpyLatentLoss.build(_model(robot), robot, fused, 1.0) is None
