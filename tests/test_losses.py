@@ -36,7 +36,8 @@ def exact_targets(robot, q) -> Targets:
     t = targets_from_demonstration(demonstration_from_robot(robot, q), dtype=torch.float64)
     c = point_plan(robot, torch.float64, q.device)
     T = len(t)
-    return dataclasses.replace(t, arm_length=c.arm_length.expand(T, 2).clone(), fore_length=c.fore_length.expand(T, 2).clone())
+    return dataclasses.replace(t, arm_length=c.arm_length.expand(T, 2).clone(), fore_length=c.fore_length.expand(T, 2).clone(),
+                               hand_length=c.hand_length.expand(T, 2).clone())
 
 
 # ------------------------------------------------------------------ weights

@@ -19,22 +19,39 @@ from nlo_lab.objective.terms import (
     elbow_loss,
     end_effector_loss,
     finger_loss,
+    fingertip_loss,
+    in_wrist_frame,
     latent_loss,
     orientation_loss,
+    pinch_activation,
+    pinch_loss,
     smoothness_loss,
     smoothness_scale,
     step_cost,
+    thumb_loss,
 )
 from nlo_lab.objective.total import Objective, objective
-from nlo_lab.objective.weights import COLLISION_FORMS, SMOOTH_MAX_STEP, SMOOTH_SPEED_CAP, SMOOTH_STEP_WIDTH, TERMS, LossWeights
+from nlo_lab.objective.weights import (
+    COLLISION_FORMS,
+    HAND_TERMS,
+    PINCH_OFF,
+    PINCH_ON,
+    SMOOTH_MAX_STEP,
+    SMOOTH_SPEED_CAP,
+    SMOOTH_STEP_WIDTH,
+    TERMS,
+    LossWeights,
+)
 
 __all__ = [
     # weights
-    "LossWeights", "TERMS", "COLLISION_FORMS", "SMOOTH_SPEED_CAP", "SMOOTH_MAX_STEP", "SMOOTH_STEP_WIDTH",
+    "LossWeights", "TERMS", "HAND_TERMS", "COLLISION_FORMS", "SMOOTH_SPEED_CAP", "SMOOTH_MAX_STEP", "SMOOTH_STEP_WIDTH",
+    "PINCH_ON", "PINCH_OFF",
     # targets, points
     "Targets", "targets_from_demonstration", "PointPlan", "point_plan", "RobotPoints", "robot_points",
     # terms
     "end_effector_loss", "orientation_loss", "elbow_loss", "finger_loss", "collision_loss", "capsule_distances",
+    "fingertip_loss", "thumb_loss", "pinch_loss", "pinch_activation", "in_wrist_frame",
     "latent_loss", "smoothness_loss", "smoothness_scale", "step_cost", "UNIT_EPS",
     # the total, and the fast path kept beside it
     "Objective", "objective", "near_pair_distances", "CULL_SLACK",

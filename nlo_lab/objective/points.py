@@ -67,6 +67,10 @@ class PointPlan:
         pair_points: ``(4P,)`` long, the vectors a0, a1, b0, b1 of each collision pair.
         arm_length, fore_length: ``(2,)`` the robot's zero-pose upper + fore arm and forearm [m].
         finger_side, finger_index: ``(K,)`` long, the side and the finger (thumb..pinky) of each robot finger.
+        hand_length: ``(2,)`` per side the mean wrist -> finger base distance of the fingers other than
+            the thumb, at the reference pose (1 without fingers) [m]: the hand terms' unit.
+        thumb_pairs: ``(J, 2)`` long, (thumb, other finger) of the same hand, indices into the K fingers;
+            pair_side: ``(J,)`` long, their side.
         pair_radii, margins: ``(P,)`` summed capsule radii and d_min of each pair [m].
     """
 
@@ -106,8 +110,46 @@ class PointPlan:
         self.fore_length = torch.tensor([float(f) for _, f in lengths], dtype=dtype, device=device)
         self.finger_side = torch.tensor([s for s, *_ in fingers], dtype=torch.long, device=device)
         self.finger_index = torch.tensor([f for _, f, *_ in fingers], dtype=torch.long, device=device)
+        self._set_hand(fingers, dtype, device)
         self.pair_radii = robot.pair_radii.to(device=device, dtype=dtype)
         self.margins = torch.as_tensor(robot.collision_margins).to(device=device, dtype=dtype)
+
+    def _set_hand(self, fingers, dtype, device) -> None:
+        """The hand terms' constants: hand lengths and thumb pairs (see the class attributes)."""
+        thumb = FINGERS.index("thumb")
+        pairs = [(kt, kf) for kt, (st, ft, *_) in enumerate(fingers) if ft == thumb
+                 for kf, (sf, ff, *_) in enumerate(fingers) if sf == st and ff != thumb]
+        self.thumb_pairs = torch.tensor(pairs, dtype=torch.long, device=device).reshape(-1, 2)
+        self.pair_side = self.finger_side[self.thumb_pairs[:, 1]] if pairs else self.finger_side[:0]
+        lengths = [1.0, 1.0]
+        if fingers:
+            with torch.no_grad():
+                p = self.split(self.map(self.robot.reference_q.to(device=device, dtype=dtype)[None]))
+            for s in range(2):
+                ks = [k for k, (sk, fk, *_) in enumerate(fingers) if sk == s and fk != thumb]
+                if ks:
+                    lengths[s] = float((p.finger_base[0, ks] - p.wrist[0, s]).norm(dim=-1).mean())
+        self.hand_length = torch.tensor(lengths, dtype=dtype, device=device)
+        self._pinch_floor: torch.Tensor | None = None
+
+    def pinch_floor(self, samples: int = 16384, seed: int = 0) -> torch.Tensor:
+        """``(J,)`` per thumb pair the closest its two tips come over the joint ranges, in hand lengths.
+
+        Found once (then kept) from ``samples`` random configurations within the limits (the tips'
+        distance depends on the hand's joints only; about 0.2 s for YuMi); an upper bound of the
+        true minimum by the sampling's resolution (a few mm on YuMi's Inspire hands).
+        """
+        if self._pinch_floor is None:
+            gen = torch.Generator().manual_seed(seed)
+            lo, hi = (x.to(self.vectors.dtype).cpu() for x in (self.robot.lower_limits, self.robot.upper_limits))
+            u = torch.rand(samples, lo.shape[0], generator=gen, dtype=torch.float64).to(lo.dtype)
+            q = (lo + (hi - lo) * u).to(self.vectors.device)
+            with torch.no_grad():
+                tip = self.split(self.map(q)).finger_tip
+                pairs = self.thumb_pairs
+                d = (tip[:, pairs[:, 1]] - tip[:, pairs[:, 0]]).norm(dim=-1) / self.hand_length[self.pair_side]
+            self._pinch_floor = d.min(0).values if pairs.shape[0] else d.new_zeros(0)
+        return self._pinch_floor
 
     def map(self, q: torch.Tensor, analytic_gradient: bool = False) -> torch.Tensor:
         """``q (B, n)`` -> every vector in the world, ``(B, k, 3)`` (one FK; ``analytic_gradient``:

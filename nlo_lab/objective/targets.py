@@ -35,6 +35,8 @@ class Targets:
         finger_mask: ``(T, 2, 5)`` bool.
         arm_length: ``(T, 2)`` demonstrator's upper + fore arm length [m].
         fore_length: ``(T, 2)`` demonstrator's forearm length [m].
+        hand_length: ``(T, 2)`` demonstrator's hand length: the mean wrist -> knuckle (index..pinky
+            finger base) distance, median over the sequence [m] (the hand terms' unit).
         fps: frame rate of the sequence (the smoothness term's time step), or None.
     """
 
@@ -49,6 +51,7 @@ class Targets:
     finger_mask: torch.Tensor
     arm_length: torch.Tensor
     fore_length: torch.Tensor
+    hand_length: torch.Tensor
     fps: float | None = None
 
     def __len__(self) -> int:
@@ -93,10 +96,19 @@ def _sequence_lengths(demo: Demonstration, side: str) -> tuple[float, float]:
     return upper + fore, fore
 
 
+def _hand_length(demo: Demonstration, s: int) -> float:
+    """Median over the frames of the mean wrist -> knuckle distance of the four fingers [m]; 1 if never seen."""
+    seen = demo.finger_mask[:, s, 1:].all(-1) & demo.arm_mask[:, s, 2]
+    if not seen.any():
+        return 1.0  # every hand target of this side is masked anyway
+    knuckles = demo.finger_positions[seen, s, 1:, 0]  # (n, 4, 3)
+    return float(np.median(np.linalg.norm(knuckles - demo.arm_positions[seen, s, 2][:, None], axis=-1).mean(-1)))
+
+
 def targets_from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.float32, device=None) -> Targets:
     """Build :class:`Targets` from a :class:`Demonstration` (numpy, NaN where masked).
 
-    Arm lengths are per sequence (median), broadcast per frame. The encoder reads the
+    Arm and hand lengths are per sequence (median), broadcast per frame. The encoder reads the
     same frames differently: :func:`nlo_lab.model.encoder_input`.
     """
     T = len(demo)
@@ -121,5 +133,6 @@ def targets_from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.f
         finger_mask=mask(demo.finger_mask),
         arm_length=tensor(np.broadcast_to(lengths[:, 0], (T, 2))),
         fore_length=tensor(np.broadcast_to(lengths[:, 1], (T, 2))),
+        hand_length=tensor(np.broadcast_to([_hand_length(demo, s) for s in range(2)], (T, 2))),
         fps=float(demo.fps),
     )

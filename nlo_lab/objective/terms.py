@@ -20,7 +20,14 @@ from __future__ import annotations
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.objective.weights import COLLISION_FORMS, SMOOTH_MAX_STEP, SMOOTH_SPEED_CAP, SMOOTH_STEP_WIDTH
+from nlo_lab.objective.weights import (
+    COLLISION_FORMS,
+    PINCH_OFF,
+    PINCH_ON,
+    SMOOTH_MAX_STEP,
+    SMOOTH_SPEED_CAP,
+    SMOOTH_STEP_WIDTH,
+)
 from nlo_lab.robot.collision import segment_distance_ends
 
 __all__ = [
@@ -28,6 +35,11 @@ __all__ = [
     "orientation_loss",
     "elbow_loss",
     "finger_loss",
+    "fingertip_loss",
+    "thumb_loss",
+    "pinch_loss",
+    "pinch_activation",
+    "in_wrist_frame",
     "collision_loss",
     "capsule_distances",
     "latent_loss",
@@ -126,6 +138,101 @@ def finger_loss(base, tip, t_base, t_tip, mask) -> torch.Tensor:
     if base.shape[1] == 0:
         return base.new_zeros(base.shape[0])
     return masked_sum((unit(tip - base) - unit(t_tip - t_base)).pow(2).sum(-1), mask)
+
+
+def in_wrist_frame(v: torch.Tensor, rotation: torch.Tensor, side: torch.Tensor, hand_length: torch.Tensor) -> torch.Tensor:
+    """``R_sᵀ v / l_s``: vectors ``v (B, K, 3)`` [m] of the hand on ``side (K,)`` in that hand's wrist
+    frame (``rotation (B, 2, 3, 3)``, columns = wrist axes), in units of its length ``hand_length``
+    (``(2,)`` or ``(B, 2)`` [m])."""
+    R = rotation[:, side]  # (B, K, 3, 3)
+    length = hand_length[..., side] if hand_length.dim() == 1 else hand_length[:, side]
+    return torch.einsum("bkji,bkj->bki", R, v) / length[..., None]
+
+
+@needs("wrist", "wrist_rotation", "finger_tip")
+def fingertip_loss(wrist, rotation, tip, hand_length, t_wrist, t_rotation, t_tip, t_hand_length, side, mask) -> torch.Tensor:
+    """``L_tip = sum_side sum_finger ||R_wᵀ(p_tip - p_w)/l_h - R̂_wᵀ(p̂_tip - p̂_w)/l̂_h||²``.
+
+    The wrist -> fingertip vectors, in the wrist frame, scaled from the human's hand to the
+    robot's (the "vector" formulation of DexPilot / dex-retargeting, with the scale
+    ``l_h / l̂_h``). ``l_h``: the hand length, the mean wrist -> finger base (knuckle) distance
+    of the four fingers (the robot's at its reference pose, the demonstrator's median). In
+    the wrist frame the term sees the handshape only: it does not move the arm.
+
+    Args:
+        wrist: ``(B, 2, 3)`` robot [m]; rotation: ``(B, 2, 3, 3)`` its aligned wrist frames;
+            tip: ``(B, K, 3)`` the robot's K fingertips [m]; hand_length: ``(2,)`` [m].
+        t_wrist, t_rotation: the human's, same shapes; t_tip: ``(B, K, 3)`` the matching
+            human fingertips; t_hand_length: ``(B, 2)`` [m].
+        side: ``(K,)`` long, the side of each finger; mask: ``(B, K)`` fingertip and wrist frame observed.
+
+    Returns:
+        ``(B,)``; exactly 0 when the robot's hand has the human's shape at the robot's size.
+    """
+    if tip.shape[1] == 0:
+        return tip.new_zeros(tip.shape[0])
+    v = in_wrist_frame(tip - wrist[:, side], rotation, side, hand_length)
+    v_hat = in_wrist_frame(t_tip - t_wrist[:, side], t_rotation, side, t_hand_length)
+    return masked_sum((v - v_hat).pow(2).sum(-1), mask)
+
+
+@needs("wrist_rotation", "finger_tip")
+def thumb_loss(rotation, tip, hand_length, t_rotation, t_tip, t_hand_length, pairs, side, mask) -> torch.Tensor:
+    """``L_thumb = sum_side sum_(finger != thumb) ||R_wᵀ(p_f - p_th)/l_h - R̂_wᵀ(p̂_f - p̂_th)/l̂_h||²``.
+
+    The thumb tip -> other fingertip vectors, in the wrist frame, scaled as in
+    :func:`fingertip_loss`: where the thumb sits against the other fingers.
+
+    Args:
+        rotation, t_rotation: ``(B, 2, 3, 3)``; tip, t_tip: ``(B, K, 3)`` [m];
+        hand_length: ``(2,)``, t_hand_length: ``(B, 2)`` [m] as in :func:`fingertip_loss`.
+        pairs: ``(J, 2)`` long, (thumb, finger) indices into the K fingers, same hand;
+        side: ``(J,)`` long, each pair's side; mask: ``(B, J)`` both tips and the wrist frame observed.
+
+    Returns:
+        ``(B,)``.
+    """
+    if pairs.shape[0] == 0:
+        return tip.new_zeros(tip.shape[0])
+    v = in_wrist_frame(tip[:, pairs[:, 1]] - tip[:, pairs[:, 0]], rotation, side, hand_length)
+    v_hat = in_wrist_frame(t_tip[:, pairs[:, 1]] - t_tip[:, pairs[:, 0]], t_rotation, side, t_hand_length)
+    return masked_sum((v - v_hat).pow(2).sum(-1), mask)
+
+
+def pinch_activation(distance: torch.Tensor) -> torch.Tensor:
+    """``a(d̂) = clamp((PINCH_OFF - d̂)/(PINCH_OFF - PINCH_ON), 0, 1)``: 1 while the human's thumb and
+    fingertip touch (``d̂`` in hand lengths below ``PINCH_ON``), 0 beyond ``PINCH_OFF``, linear between."""
+    return ((PINCH_OFF - distance) / (PINCH_OFF - PINCH_ON)).clamp(0.0, 1.0)
+
+
+@needs("finger_tip")
+def pinch_loss(tip, hand_length, t_tip, t_hand_length, pairs, side, floor, mask) -> torch.Tensor:
+    """``L_pinch = sum_side sum_(finger != thumb) a(d̂) ((d - max(d̂, d_min))_+)²``.
+
+    ``d = |p_f - p_th|/l_h``, ``d̂ = |p̂_f - p̂_th|/l̂_h``: thumb-tip to fingertip distances in hand
+    lengths; ``a`` = :func:`pinch_activation`. When the human's thumb and a fingertip touch, the
+    robot's are drawn together, down to the human's distance but never below ``d_min``, the
+    closest this robot's thumb and finger can come (``PointPlan.pinch_floor``): within what
+    the hand can do. Never pushes tips apart; 0 at a perfect match.
+
+    Args:
+        tip, t_tip: ``(B, K, 3)`` [m]; hand_length ``(2,)``, t_hand_length ``(B, 2)`` [m];
+        pairs, side: as in :func:`thumb_loss`; floor: ``(J,)`` ``d_min`` of each pair [hand lengths];
+        mask: ``(B, J)``.
+
+    Returns:
+        ``(B,)``.
+    """
+    if pairs.shape[0] == 0:
+        return tip.new_zeros(tip.shape[0])
+    length = hand_length[side]
+    gap = tip[:, pairs[:, 1]] - tip[:, pairs[:, 0]]
+    d = gap.pow(2).sum(-1).add(UNIT_EPS).sqrt() / length  # (B, J)
+    with torch.no_grad():  # the human side: a target, not a variable
+        d_hat = (t_tip[:, pairs[:, 1]] - t_tip[:, pairs[:, 0]]).norm(dim=-1) / t_hand_length[:, side]
+        goal = torch.maximum(d_hat, floor)
+        active = pinch_activation(d_hat)
+    return masked_sum(active * (d - goal).clamp_min(0.0).pow(2), mask)
 
 
 @needs("capsule_ends")

@@ -1,8 +1,9 @@
 """The retargeting objective ``L(D, K(q))``: the terms of :mod:`nlo_lab.objective.terms`, weighted and summed.
 
 ``L = w_ee L_ee + w_ori L_ori + w_elbow L_elbow + w_finger L_finger + w_col L_col``
-per frame (the paper's Eq. 5-9; the latent term ``||z||²/σ²`` and the smoothness term
-are added where ``z`` and the whole sequence live: optimisation and training).
+``  + w_tip L_tip + w_thumb L_thumb + w_pinch L_pinch``
+per frame (the paper's Eq. 5-9, then our hand terms; the latent term ``||z||²/σ²`` and the
+smoothness term are added where ``z`` and the whole sequence live: optimisation and training).
 """
 
 from __future__ import annotations
@@ -20,7 +21,10 @@ from nlo_lab.objective.terms import (
     elbow_loss,
     end_effector_loss,
     finger_loss,
+    fingertip_loss,
     orientation_loss,
+    pinch_loss,
+    thumb_loss,
 )
 from nlo_lab.objective.weights import COLLISION_FORMS, TERMS, LossWeights
 from nlo_lab.settings import check_choice
@@ -41,6 +45,8 @@ class Objective:
     that may be near (``cull``, :mod:`~nlo_lab.objective.near_pairs`), and the FK's
     gradient in closed form (``analytic_fk``). The pipeline chooses them by batch size
     (:class:`nlo_lab.inference.FastPaths`).
+    The hand terms (``tip``, ``thumb``, ``pinch``) always run as written here; with ``fused`` the
+    numpy path computes the paper's five and the hand terms are added on the same mapped points.
 
     Args:
         robot: a loaded :class:`nlo_lab.robot.Robot`.
@@ -65,28 +71,48 @@ class Objective:
         self.cull, self.analytic_fk = bool(cull), bool(analytic_fk)
         device = t.shoulder.device
         self.plan = point_plan(robot, t.dtype, device)
-        self.weights = torch.tensor([getattr(weights, n) for n in TERMS], dtype=t.dtype, device=device)  # (5,)
+        self.weights = torch.tensor([getattr(weights, n) for n in TERMS], dtype=t.dtype, device=device)  # (8,)
         am = t.arm_mask
         self.ee_mask, self.elbow_mask = am[..., 0] & am[..., 2], am[..., 1] & am[..., 2]  # (T, 2): both points observed
         fingers = (slice(None), self.plan.finger_side, self.plan.finger_index)  # the human fingers the robot has
         self.finger_base, self.finger_tip, self.finger_mask = t.finger_base[fingers], t.finger_tip[fingers], t.finger_mask[fingers]
         if fused and device.type != "cpu":
             raise SettingsError(f"the numpy terms (fused=True) need targets on the CPU, not {device}")
+        # hand terms: a fingertip counts where it and its wrist frame are observed; a thumb pair where both tips do
+        plan = self.plan
+        self.tip_mask = self.finger_mask & t.wrist_mask[:, plan.finger_side]
+        pairs = plan.thumb_pairs
+        self.pair_mask = self.tip_mask[:, pairs[:, 0]] & self.tip_mask[:, pairs[:, 1]]
+        self.pinch_floor = plan.pinch_floor()  # (J,) found once per robot
         self.numpy_terms = PointTerms.build(self.plan, targets, collision_form) if fused else None
 
     def __call__(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """``q (T, n)`` -> ``total (T,)`` and the unweighted terms ``(T, 5)`` in ``TERMS`` order."""
+        """``q (T, n)`` -> ``total (T,)`` and the unweighted terms ``(T, 8)`` in ``TERMS`` order."""
         if q.shape[0] != self.n_frames:
             raise SettingsError(f"q has {q.shape[0]} frames but the targets have {self.n_frames}")
         points = self.plan.map(q, self.analytic_fk)  # (T, k, 3): every point the terms need, one FK
         if self.numpy_terms is not None:
-            terms = point_terms(points, self.numpy_terms)
+            # the numpy path has the paper's five terms; the hand terms run as written, on the same points
+            terms = torch.cat([point_terms(points, self.numpy_terms), self.hand_terms(self.plan.split(points))], dim=1)
         else:
             terms = self.terms(self.plan.split(points))
         return terms @ self.weights, terms
 
+    def hand_terms(self, p: RobotPoints) -> torch.Tensor:
+        """The unweighted hand terms ``(T, 3)`` (``HAND_TERMS`` order: tip, thumb, pinch) of ``p``."""
+        t, plan = self.targets, self.plan
+        pairs, side = plan.thumb_pairs, plan.pair_side
+        return torch.stack([
+            fingertip_loss(p.wrist, p.wrist_rotation, p.finger_tip, plan.hand_length, t.wrist, t.wrist_rotation,
+                           self.finger_tip, t.hand_length, plan.finger_side, self.tip_mask),
+            thumb_loss(p.wrist_rotation, p.finger_tip, plan.hand_length, t.wrist_rotation, self.finger_tip,
+                       t.hand_length, pairs, side, self.pair_mask),
+            pinch_loss(p.finger_tip, plan.hand_length, self.finger_tip, t.hand_length, pairs, side, self.pinch_floor,
+                       self.pair_mask),
+        ], dim=1)  # fmt: skip
+
     def terms(self, p: RobotPoints) -> torch.Tensor:
-        """The unweighted terms ``(T, 5)`` (``TERMS`` order) of the robot quantities ``p``, term by term."""
+        """The unweighted terms ``(T, 8)`` (``TERMS`` order) of the robot quantities ``p``, term by term."""
         t, plan = self.targets, self.plan
         if self.cull:
             distances = near_pair_distances(p.capsule_ends, plan.pair_radii, plan.margins)
@@ -98,6 +124,7 @@ class Objective:
             elbow_loss(p.elbow, p.wrist, plan.fore_length, t.elbow, t.wrist, t.fore_length, self.elbow_mask),
             finger_loss(p.finger_base, p.finger_tip, self.finger_base, self.finger_tip, self.finger_mask),
             collision_loss(distances, plan.margins, self.collision_form),
+            *self.hand_terms(p).unbind(1),
         ], dim=1)  # fmt: skip
 
 
@@ -118,7 +145,8 @@ def objective(robot, q: torch.Tensor, targets: Targets, weights: LossWeights | N
             with ``poses``); the default: the term functions.
 
     Returns:
-        ``total (B,)`` and the unweighted terms ``{"ee","ori","elbow","finger","collision"}``, each ``(B,)``.
+        ``total (B,)`` and the unweighted terms ``{"ee", "ori", "elbow", "finger", "collision", "tip", "thumb",
+        "pinch"}`` (``TERMS``), each ``(B,)``.
     """
     if len(targets) != q.shape[0]:
         raise SettingsError(f"q has {q.shape[0]} frames but the targets have {len(targets)}")

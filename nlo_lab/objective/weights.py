@@ -16,9 +16,13 @@ __all__ = [
     "SMOOTH_SPEED_CAP",
     "SMOOTH_MAX_STEP",
     "SMOOTH_STEP_WIDTH",
+    "HAND_TERMS",
+    "PINCH_ON",
+    "PINCH_OFF",
 ]
 
-TERMS = ("ee", "ori", "elbow", "finger", "collision")  # the per-frame terms, in the order Objective returns them
+TERMS = ("ee", "ori", "elbow", "finger", "collision", "tip", "thumb", "pinch")  # the per-frame terms, in the order Objective returns them
+HAND_TERMS = ("tip", "thumb", "pinch")  # the handshape terms (issue 27): zero on a robot without fingers
 COLLISION_FORMS = ("hinge", "paper")  # see nlo_lab.objective.terms.collision_loss
 # A joint faster than this [rad/s] is smoothed as if its limit were this: NAO's wrist
 # (24.6 rad/s) could otherwise jump 0.85 rad between two frames at little cost, though
@@ -26,11 +30,17 @@ COLLISION_FORMS = ("hinge", "paper")  # see nlo_lab.objective.terms.collision_lo
 SMOOTH_SPEED_CAP = math.pi
 SMOOTH_MAX_STEP = 0.35  # [rad] a joint step beyond this between two frames costs steeply ...
 SMOOTH_STEP_WIDTH = 0.02  # [rad] ... (one more width: one more unit, squared)
+# The pinch term acts while the human's thumb tip and a fingertip are closer than PINCH_OFF hand
+# lengths (fully below PINCH_ON, fading in between); MediaPipe's tip landmarks of a thumb and a
+# finger that touch are 0.15-0.3 hand lengths apart (the fingers' thickness).
+PINCH_ON = 0.3
+PINCH_OFF = 0.6
 
 
 @dataclass(frozen=True)
 class LossWeights:
-    """Weights of the objective's terms (defaults: the paper's).
+    """Weights of the objective's terms (defaults: the paper's; the hand terms ``tip``, ``thumb``, ``pinch``
+    are ours, measured by ``benchmarks/hands.py``).
 
     Attributes:
         ee: end-effector position term.
@@ -38,6 +48,11 @@ class LossWeights:
         elbow: elbow -> wrist direction term.
         finger: finger base -> tip direction term.
         collision: self-collision term.
+        tip: wrist -> fingertip vectors in the wrist frame, scaled from the human's hand to the robot's
+            (:func:`~nlo_lab.objective.terms.fingertip_loss`; not in the paper).
+        thumb: thumb tip -> other fingertip vectors, the same way (:func:`~nlo_lab.objective.terms.thumb_loss`).
+        pinch: a human pinch (thumb and fingertip touching) draws the robot's tips together
+            (:func:`~nlo_lab.objective.terms.pinch_loss`).
         latent: weight of ``||z||²`` (``1/σ²``, σ = 1 in the paper).
         smooth: weight of the joint-speed term over consecutive frames
             (:func:`~nlo_lab.objective.terms.smoothness_loss`; not in the paper; 0 = frames independent).
@@ -50,6 +65,9 @@ class LossWeights:
     collision: float = 1000.0
     latent: float = 1.0
     smooth: float = 10.0
+    tip: float = 100.0
+    thumb: float = 100.0
+    pinch: float = 100.0
 
     def __post_init__(self) -> None:
         validate_fields(self, lambda name, v: check_range(name, v, *WEIGHT_RANGE), prefix="loss weight ")

@@ -1,0 +1,259 @@
+"""Handshapes: nlo_lab against dex-retargeting on YuMi's Inspire hands, side by side in one run.
+
+    python benchmarks/hands.py [--dex-python .venv-bench/bin/python] [--no-video] [--no-write]
+
+Data: every real recording we have (``../shared/data/pose/*.pose`` when that folder is present,
+``assets/recordings/*.pose``; a file in both counted once) and the sample video
+``assets/recordings/signer_webcam_58f.mp4`` through MediaPipe Holistic (the ``video`` extra).
+
+Methods, on every hand-frame (one hand in one frame with its wrist frame and five fingers seen):
+
+* **nlo_lab**: ``nlo_lab.inference.retarget`` with the shipped YuMi checkpoint and the default
+  weights (both arms and both hands together, smoothness, retiming);
+* **dex, filtered** and **dex, unfiltered**: dex-retargeting 0.5 vector retargeting with our
+  configs and hand-only URDFs (``benchmarks/hands/``), with and without its low-pass filter. It
+  needs numpy >= 2, which mediapipe (and so this environment) cannot have: it runs in
+  ``.venv-bench`` (``make bench-venv``) as a subprocess (``benchmarks/hands/dex_runner.py``) that
+  reads the landmarks from a file and writes the joint angles back. Its input: the human's wrist ->
+  fingertip vectors in the robot's wrist-link frame, scaled by robot hand length / human hand length
+  (the scale nlo_lab's terms use); mimic joints are expanded as the URDF says (both tools agree).
+* **open hand, not moving**: the hands at their neutral (open) pose, for scale.
+
+One scorer for all: ``nlo_lab.evaluation.hands.hand_scores`` (our FK of YuMi; the measures and
+their definitions are in its docstring and in docs/RESULTS.md). Also: joint-limit violations of
+the hand joints (an angle outside its limits by more than 1e-6 rad), nlo_lab's velocity
+violations after retiming, and time: nlo_lab's wall time per frame (both arms and both hands,
+``summary["seconds"]``), dex-retargeting's per hand-frame (each ``retarget`` call).
+Then the targets of issue 27. Unless ``--no-write``, the tables replace the ``hands`` section of
+``docs/RESULTS.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from results_doc import stamp, update_section  # noqa: E402
+
+from nlo_lab.evaluation.hands import HandScores, hand_frames_mask, hand_scores  # noqa: E402
+from nlo_lab.human import load_demonstration  # noqa: E402
+from nlo_lab.inference import RetargetConfig  # noqa: E402
+from nlo_lab.model import load_pretrained  # noqa: E402
+from nlo_lab.objective import LossWeights, point_plan, targets_from_demonstration  # noqa: E402
+from nlo_lab.robot import load_robot  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED_POSE = ROOT.parent / "shared" / "data" / "pose"
+RECORDINGS = ROOT / "assets" / "recordings"
+VIDEO = RECORDINGS / "signer_webcam_58f.mp4"
+RUNNER = Path(__file__).resolve().parent / "hands" / "dex_runner.py"
+DEX_PYTHON = ROOT / ".venv-bench" / "bin" / "python"
+TIPS = (4, 8, 12, 16, 20)  # MediaPipe hand landmarks of the fingertips (0: the wrist)
+METHODS = ("nlo_lab", "dex, filtered", "dex, unfiltered", "open hand, not moving")
+DEX = {"dex, filtered": "filtered", "dex, unfiltered": "unfiltered"}
+
+
+def recordings(video: bool) -> list[tuple[str, object]]:
+    """``(label, demonstration)`` of every real recording (each file once) and the video."""
+    paths = sorted(SHARED_POSE.glob("*.pose")) if SHARED_POSE.is_dir() else []
+    if not paths:
+        print(f"note: {SHARED_POSE} is absent: only the recordings in {RECORDINGS} are used", file=sys.stderr)
+    seen, out = set(), []
+    for path in paths + sorted(RECORDINGS.glob("*.pose")):
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()
+        if digest in seen:
+            continue
+        seen.add(digest)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            out.append((path.stem, load_demonstration(path)))
+    if video:
+        start = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            out.append((VIDEO.stem + " (MediaPipe)", load_demonstration(VIDEO)))
+        print(f"video through MediaPipe Holistic: {time.perf_counter() - start:.1f} s", file=sys.stderr)
+    return out
+
+
+def hand_joints(robot) -> dict[int, list[int]]:
+    """Per side, the indices of the actuated hand joints in the order of our dex configs."""
+    order = ("thumb_proximal_yaw", "thumb_proximal_pitch", "index_proximal", "middle_proximal", "ring_proximal", "pinky_proximal")
+    return {s: [robot.joint_names.index(f"yumi_hand_{c}_{j}_joint") for j in order] for s, c in ((0, "l"), (1, "r"))}
+
+
+def dex_input(robot, items) -> dict[str, np.ndarray]:
+    """The dex runner's input: every hand-frame's landmarks in the wrist-link frame, side, run, scaling."""
+    plan = point_plan(robot, torch.float64)
+    align = [robot.arm(side).wrist_alignment.double().numpy() for side in ("left", "right")]  # R_link_handframe
+    points, side, segment, scaling = [], [], [], []
+    for r, (_, demo) in enumerate(items):
+        h_len = targets_from_demonstration(demo, dtype=torch.float64).hand_length[0].numpy()
+        frames, sides = np.nonzero(hand_frames_mask(demo))
+        order = np.lexsort((frames, sides))  # one hand's frames in a row
+        for t, s in zip(frames[order], sides[order]):
+            p = np.full((21, 3), np.nan)
+            rel = np.concatenate([demo.arm_positions[t, s, 2][None], demo.finger_positions[t, s, :, 1]]) - demo.arm_positions[t, s, 2]
+            p[(0, *TIPS),] = rel @ demo.wrist_rotations[t, s] @ align[s].T  # body -> human wrist frame -> wrist link
+            points.append(p)
+            side.append(s)
+            segment.append(2 * r + s)
+            scaling.append(float(plan.hand_length[s]) / float(h_len[s]))
+    return {"points": np.array(points), "side": np.array(side), "segment": np.array(segment), "scaling": np.array(scaling)}
+
+
+def run_dex(python: Path, data: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    with tempfile.TemporaryDirectory(prefix="nlo_lab-hands-") as tmp:
+        src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
+        np.savez(src, **data)
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # dex's own environment only
+        proc = subprocess.run([str(python), str(RUNNER), str(src), str(dst)], env=env, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise SystemExit(f"dex-retargeting runner failed ({proc.returncode}):\n{proc.stderr[-3000:]}")
+        with np.load(dst) as f:
+            return {k: f[k] for k in f.files}
+
+
+def full_angles(robot, demo, dex_q: np.ndarray, rows: np.ndarray, data) -> np.ndarray:
+    """YuMi's ``(T, n)`` angles: the neutral pose with each hand-frame's hand joints from dex."""
+    q = np.tile(robot.neutral_q.double().numpy(), (len(demo), 1))
+    joints = hand_joints(robot)
+    frames, sides = np.nonzero(hand_frames_mask(demo))
+    order = np.lexsort((frames, sides))
+    for i, (t, s) in zip(rows, zip(frames[order], sides[order])):
+        assert data["side"][i] == s
+        q[t, joints[s]] = dex_q[i]
+    return q
+
+
+def limit_violations(robot, q: np.ndarray, rows_mask: np.ndarray) -> int:
+    """Hand-joint entries of the hand-frames outside their limits by more than 1e-6 rad."""
+    lo, hi = robot.lower_limits.double().numpy(), robot.upper_limits.double().numpy()
+    out = 0
+    for s, joints in hand_joints(robot).items():
+        x = q[rows_mask[:, s]][:, joints]
+        out += int(((x < lo[joints] - 1e-6) | (x > hi[joints] + 1e-6)).sum())
+    return out
+
+
+def fmt(v, unit="", digits=1) -> str:
+    return "—" if v is None or (isinstance(v, float) and not np.isfinite(v)) else f"{v:.{digits}f}{unit}"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dex-python", type=Path, default=DEX_PYTHON, help="python of the environment with dex-retargeting")
+    ap.add_argument("--no-video", action="store_true", help="leave out the video (no MediaPipe)")
+    ap.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
+    args = ap.parse_args()
+    load_start = os.getloadavg()[0]
+    robot = load_robot("yumi")
+    model = load_pretrained(robot)
+    items = recordings(video=not args.no_video)
+    weights = LossWeights()
+    scores = {m: [] for m in METHODS}
+    per_recording, nlo_seconds, nlo_frames, velocity, nlo_limits, nlo_hand_limits = [], 0.0, 0, 0, 0, 0
+    retarget = RetargetConfig(robot, model=model, weights=weights).build()
+    for label, demo in items:
+        result = retarget(demo)
+        q = result.trajectory.angles
+        scores["nlo_lab"].append(hand_scores(robot, q, demo))
+        scores["open hand, not moving"].append(hand_scores(robot, np.tile(robot.neutral_q.numpy(), (len(demo), 1)), demo))
+        nlo_seconds += result.summary["seconds"]
+        nlo_frames += len(demo)
+        velocity += result.summary["velocity_violations"]
+        nlo_limits += result.summary["limit_violations"]
+        nlo_hand_limits += limit_violations(robot, np.asarray(q, dtype=np.float64), hand_frames_mask(demo))
+        per_recording.append((label, len(demo), int(hand_frames_mask(demo).sum()), result.summary["seconds"]))
+    dex_seconds, dex_limits, have_dex = {}, {}, args.dex_python.is_file()
+    if have_dex:
+        data = dex_input(robot, items)
+        out = run_dex(args.dex_python, data)
+        for method, variant in DEX.items():
+            qs, limits = [], 0
+            for r, (_, demo) in enumerate(items):
+                rows = np.flatnonzero(data["segment"] // 2 == r)
+                q = full_angles(robot, demo, out[f"q_{variant}"], rows, data)
+                qs.append(hand_scores(robot, q, demo))
+                limits += limit_violations(robot, q, hand_frames_mask(demo))
+            scores[method], dex_limits[method] = qs, limits
+            dex_seconds[method] = out[f"seconds_{variant}"]
+    else:
+        print(f"note: {args.dex_python} is missing: dex-retargeting left out (make bench-venv builds it)", file=sys.stderr)
+    pooled = {m: HandScores.cat(s).summary() for m, s in scores.items() if s}
+    load_end = os.getloadavg()[0]
+
+    # ------------------------------------------------------------------ tables
+    hand_frames = pooled["nlo_lab"]["hand_frames"]
+    lines = [f"- data: {len(items)} recordings ({', '.join(label for label, _ in items)}), {hand_frames} hand-frames",
+             f"- nlo_lab: shipped checkpoint `assets/checkpoints/yumi.pt`, default weights ({weights.as_dict()})",
+             "- dex-retargeting 0.5, vector retargeting, our configs `benchmarks/hands/inspire_{left,right}.yml` on "
+             "`benchmarks/hands/yumi_hand_{left,right}.urdf`, run in `.venv-bench`" if have_dex else "- dex-retargeting: not run",
+             f"- load average (1 min) {load_start:.2f} at the start, {load_end:.2f} at the end, on {os.cpu_count()} cores", ""]
+    shown = [m for m in METHODS if m in pooled]
+    head = "| measure (mean over hand-frames) | " + " | ".join(shown) + " |\n|---|" + "---|" * len(shown)
+    rows = [head]
+    for key, name, unit in (("tip_deg", "wrist→fingertip direction error", "°"), ("thumb_deg", "thumb tip→other fingertips direction error", "°"),
+                            ("pinch_r", "pinch: correlation of thumb–index tip distance, human vs robot", ""),
+                            ("finger_deg", "finger base→tip direction error", "°")):
+        digits = 2 if key == "pinch_r" else 1
+        vals = [("—" if key == "pinch_r" and m.startswith("open") else fmt(pooled[m][key], unit, digits)) for m in shown]
+        rows.append(f"| {name} | " + " | ".join(vals) + " |")
+    limits = {"nlo_lab": nlo_hand_limits, **dex_limits}
+    rows.append("| joint-limit violations (hand joints) | " + " | ".join(str(limits[m]) if m in limits else "—" for m in shown) + " |")
+    times = {"nlo_lab": f"{1000 * nlo_seconds / nlo_frames:.2f} ms per frame, arms and hands"}
+    for m, sec in dex_seconds.items():
+        times[m] = f"{1000 * sec.mean():.2f} ms per hand-frame (median {1000 * np.median(sec):.2f})"
+    rows.append("| time | " + " | ".join(times.get(m, "") for m in shown) + " |")
+    table = "\n".join(rows)
+    recs = "| recording | frames | hand-frames | nlo_lab [s] |\n|---|---|---|---|\n" + "\n".join(
+        f"| {label} | {n} | {h} | {s:.2f} |" for label, n, h, s in per_recording)
+
+    targets = ["| target | measured | met |", "|---|---|---|"]
+    if have_dex:
+        ours = pooled["nlo_lab"]
+        dex = [pooled[m] for m in DEX]
+        better = {k: (ours[k] > max(d[k] for d in dex)) if k == "pinch_r" else (ours[k] < min(d[k] for d in dex))
+                  for k in ("tip_deg", "thumb_deg", "pinch_r", "finger_deg")}
+        best_dex = {k: max(d[k] for d in dex) if k == "pinch_r" else min(d[k] for d in dex) for k in better}
+        measured = ", ".join(f"{k}: {fmt(ours[k], digits=2)} vs {fmt(best_dex[k], digits=2)}" for k in better)
+        missed = [k for k, b in better.items() if not b]
+        targets.append(f"| nlo_lab better than both dex variants on all four measures (ours vs dex's best) | {measured} | "
+                       + ("yes |" if not missed else f"**no** ({', '.join(missed)}) |"))
+        dex_time = min(float(s.mean()) for s in dex_seconds.values())
+        ratio = (nlo_seconds / nlo_frames) / dex_time
+        for key in ("tip_deg", "thumb_deg"):
+            best = min(d[key] for d in dex)
+            targets.append(f"| stretch: {key} at most half of dex-retargeting's best ({best:.1f}° / 2 = {best / 2:.1f}°) | "
+                           f"{ours[key]:.1f}° | {'yes' if ours[key] <= best / 2 else '**no**'} |")
+    targets.append(f"| 0 joint-limit violations (nlo_lab, all joints, all frames) | {nlo_limits} | {'yes' if nlo_limits == 0 else '**no**'} |")
+    targets.append(f"| 0 velocity violations after retiming (nlo_lab) | {velocity} | {'yes' if velocity == 0 else '**no**'} |")
+    if have_dex:
+        targets.append(f"| time per frame (arms and hands) ≤ 2× dex-retargeting's per hand-frame | {1000 * nlo_seconds / nlo_frames:.2f} ms vs "
+                       f"2 × {1000 * dex_time:.2f} ms (ratio {ratio:.2f}) | {'yes' if ratio <= 2 else '**no**'} |")
+    body = "\n".join(["## Handshapes on yumi: nlo_lab against dex-retargeting (issue 27)", "", stamp(), *lines,
+                      "Measures (`nlo_lab.evaluation.hands`): in the wrist frame (the human's `R_body_wrist`, the robot's wrist "
+                      "link turned by `wrist_alignment`), over the hand-frames (one hand in one frame with its wrist frame and all five "
+                      "fingers seen); directions are unit vectors, an angle is averaged over the fingers (wrist→tip: five; thumb tip→tip: "
+                      "the four others; base→tip: five, base = knuckle, thumb: its MCP joint), then over the hand-frames. Pinch: Pearson's "
+                      "r of the thumb–index tip distance of human and robot, each in its own hand lengths (mean wrist→knuckle distance of "
+                      "the four fingers). One FK (nlo_lab's, of `yumi.urdf`) scores every method.", "",
+                      table, "", "### Targets against the measurement", "", "\n".join(targets), "", "### Recordings", "", recs])
+    print(body)
+    if not args.no_write:
+        print(f"wrote {update_section('hands', body)}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()

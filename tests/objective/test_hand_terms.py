@@ -1,0 +1,205 @@
+"""The hand terms (issue 27): wrist -> fingertip and thumb -> fingertip vectors, pinch.
+
+Each term: its gradient against finite differences (float64), exactly 0 at a perfect match and
+not 0 away from it, masks; a human pinch closes the robot's thumb and finger down to what the
+hand can do; the numpy fast path gives the same values and gradients with the hand terms on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+import torch
+from robot_targets import demonstration_from_robot, random_feasible_pose
+
+from nlo_lab.objective import (
+    HAND_TERMS,
+    PINCH_OFF,
+    PINCH_ON,
+    TERMS,
+    LossWeights,
+    Objective,
+    fingertip_loss,
+    objective,
+    pinch_activation,
+    pinch_loss,
+    point_plan,
+    targets_from_demonstration,
+    thumb_loss,
+)
+from nlo_lab.robot import load_robot
+
+ONLY = {name: LossWeights(**{n: (1.0 if n == name else 0.0) for n in (*TERMS, "latent", "smooth")}) for name in HAND_TERMS}
+
+
+@pytest.fixture(scope="module")
+def yumi():
+    return load_robot("yumi").to(dtype=torch.float64)
+
+
+def exact_targets(robot, q):
+    """Targets the robot meets exactly at ``q``, with the robot's own arm and hand lengths."""
+    t = targets_from_demonstration(demonstration_from_robot(robot, q), dtype=torch.float64)
+    c = point_plan(robot, torch.float64)
+    T = len(t)
+    return dataclasses.replace(t, arm_length=c.arm_length.expand(T, 2).clone(), fore_length=c.fore_length.expand(T, 2).clone(),
+                               hand_length=c.hand_length.expand(T, 2).clone())
+
+
+def hand_joints(robot) -> torch.Tensor:
+    """Indices of the actuated hand joints."""
+    return torch.tensor([i for i, n in enumerate(robot.joint_names) if "_hand_" in n])
+
+
+def tip_distance(robot, q, side: int = 0, finger: int = 1) -> torch.Tensor:
+    """Thumb tip -> fingertip distance [m] of the robot at ``q (B, n)``."""
+    plan = point_plan(robot, q.dtype)
+    tips = plan(q).finger_tip
+    k = {(int(s), int(f)): i for i, (s, f) in enumerate(zip(plan.finger_side, plan.finger_index))}
+    return (tips[:, k[side, finger]] - tips[:, k[side, 0]]).norm(dim=-1)
+
+
+# ------------------------------------------------------------------ the terms on their own
+def random_hand_inputs(B=3, seed=0):
+    """Random robot and human quantities for one hand pair of sides with 5 fingers each (float64)."""
+    g = torch.Generator().manual_seed(seed)
+    r = lambda *s: torch.randn(*s, generator=g, dtype=torch.float64)  # noqa: E731
+    rot = torch.linalg.qr(r(B, 2, 3, 3)).Q
+    t_rot = torch.linalg.qr(r(B, 2, 3, 3)).Q
+    side = torch.tensor([0] * 5 + [1] * 5)
+    pairs = torch.tensor([[0, 1], [0, 2], [0, 3], [0, 4], [5, 6], [5, 7], [5, 8], [5, 9]])
+    return dict(wrist=r(B, 2, 3), rot=rot, tip=0.1 * r(B, 10, 3), length=torch.tensor([0.14, 0.15], dtype=torch.float64),
+                t_wrist=r(B, 2, 3), t_rot=t_rot, t_tip=0.05 * r(B, 10, 3), t_length=torch.full((B, 2), 0.09, dtype=torch.float64),
+                side=side, pairs=pairs, pair_side=side[pairs[:, 1]])
+
+
+def test_each_hand_term_gradient_matches_finite_differences_on_its_own():
+    x = random_hand_inputs()
+    mask10, mask8 = torch.ones(3, 10, dtype=torch.bool), torch.ones(3, 8, dtype=torch.bool)
+    mask10[1, 4] = mask8[2, 5] = False
+    # tips close to the thumb so that the pinch is active for some pairs and inactive for others
+    x["t_tip"][:, 1] = x["t_tip"][:, 0] + 0.01
+    floor = torch.tensor([0.03, 0.1, 0.2, 0.4] * 2, dtype=torch.float64)
+    checks = {
+        "tip": lambda w, R, p: fingertip_loss(w, R, p, x["length"], x["t_wrist"], x["t_rot"], x["t_tip"], x["t_length"], x["side"], mask10),
+        "thumb": lambda w, R, p: thumb_loss(R, p, x["length"], x["t_rot"], x["t_tip"], x["t_length"], x["pairs"], x["pair_side"], mask8),
+        "pinch": lambda w, R, p: pinch_loss(p, x["length"], x["t_tip"], x["t_length"], x["pairs"], x["pair_side"], floor, mask8),
+    }
+    inputs = (x["wrist"].requires_grad_(), x["rot"].requires_grad_(), x["tip"].requires_grad_())
+    for name, fn in checks.items():
+        assert float(fn(*inputs).detach().abs().max()) > 0, name
+        assert torch.autograd.gradcheck(fn, inputs, eps=1e-6, atol=1e-6), name
+
+
+@pytest.mark.parametrize("name", HAND_TERMS)
+def test_hand_term_gradient_through_yumi_matches_finite_differences(yumi, name):
+    q = random_feasible_pose(yumi, 2, seed=11)
+    t = exact_targets(yumi, q)
+    # the human pinches: thumb tips 1 cm from the index tips (active pinch on the index)
+    tip = t.finger_tip.clone()
+    tip[:, :, 0] = tip[:, :, 1] + 0.01
+    t = dataclasses.replace(t, finger_tip=tip)
+    start = q.clone()
+    start[:, hand_joints(yumi)] = 0.3
+    start.requires_grad_(True)
+    loss = Objective(yumi, t, ONLY[name], fused=False)
+    assert float(loss(start)[0].detach().min()) > 1e-6
+    assert torch.autograd.gradcheck(lambda x: loss(x)[0], (start,), eps=1e-6, atol=1e-5)
+
+
+def test_hand_terms_are_zero_at_a_perfect_match_and_not_away_from_it(yumi):
+    q = random_feasible_pose(yumi, 5, seed=12)
+    q[0, hand_joints(yumi)] = yumi.upper_limits[hand_joints(yumi)]  # a closed fist: a pinch the robot makes exactly
+    t = exact_targets(yumi, q)
+    _, terms = objective(yumi, q, t)
+    for name in HAND_TERMS:
+        assert float(terms[name].abs().max()) < 1e-12, name
+    hj = hand_joints(yumi)
+    lo, hi = yumi.lower_limits[hj], yumi.upper_limits[hj]
+    moved = q.clone()
+    moved[:, hj] = torch.where(q[:, hj] > (lo + hi) / 2, lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo))  # every hand joint elsewhere
+    _, terms = objective(yumi, moved, t)
+    assert (terms["tip"] > 1e-4).all() and (terms["thumb"] > 1e-4).all()
+    # the arm alone does not change the handshape terms (they live in the wrist frame)
+    arm = q.clone()
+    arm[:, :14] += 0.2
+    _, terms = objective(yumi, arm.clamp(yumi.lower_limits, yumi.upper_limits), t)
+    assert float(terms["tip"].abs().max()) < 1e-12 and float(terms["thumb"].abs().max()) < 1e-12
+
+
+def test_hand_terms_ignore_masked_fingers(yumi):
+    q = random_feasible_pose(yumi, 2, seed=13)
+    demo = demonstration_from_robot(yumi, q)
+    demo.finger_mask[0, 1, 1] = False  # right index, frame 0
+    t = targets_from_demonstration(demo, dtype=torch.float64)
+    moved = q.clone()
+    moved[:, hand_joints(yumi)] = 0.5
+    _, a = objective(yumi, moved, t)
+    tip = t.finger_tip.clone()
+    tip[0, 1, 1] = 7.0
+    _, b = objective(yumi, moved, dataclasses.replace(t, finger_tip=tip))
+    for name in HAND_TERMS:
+        torch.testing.assert_close(a[name], b[name])
+    _, c = objective(yumi, moved, dataclasses.replace(t, finger_tip=tip, finger_mask=torch.ones_like(t.finger_mask)))
+    assert float(c["tip"][0]) != pytest.approx(float(a["tip"][0]))
+
+
+def test_hand_terms_are_zero_on_robots_without_fingers():
+    nao = load_robot("nao").to(dtype=torch.float64)
+    q = random_feasible_pose(nao, 2, seed=14)
+    t = targets_from_demonstration(demonstration_from_robot(nao, q), dtype=torch.float64)
+    _, terms = objective(nao, (q + 0.3).clamp(nao.lower_limits, nao.upper_limits), t)
+    for name in HAND_TERMS:
+        assert float(terms[name].abs().max()) == 0.0
+
+
+def test_pinch_activation_is_one_when_touching_and_zero_when_apart():
+    d = torch.tensor([0.0, PINCH_ON, (PINCH_ON + PINCH_OFF) / 2, PINCH_OFF, 2.0])
+    torch.testing.assert_close(pinch_activation(d), torch.tensor([1.0, 1.0, 0.5, 0.0, 0.0]))
+
+
+@pytest.mark.parametrize("finger", [1, 4])  # index: the hand can close it; pinky: only down to its floor
+def test_a_human_pinch_closes_the_robots_thumb_and_finger(yumi, finger):
+    """From an open hand, the pinch term alone draws the tips together, down to what the hand can do."""
+    q = yumi.neutral_q[None].clone()  # hands open
+    t = exact_targets(yumi, q)
+    tip = t.finger_tip.clone()
+    tip[:, 0, 0] = tip[:, 0, finger]  # the human's left thumb tip on the fingertip: a pinch
+    t = dataclasses.replace(t, finger_tip=tip)
+    plan = point_plan(yumi, torch.float64)
+    loss = Objective(yumi, t, ONLY["pinch"], fused=False)
+    pair = int(((plan.thumb_pairs[:, 0] == 0) & (plan.finger_index[plan.thumb_pairs[:, 1]] == finger)).nonzero())
+    floor = float(plan.pinch_floor()[pair] * plan.hand_length[0])  # [m]
+    before = float(tip_distance(yumi, q, 0, finger))
+    assert float(loss(q)[0]) > 0 and before > floor + 0.03
+    x = q.clone().requires_grad_(True)
+    opt = torch.optim.Adam([x], lr=0.02)
+    for _ in range(300):
+        opt.zero_grad()
+        loss(x)[0].sum().backward()
+        opt.step()
+        with torch.no_grad():
+            x.copy_(torch.maximum(torch.minimum(x, yumi.upper_limits), yumi.lower_limits))
+    after = float(tip_distance(yumi, x.detach(), 0, finger))
+    assert after < floor + 0.004, (before, after, floor)  # closed as far as the hand can
+    assert after > floor - 0.01  # the floor is what the hand can do (up to its sampling)
+    assert float(tip_distance(yumi, x.detach(), 1, finger)) == pytest.approx(float(tip_distance(yumi, q, 1, finger)))  # other hand untouched
+
+
+def test_numpy_fast_path_gives_the_same_hand_terms_values_and_gradients(yumi):
+    q = random_feasible_pose(yumi, 4, seed=15)
+    t = exact_targets(yumi, q)
+    tip = t.finger_tip.clone()
+    tip[:, :, 0] = tip[:, :, 2] + 0.005  # pinch on the middle finger
+    t = dataclasses.replace(t, finger_tip=tip)
+    start = (q + 0.1).clamp(yumi.lower_limits, yumi.upper_limits)
+    out = []
+    for fused in (True, False):
+        x = start.clone().requires_grad_(True)
+        total, terms = Objective(yumi, t, LossWeights(tip=3.0, thumb=5.0, pinch=7.0), fused=fused)(x)
+        total.sum().backward()
+        out.append((total.detach(), terms.detach(), x.grad))
+    for a, b in zip(*out):
+        torch.testing.assert_close(a, b, rtol=1e-9, atol=1e-9)
+    assert float(out[0][1][:, TERMS.index("pinch")].min()) > 0
