@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test lab bench results clean browser lint wheel-check export-js docs
+.PHONY: setup demo test lab bench bench-venv bench-hands results clean browser lint wheel-check export-js docs
 
 setup: $(STAMP)
 
@@ -74,6 +74,26 @@ bench: setup
 	$(PY) benchmarks/video.py $(if $(QUICK),--repeats 1 --no-cli --no-write,)
 	$(PY) benchmarks/conditioning.py
 	$(PY) benchmarks/motion.py $(if $(QUICK),--robots yumi --clips 3 --no-write,)
+	$(MAKE) bench-hands
+
+# The hand benchmark's second environment: dex-retargeting 0.5 needs numpy >= 2, mediapipe (the `video`
+# extra, in .venv) numpy < 2. .venv-bench holds CPU torch first, then the package with its `bench` extra
+# (dex-retargeting, pinocchio, nlopt); benchmarks/hands.py runs dex-retargeting there as a subprocess.
+BENCH_VENV := .venv-bench
+BENCH_STAMP := $(BENCH_VENV)/.installed
+
+bench-venv: $(BENCH_STAMP)
+
+$(BENCH_STAMP): pyproject.toml
+	test -x $(BENCH_VENV)/bin/python || $(PYTHON) -m venv $(BENCH_VENV)
+	$(BENCH_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(BENCH_VENV)/bin/python -m pip install --quiet torch==2.13.0
+	$(BENCH_VENV)/bin/python -m pip install --quiet ".[bench]"
+	touch $(BENCH_STAMP)
+
+# nlo_lab against dex-retargeting on YuMi's hands (prints tables, rewrites its section of docs/RESULTS.md)
+bench-hands: setup bench-venv
+	$(PY) benchmarks/hands.py
 
 # Every figure the docs quote, from the code as it is: tools/results.py runs each benchmark, which rewrites its
 # sections of docs/RESULTS.md (stamped: commit, machine, load, date). Resumable (a finished step is skipped while
@@ -83,4 +103,4 @@ results: setup
 	$(PY) tools/results.py $(if $(QUICK),--quick,) $(if $(FORCE),--force,) $(if $(ONLY),--only $(ONLY),)
 
 clean:
-	rm -rf $(VENV) build site *.egg-info
+	rm -rf $(VENV) $(BENCH_VENV) build site *.egg-info

@@ -102,7 +102,7 @@ def dex_input(robot, items) -> dict[str, np.ndarray]:
         h_len = targets_from_demonstration(demo, dtype=torch.float64).hand_length[0].numpy()
         frames, sides = np.nonzero(hand_frames_mask(demo))
         order = np.lexsort((frames, sides))  # one hand's frames in a row
-        for t, s in zip(frames[order], sides[order]):
+        for t, s in zip(frames[order], sides[order], strict=True):
             p = np.full((21, 3), np.nan)
             rel = np.concatenate([demo.arm_positions[t, s, 2][None], demo.finger_positions[t, s, :, 1]]) - demo.arm_positions[t, s, 2]
             p[(0, *TIPS),] = rel @ demo.wrist_rotations[t, s] @ align[s].T  # body -> human wrist frame -> wrist link
@@ -131,7 +131,7 @@ def full_angles(robot, demo, dex_q: np.ndarray, rows: np.ndarray, data) -> np.nd
     joints = hand_joints(robot)
     frames, sides = np.nonzero(hand_frames_mask(demo))
     order = np.lexsort((frames, sides))
-    for i, (t, s) in zip(rows, zip(frames[order], sides[order])):
+    for i, (t, s) in zip(rows, zip(frames[order], sides[order], strict=True), strict=True):
         assert data["side"][i] == s
         q[t, joints[s]] = dex_q[i]
     return q

@@ -4,10 +4,12 @@
 * :mod:`~nlo_lab.evaluation.scores`: :func:`evaluate` scores methods on demonstrations
   with the metric of :mod:`nlo_lab.metrics` (``nlo-lab evaluate``).
 * :mod:`~nlo_lab.evaluation.tables`: the JSON contract object and Table I.
+* :mod:`~nlo_lab.evaluation.hands`: the handshape measures (:func:`hand_scores`; ``benchmarks/hands.py``).
 
 The supervised baseline's network is trained by :mod:`nlo_lab.training.supervised`.
 """
 
+from nlo_lab.evaluation.hands import MEASURES, HandScores, angle_deg, hand_frames_mask, hand_scores
 from nlo_lab.evaluation.methods import (
     EVALUATION_MODES,
     LATENT_METHODS,
@@ -36,4 +38,6 @@ __all__ = [
     "SequenceScore", "Evaluation", "check_methods", "evaluate", "evaluate_split",
     # tables
     "JSON_KEYS", "COLLISION_MARK", "to_json", "format_table",
+    # hands
+    "HandScores", "hand_scores", "hand_frames_mask", "angle_deg", "MEASURES",
 ]

@@ -67,8 +67,8 @@ class PointPlan:
         pair_points: ``(4P,)`` long, the vectors a0, a1, b0, b1 of each collision pair.
         arm_length, fore_length: ``(2,)`` the robot's zero-pose upper + fore arm and forearm [m].
         finger_side, finger_index: ``(K,)`` long, the side and the finger (thumb..pinky) of each robot finger.
-        hand_length: ``(2,)`` per side the mean wrist -> finger base distance of the fingers other than
-            the thumb, at the reference pose (1 without fingers) [m]: the hand terms' unit.
+        hand_length: ``(2,)`` per side the mean wrist -> finger base (knuckle) distance of the fingers other
+            than the thumb, at the reference pose (1 without fingers) [m]: the hand terms' unit.
         thumb_pairs: ``(J, 2)`` long, (thumb, other finger) of the same hand, indices into the K fingers;
             pair_side: ``(J,)`` long, their side.
         pair_radii, margins: ``(P,)`` summed capsule radii and d_min of each pair [m].

@@ -104,7 +104,7 @@ def test_only_hand_frames_count(yumi):
     assert hand_frames_mask(demo).sum() == 10
     s = hand_scores(yumi, q.numpy(), demo)
     assert len(s) == 10 and s.summary()["tip_deg"] < 1e-6
-    assert (2, 0) not in set(zip(s.frame, s.side)) and (4, 1) not in set(zip(s.frame, s.side))
+    assert (2, 0) not in set(zip(s.frame, s.side, strict=True)) and (4, 1) not in set(zip(s.frame, s.side, strict=True))
 
 
 def test_bad_input_is_named(yumi):

@@ -56,7 +56,7 @@ def tip_distance(robot, q, side: int = 0, finger: int = 1) -> torch.Tensor:
     """Thumb tip -> fingertip distance [m] of the robot at ``q (B, n)``."""
     plan = point_plan(robot, q.dtype)
     tips = plan(q).finger_tip
-    k = {(int(s), int(f)): i for i, (s, f) in enumerate(zip(plan.finger_side, plan.finger_index))}
+    k = {(int(s), int(f)): i for i, (s, f) in enumerate(zip(plan.finger_side, plan.finger_index, strict=True))}
     return (tips[:, k[side, finger]] - tips[:, k[side, 0]]).norm(dim=-1)
 
 
@@ -200,6 +200,6 @@ def test_numpy_fast_path_gives_the_same_hand_terms_values_and_gradients(yumi):
         total, terms = Objective(yumi, t, LossWeights(tip=3.0, thumb=5.0, pinch=7.0), fused=fused)(x)
         total.sum().backward()
         out.append((total.detach(), terms.detach(), x.grad))
-    for a, b in zip(*out):
+    for a, b in zip(*out, strict=True):
         torch.testing.assert_close(a, b, rtol=1e-9, atol=1e-9)
     assert float(out[0][1][:, TERMS.index("pinch")].min()) > 0
