@@ -9,7 +9,17 @@
 The supervised baseline's network is trained by :mod:`nlo_lab.training.supervised`.
 """
 
-from nlo_lab.evaluation.hands import MEASURES, HandScores, angle_deg, hand_frames_mask, hand_scores
+from nlo_lab.evaluation.hands import (
+    MEASURES,
+    HandScores,
+    angle_deg,
+    best_hand_angles,
+    finger_chains,
+    hand_frames_mask,
+    hand_joint_indices,
+    hand_scores,
+    robot_hand_points,
+)
 from nlo_lab.evaluation.methods import (
     EVALUATION_MODES,
     LATENT_METHODS,
@@ -39,5 +49,6 @@ __all__ = [
     # tables
     "JSON_KEYS", "COLLISION_MARK", "to_json", "format_table",
     # hands
-    "HandScores", "hand_scores", "hand_frames_mask", "angle_deg", "MEASURES",
+    "HandScores", "hand_scores", "hand_frames_mask", "angle_deg", "MEASURES", "finger_chains", "hand_joint_indices",
+    "robot_hand_points", "best_hand_angles",
 ]

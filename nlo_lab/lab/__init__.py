@@ -6,6 +6,7 @@
 * :mod:`~nlo_lab.lab.joint_panel`: :class:`JointPanel`, joints on sliders and FK of a link.
 * :mod:`~nlo_lab.lab.retarget_panel`: :class:`RetargetPanel`, the method's controls, live.
 * :mod:`~nlo_lab.lab.weights_panel`: :class:`WeightsPanel`, the loss weights and the pose they give for one frame.
+* :mod:`~nlo_lab.lab.hand_panel`: :class:`HandPanel`, the hand weights and one handshape in close-up.
 * :mod:`~nlo_lab.lab.video_view`: :class:`VideoView`, a video beside the skeleton and the robot.
 * :mod:`~nlo_lab.lab.launch`: ``nlo-lab lab``: the learner's copy of the notebooks in JupyterLab.
 
@@ -29,6 +30,7 @@ from nlo_lab.lab.cells import (
     work_folder,
 )
 from nlo_lab.lab.graph_plot import GraphLayout, graph_layout, plot_graph
+from nlo_lab.lab.hand_panel import HAND_SLIDERS, HandPanel
 from nlo_lab.lab.joint_panel import JointPanel
 from nlo_lab.lab.launch import bundled_notebooks, copy_notebooks, lab_command
 from nlo_lab.lab.retarget_panel import RetargetPanel
@@ -41,7 +43,8 @@ __all__ = [
     "TEST_ENV", "TEST_MODE", "is_test_mode", "budget", "setup", "show_robot", "show_view", "show_human",
     "joint_table", "plot_graph", "graph_layout", "GraphLayout", "RECORDINGS_DIR", "recording_path", "WORK_ENV", "work_folder", "time_bar",
     # views, panels, the video view
-    "View", "guarded", "svg_convergence", "JointPanel", "RetargetPanel", "WeightsPanel", "VideoView", "jpeg_bytes", "save_upload",
+    "View", "guarded", "svg_convergence", "JointPanel", "RetargetPanel", "WeightsPanel", "HandPanel", "HAND_SLIDERS",
+    "VideoView", "jpeg_bytes", "save_upload",
     # launch
     "bundled_notebooks", "copy_notebooks", "lab_command",
 ]

@@ -5,11 +5,13 @@
 * :class:`SceneWidget`: the live view in a notebook, meshcat's viewer inside a widget that talks over the
   notebook's own connection (no server, no port);
 * :func:`export_html` / :func:`static_html`: self-contained animated pages for files (work offline);
-* plots: :func:`plot_convergence`, :func:`plot_joint_trajectories`, :func:`plot_loss_terms`.
+* plots: :func:`plot_convergence`, :func:`plot_joint_trajectories`, :func:`plot_loss_terms`;
+  handshapes: :func:`handshape_gallery`, :func:`draw_hand_pair` (human landmarks beside the robot hand).
 """
 
 from nlo_lab.viz.camera import CameraView, frame_points
 from nlo_lab.viz.export import export_html, recording_visualizer, static_html
+from nlo_lab.viz.hands import HUMAN_FINGERS, draw_hand_pair, handshape_gallery
 from nlo_lab.viz.plots import plot_convergence, plot_joint_trajectories, plot_loss_terms
 from nlo_lab.viz.scene import (
     GROUP_COLOURS,
@@ -24,6 +26,9 @@ from nlo_lab.viz.scene import (
 )
 
 __all__ = [
+    "handshape_gallery",
+    "draw_hand_pair",
+    "HUMAN_FINGERS",
     "export_html",
     "static_html",
     "recording_visualizer",

@@ -1,0 +1,193 @@
+# %% [markdown]
+# # 12. Handshapes: fingers that sign
+#
+# ## Learning goals
+#
+# - Measure a handshape the way `benchmarks/hands.py` does: wrist→fingertip and thumb→fingertip
+#   directions, finger base→tip directions, and the pinch (thumb–index distance), all in the wrist frame.
+# - Read the three hand terms of the objective (`tip`, `thumb`, `pinch`) as equations and see them act.
+# - See, letter by letter, which fingerspelling handshapes YuMi's Inspire hand can make and which it
+#   cannot, and say why from its joints: 6 actuated joints drive 12 finger joints.
+# - Move the hand weights on sliders and watch one hand up close.
+
+# %%
+from nlo_lab.lab import TEST_MODE, budget, setup
+
+setup()
+
+# %% [markdown]
+# ## A human hand from joint angles
+#
+# The synthetic corpus has a human hand model (`nlo_lab.corpus.arm_kinematics`): per finger an MCP
+# flexion, a spread, a PIP and a DIP angle; the thumb a CMC flexion, a CMC abduction, an MCP and an IP
+# angle: 20 joints. `nlo_lab.corpus.fingerspelling` holds letters of the one-handed manual alphabet as
+# such angles (our own estimates) and spells them with the right hand held up, palm forward, one frame
+# per letter.
+
+# %%
+from nlo_lab.corpus.fingerspelling import LETTERS, fingerspelling_demonstration, hand_landmarks
+
+letters = "".join(LETTERS) if not TEST_MODE else "ALOVX"
+demo = fingerspelling_demonstration(letters)
+print(len(demo), "frames:", " ".join(demo.meta["letters"]))
+print("L, wrist frame [m]: wrist, thumb tip, index tip\n", hand_landmarks("L")[[0, 4, 8]].round(3))
+
+# %% [markdown]
+# ## The robot's hand: 6 motors, 12 finger joints
+#
+# Each Inspire hand has six actuated joints: thumb yaw and pitch, and one proximal (MCP) joint per
+# finger. Six more joints follow them through fixed couplings (URDF `<mimic>`): each finger's middle
+# joint turns `1.06·q − 0.045` with its proximal joint, the thumb's two outer joints `1.33·q` and
+# `0.67·q` with its pitch. No joint spreads the fingers sideways. The cell counts them from the robot's
+# description.
+
+# %%
+from nlo_lab.evaluation.hands import finger_chains, hand_joint_indices
+from nlo_lab.robot import load_robot
+
+robot = load_robot("yumi")
+moving = [robot.model.parent_joint(link) for chain in finger_chains(robot, "right").values() for link in chain[1:]]
+moving = {j.name: j for j in moving if j.moving}
+coupled = {n: j.mimic for n, j in moving.items() if j.mimic}
+print(f"right hand: {len(moving)} finger joints, {len(hand_joint_indices(robot, 'right'))} actuated, {len(coupled)} coupled")
+for name, (source, mult, off) in coupled.items():
+    print(f"  {name.removeprefix('yumi_hand_r_'):28s} = {mult:.3f} · {source.removeprefix('yumi_hand_r_')} {off:+.3f}")
+
+# %% [markdown]
+# ## The hand terms
+#
+# In the wrist frame (`R_w`: the robot's wrist link turned to the human convention; `R̂_w` the human's),
+# with `l_h`, `l̂_h` the hand lengths (mean wrist→knuckle distance of the four fingers), the objective
+# adds (`nlo_lab.objective.terms`):
+#
+# - `L_tip = Σ_side Σ_finger ‖R_wᵀ(p_tip − p_w)/l_h − R̂_wᵀ(p̂_tip − p̂_w)/l̂_h‖²`: wrist→fingertip
+#   vectors, the human's scaled to the robot's hand (the "vector" retargeting of DexPilot and
+#   dex-retargeting);
+# - `L_thumb = Σ_side Σ_(f≠thumb) ‖R_wᵀ(p_f − p_th)/l_h − R̂_wᵀ(p̂_f − p̂_th)/l̂_h‖²`: where the thumb
+#   sits against each finger;
+# - `L_pinch = Σ_side Σ_(f≠thumb) a(d̂)·((d − max(d̂, d_min))₊)²`: when the human's thumb and a fingertip
+#   touch (`a(d̂)` = 1 below 0.3 hand lengths, fading out at 0.6), the robot's are drawn together, but
+#   never below `d_min`, the closest this hand's thumb and that finger can come at all.
+#
+# The paper's finger term (`finger`, base→tip directions) stays. `d_min` per finger, in hand lengths:
+
+# %%
+import torch
+
+from nlo_lab.objective import LossWeights, point_plan
+
+plan = point_plan(robot, torch.float32)
+floor = plan.pinch_floor()
+for (kt, kf), d in zip(plan.thumb_pairs.tolist(), floor.tolist(), strict=True):
+    if plan.finger_side[kf] == 1:
+        print(f"thumb → {['thumb', 'index', 'middle', 'ring', 'pinky'][plan.finger_index[kf]]:6s} d_min = {d:.2f}")
+print(LossWeights())
+
+# %% [markdown]
+# ## The gallery: each letter, the human hand beside the robot's
+#
+# nlo_lab retargets the letters (encoder and latent optimisation, the smoothness term off: the letters
+# are separate shapes), and, for comparison, the best the hand can do: its 12 hand joints alone
+# optimised on the hand terms (`best_hand_angles`), the arms left where nlo_lab put them.
+
+# %%
+import numpy as np
+
+from nlo_lab.evaluation.hands import best_hand_angles, hand_scores, robot_hand_points
+from nlo_lab.inference import OptimizeSettings, RetargetConfig
+
+weights = LossWeights(smooth=0.0)
+result = RetargetConfig(robot, settings=OptimizeSettings(iterations=budget(100, 20)), weights=weights, retime=False).build()(demo)
+q = np.asarray(result.trajectory.angles, dtype=np.float64)
+best = best_hand_angles(robot, q, demo, weights, steps=budget(200, 30))
+scores, best_scores = hand_scores(robot, q, demo), hand_scores(robot, best, demo)
+right = scores.side == 1
+print(f"right hand, mean over {right.sum()} letters: wrist→tip {scores.tip[right].mean():.1f}°, "
+      f"thumb→tips {scores.thumb[right].mean():.1f}°, base→tip {scores.finger[right].mean():.1f}°")
+
+# %%
+from nlo_lab.viz import handshape_gallery
+
+robot_hands = robot_hand_points(robot, q, "right")
+humans = [hand_landmarks(c) * float(plan.hand_length[1]) / float(np.linalg.norm(hand_landmarks(c)[[5, 9, 13, 17]], axis=1).mean())
+          for c in letters]
+frames = scores.frame[right]
+captions = [f"tip {scores.tip[right][i]:.0f}°, thumb {scores.thumb[right][i]:.0f}°" for i in range(len(frames))]
+fig = handshape_gallery(list(letters), humans, [{f: p[t] for f, p in robot_hands.items()} for t in frames], captions)
+
+# %% [markdown]
+# ## Which letters this hand can make, and why not
+#
+# A letter counts as **made** when even the best hand pose is within 20° on both direction measures
+# (our threshold: about what a fist or a flat hand costs when only the curl is right, the proportions of
+# the Inspire fingers being shorter than a human's). What the hand lacks for a letter comes from the
+# human's joint angles: fingers **spread** apart (no joint for it), a finger bent at its middle joint
+# but not at its knuckle, or the other way round (the middle joint follows the knuckle: a **hook**
+# cannot be made), the thumb **pinching** a finger it cannot reach (`d_min`).
+
+# %%
+from nlo_lab.corpus.fingerspelling import letter_angles
+from nlo_lab.objective import PINCH_ON
+
+DEG = 180 / np.pi
+
+
+def reasons(letter: str) -> list[str]:
+    a = letter_angles(letter) * DEG  # (5, 4): thumb..pinky
+    out = []
+    if np.abs(a[1:, 1]).max() > 6:
+        out.append("spread")
+    if (np.abs(a[1:, 2] - 1.06 * a[1:, 0]) > 35).any():
+        out.append("hook")
+    tips = hand_landmarks(letter)[[4, 8, 12, 16, 20]]
+    d = np.linalg.norm(tips[1:] - tips[0], axis=1) / np.linalg.norm(hand_landmarks(letter)[[5, 9, 13, 17]], axis=1).mean()
+    far = [f for f in range(4) if d[f] < PINCH_ON and floor[4 + f] > d[f] + 0.1]
+    if far:
+        out.append("pinch beyond reach (" + ", ".join(["index", "middle", "ring", "pinky"][f] for f in far) + ")")
+    return out
+
+
+print(f"{'letter':6s} {'nlo_lab tip/thumb':>18s} {'best tip/thumb':>15s}  made?  what the hand lacks")
+made = []
+for i, letter in enumerate(letters):
+    k = np.flatnonzero((scores.frame == i) & right)[0]
+    ok = best_scores.tip[k] <= 20 and best_scores.thumb[k] <= 20
+    made.append(ok)
+    why = ", ".join(reasons(letter)) or "-"
+    print(f"{letter:6s} {scores.tip[k]:8.1f}° {scores.thumb[k]:6.1f}°  {best_scores.tip[k]:7.1f}° {best_scores.thumb[k]:5.1f}°  "
+          f"{'yes' if ok else 'no':5s}  {why}")
+print(f"\nmade: {''.join(c for c, m in zip(letters, made, strict=True) if m) or '-'}; "
+      f"not made: {''.join(c for c, m in zip(letters, made, strict=True) if not m) or '-'}")
+
+# %% [markdown]
+# ## The hand weights, live
+#
+# `HandPanel` re-optimises one letter with the weights on its sliders (`finger`, `tip`, `thumb`,
+# `pinch`) and shows the robot framed on its right hand; the red spheres above it are the human's wrist
+# and fingertips at the robot hand's size, in the robot's wrist frame: where the fingertips should be.
+# Try the letter V with `tip` at 0.1, then at 1000: the robot cannot spread, so only the curl follows.
+
+# %%
+from nlo_lab.lab import HandPanel
+
+panel = HandPanel(demo, robot, weights=weights, frame=min(3, len(demo) - 1), iterations=budget(60, 10))
+panel.widget
+
+# %%
+panel.controls["tip"].value = 1000.0
+print(panel.measures)
+
+# %% [markdown]
+# The numbers of `benchmarks/hands.py` (nlo_lab against dex-retargeting on real recordings) are in
+# `docs/RESULTS.md`, section "Handshapes".
+#
+# ## Exercises
+#
+# 1. Set `thumb=0` and `pinch=0` in `weights` and rerun the gallery. Which letters lose their thumb, and
+#    does the wrist→tip error get better or worse? Explain with the two terms' equations.
+# 2. Add a letter of your own to `LETTERS` (e.g. K or R) from joint angles. Predict from the robot's
+#    joints whether the hand can make it before you look at the table.
+# 3. For O, compare the human's thumb–index distance with `d_min`. Why does the pinch term not pull the
+#    robot's tips closer than the human's?
+# 4. The Inspire thumb has two motors. Which of the human thumb's four angles can it follow, and which
+#    letters would a third thumb motor fix?
