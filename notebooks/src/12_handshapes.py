@@ -78,7 +78,7 @@ from nlo_lab.objective import LossWeights, point_plan
 
 plan = point_plan(robot, torch.float32)
 floor = plan.pinch_floor()
-for (kt, kf), d in zip(plan.thumb_pairs.tolist(), floor.tolist(), strict=True):
+for (_, kf), d in zip(plan.thumb_pairs.tolist(), floor.tolist(), strict=True):
     if plan.finger_side[kf] == 1:
         print(f"thumb → {['thumb', 'index', 'middle', 'ring', 'pinky'][plan.finger_index[kf]]:6s} d_min = {d:.2f}")
 print(LossWeights())
