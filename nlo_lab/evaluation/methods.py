@@ -10,7 +10,7 @@ training of a network excluded). Two modes (:data:`EVALUATION_MODES`,
 * ``"robot-ready"`` (the default): the objective and pipeline of ``nlo-lab retarget`` as
   shipped: the smoothness term (``LossWeights.smooth``) and warm start along the
   sequence, and the latent methods' output retimed to the joint velocity limits.
-* ``"paper"``: the paper's objective (no smoothness term, frames independent) and no
+* ``"paper"``: the paper's objective (no smoothness term, frames independent, no hand terms) and no
   retiming.
 
 The methods:
@@ -94,7 +94,8 @@ class BaselineSettings:
             methods retimed) or ``"paper"`` (the paper's objective, no smoothness term, no
             retiming); see the module docstring.
         weights: the objective of the latent methods and ``joint_space``; None: the mode's
-            (``LossWeights()``, in paper mode with ``smooth=0``).
+            (``LossWeights()``, in paper mode with ``smooth=0`` and without our hand terms
+            ``tip``, ``thumb``, ``pinch``).
     """
 
     iterations: int = 100
@@ -123,10 +124,10 @@ class BaselineSettings:
 
     @property
     def loss_weights(self) -> LossWeights:
-        """The objective's weights: ``weights``, else the mode's (paper: no smoothness term)."""
+        """The objective's weights: ``weights``, else the mode's (paper: no smoothness term, no hand terms)."""
         if self.weights is not None:
             return self.weights
-        return LossWeights(smooth=0.0) if self.mode == "paper" else LossWeights()
+        return LossWeights(smooth=0.0, tip=0.0, thumb=0.0, pinch=0.0) if self.mode == "paper" else LossWeights()
 
     @property
     def retime(self) -> bool:
