@@ -67,6 +67,7 @@ STEPS: tuple[Step, ...] = (
          "--robot yumi --rounds 1 --repeats 1 --frames 3", minutes=7),
     Step("speed:yumi", "benchmarks/speed.py", "--robot yumi", "--robot yumi --lengths 30,170 --repeats 1 --frames 3 --sequences 1 --joint-cap 30", minutes=6),
     Step("motion", "benchmarks/motion.py", "", "--robots nao --clips 2", minutes=6),
+    Step("hands", "benchmarks/hands.py", "", "--no-video", needs="video", minutes=4),  # dex-retargeting: make bench-venv
     Step("long:yumi", "benchmarks/long_recording.py", "--robot yumi", "--robot yumi --frames 200 400", minutes=4),
     Step("video", "benchmarks/video.py", "", "--repeats 1 --no-cli --workers 1", needs="video", minutes=5),
     Step("headroom:nao", "benchmarks/headroom.py", "--robot nao", "--robot nao --limit 2 --steps 20", minutes=3),
