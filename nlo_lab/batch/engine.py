@@ -96,6 +96,7 @@ def _cluster(client, scheduler: str | None, workers: int | None):
         finally:
             ours.close()  # our connection only: the cluster and its workers keep running
         return
+    environ = dict(os.environ)  # dask's nanny writes its workers' variables into this process's environment
     cluster = distributed.LocalCluster(
         n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
         dashboard_address=None, silence_logs=logging.ERROR,
@@ -111,6 +112,17 @@ def _cluster(client, scheduler: str | None, workers: int | None):
             ours.close()
     finally:
         cluster.close()
+        _restore_environ(environ)
+
+
+def _restore_environ(environ: dict) -> None:
+    """Put this process's environment back as it was (a notebook's later subprocesses must not inherit
+    ``OMP_NUM_THREADS=1`` or ``MALLOC_TRIM_THRESHOLD_`` from our cluster)."""
+    for key in [k for k in os.environ if k not in environ]:
+        del os.environ[key]
+    for key, value in environ.items():
+        if os.environ.get(key) != value:
+            os.environ[key] = value
 
 
 def _warm_up(client, settings: BatchSettings, token: str) -> list:

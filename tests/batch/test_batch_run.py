@@ -62,7 +62,9 @@ def test_a_corpus_with_bad_files_on_a_local_cluster_then_resumed(tmp_path, monke
             listening.extend(_listening(os.getpid()))
         seen.append(row)
 
+    environ = dict(os.environ)
     rows = retarget_many([corpus], "nao", out, workers=1, iterations=ITERS, on_row=on_row)
+    assert dict(os.environ) == environ  # dask's nanny wrote its workers' variables here; they are gone again
     assert isinstance(rows, list)  # no pandas in this environment
     assert [r["output"] for r in rows] == ["a", "bad/corrupt", "bad/empty", "sub/b"]
     assert sorted(r["output"] for r in seen) == sorted(r["output"] for r in rows)
@@ -117,6 +119,17 @@ def test_a_corpus_with_bad_files_on_a_local_cluster_then_resumed(tmp_path, monke
         retarget_many([corpus / "a.pose"], "nao", out, iterations=ITERS + 1)
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's allocator")
+def test_the_allocator_thresholds_dask_freezes_are_raised_again():
+    import subprocess
+
+    code = "from nlo_lab.batch.tasks import undo_malloc_trim; print(undo_malloc_trim())"
+    env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    assert subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True).stdout.strip() == "False"
+    env["MALLOC_TRIM_THRESHOLD_"] = "65536"  # what dask's nanny sets
+    assert subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True).stdout.strip() == "True"
+
+
 def test_an_unknown_robot_is_refused_when_the_first_worker_loads_it(tmp_path):
     from nlo_lab.errors import UnknownRobotError
 
@@ -141,3 +154,35 @@ def test_the_table_is_a_dataframe_when_pandas_is_there(tmp_path, monkeypatch):
     frame = retarget_many([manifest], "nao", tmp_path / "out")
     assert isinstance(frame, DataFrame) and made["columns"] == list(COLUMNS)
     assert [(r["status"], r["error"]) for r in made["rows"]] == [("failed", f"file not found: {tmp_path / 'gone.pose'}")]
+
+
+def _worker_processes() -> list[psutil.Process]:
+    """The LocalCluster's worker processes: this process's children that dask spawned."""
+    return [p for p in psutil.Process().children(recursive=True) if "spawn_main" in " ".join(p.cmdline())]
+
+
+@pytest.mark.slow
+def test_results_equal_whatever_the_workers_and_a_killed_worker_changes_nothing(tmp_path):
+    corpus = tmp_path / "corpus"
+    corpus.mkdir()
+    sources = [POSE, *sorted(Path(__file__).resolve().parents[3].joinpath("shared", "data", "pose").glob("*.pose"))]
+    for i in range(8):
+        shutil.copy(sources[i % len(sources)], corpus / f"take_{i}.pose")
+    one = retarget_many([corpus], "yumi", tmp_path / "one", workers=1, iterations=20)
+    killed = []
+
+    def kill_one(row):
+        if not killed:
+            victim = _worker_processes()[0]
+            victim.kill()  # SIGKILL, mid-run: its task runs again on a worker the nanny starts anew
+            killed.append(victim.pid)
+
+    two = retarget_many([corpus], "yumi", tmp_path / "two", workers=2, iterations=20, on_row=kill_one)
+    assert killed and [r["status"] for r in one] == [r["status"] for r in two] == ["ok"] * 8
+    for a, b in zip(one, two, strict=True):
+        ta = RobotTrajectory.load(tmp_path / "one" / a["output"] / "trajectory.npz")
+        tb = RobotTrajectory.load(tmp_path / "two" / b["output"] / "trajectory.npz")
+        np.testing.assert_array_equal(ta.angles, tb.angles)
+        np.testing.assert_array_equal(ta.times, tb.times)
+        assert a["frechet_m"] == b["frechet_m"] and a["input_sha256"] == b["input_sha256"]
+    assert _hidden(tmp_path / "two") == []
