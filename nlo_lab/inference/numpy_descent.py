@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from nlo_lab.objective import Objective
+from nlo_lab.objective import HAND_TERMS, Objective
 from nlo_lab.robot.point_gradient import NumpyPointMap
 
 __all__ = ["NumpyLatentLoss"]
@@ -39,7 +39,7 @@ class NumpyLatentLoss:
         self.decoder, self.points, self.terms = decoder_plan, point_map, objective.numpy_terms
         self.objective = objective
         self.weights = objective.weights.numpy()  # (8,) in the targets' dtype, TERMS order
-        n = self.weights.shape[0] - 3  # the paper's five terms (numpy), then the three hand terms
+        n = objective.numpy_terms.n_terms  # the paper's five terms (numpy), then the three hand terms
         self.paper_weights, self.hand_weights = self.weights[:n], objective.weights[n:]
         self.hand = objective.plan.finger_side.numel() > 0  # the hand terms are 0 without fingers
         self.latent_weight = float(latent_weight)
@@ -50,9 +50,9 @@ class NumpyLatentLoss:
     def build(cls, model, robot, objective: Objective, latent_weight: float) -> NumpyLatentLoss | None:
         """The numpy loss of ``model``'s frozen decoder and ``objective`` (built with ``fused=True``), or None
         when the decoder has no numpy form (weights not frozen, off the CPU, another kind) or the
-        objective has terms its numpy form does not compute."""
+        objective has terms neither its numpy form nor ``Objective.hand_terms`` computes."""
         plan = getattr(model.decoder, "numpy_plan", lambda: None)()
-        if plan is None or objective.numpy_terms is None or len(objective.weights) != objective.numpy_terms.n_terms:
+        if plan is None or objective.numpy_terms is None or len(objective.weights) != objective.numpy_terms.n_terms + len(HAND_TERMS):
             return None
         dtype = objective.weights.numpy().dtype
         key = ("numpy_point_map", np.dtype(dtype).str)
