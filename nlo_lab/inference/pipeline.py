@@ -192,7 +192,12 @@ class Retargeter:
         Chunks after the first are anchored at the previous chunk's last angles (smoothness
         across the boundary); ``history`` is the frame-weighted mean over chunks (a chunk that
         stopped early contributes its last value), ``iterations`` the most steps any chunk took.
+        Runs in :func:`~nlo_lab.threads.single_thread` (torch's and numpy's BLAS threads).
         """
+        with single_thread():
+            return self._optimize_chunks(inputs, z0, callback)
+
+    def _optimize_chunks(self, inputs: RetargetInputs, z0: torch.Tensor | None, callback) -> OptimizeResult:
         bounds = self._bounds(len(inputs))
         if len(bounds) == 1:
             return self._optimize(inputs.targets, z0=z0, encoder_input=inputs.encoder, callback=callback)
@@ -249,7 +254,8 @@ class Retargeter:
         times = retime_times(angles, demo.fps, limits) if self.config.retime else None
         trajectory = RobotTrajectory(robot=robot.name, joint_names=list(robot.joint_names), angles=angles, fps=demo.fps, time=times)
         out = RetargetResult(trajectory=trajectory, optimization=result, seconds=seconds)
-        out.summary = summary(demo, robot, out)
+        with single_thread():  # the metrics' FK too: with a thread per core, a busy machine made it 10x slower
+            out.summary = summary(demo, robot, out)
         return out
 
 
