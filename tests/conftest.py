@@ -81,3 +81,23 @@ def nao() -> Robot:
 def robots() -> dict[str, Robot]:
     """The three shipped robots by name."""
     return {name: load_robot(name) for name in ("yumi", "nao", "pepper")}
+
+
+def _example_robot_data() -> Path | None:
+    """The robots folder of the example-robot-data wheel (the test extra), or None."""
+    from importlib import metadata
+
+    try:
+        folder = Path(metadata.distribution("example-robot-data").locate_file("cmeel.prefix/share/example-robot-data/robots"))
+    except metadata.PackageNotFoundError:
+        return None
+    return folder if folder.is_dir() else None
+
+
+@pytest.fixture(scope="session")
+def robot_data() -> Path:
+    """``robots/`` of the example-robot-data wheel: real URDFs we did not write (skip without it)."""
+    folder = _example_robot_data()
+    if folder is None:
+        pytest.skip("example-robot-data is not installed (pip install 'nlo_lab[test]')")
+    return folder

@@ -148,11 +148,11 @@ def test_robot_capsule_distances_agree_with_trimesh_meshes(name, robot64):
         return m
 
     # Overlaps are measured as the deepest surface point inside the other capsule; that equals
-    # -distance only while neither axis reaches into the other's radius (depth <= the smaller radius).
+    # -distance only while neither axis reaches into the other's radius (depth well below the smaller radius).
     smaller = np.array([min(caps[a].radius, caps[b].radius) for a, b in robot.spec.collision_pairs])
-    cases = [(b, p) for b in range(d.shape[0]) for p in range(d.shape[1]) if 2e-3 < abs(d[b, p]) and -d[b, p] < smaller[p]]
+    cases = [(b, p) for b in range(d.shape[0]) for p in range(d.shape[1]) if 2e-3 < abs(d[b, p]) and -d[b, p] < 0.5 * smaller[p]]
     apart = sorted((c for c in cases if d[c] > 0), key=lambda c: d[c])[:4]
-    overlap = sorted((c for c in cases if d[c] < 0), key=lambda c: d[c])[:4]
+    overlap = sorted((c for c in cases if d[c] < 0), key=lambda c: -d[c])[:4]
     assert apart and overlap, "random poses give both cases"
     for b, p in apart + overlap:
         na, nb = robot.spec.collision_pairs[p]

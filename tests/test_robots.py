@@ -7,6 +7,7 @@ import math
 import shutil
 from collections.abc import Callable
 
+import numpy as np
 import pytest
 import torch
 
@@ -14,6 +15,7 @@ from nlo_lab.errors import NloLabError, RobotDescriptionError, UnknownRobotError
 from nlo_lab.graph import NODE_ARM, NODE_HAND
 from nlo_lab.paths import ROBOTS_DIR
 from nlo_lab.robot import Robot, known_robots, load_robot
+from nlo_lab.robot.geometry import link_shapes, shape_mesh
 
 ROBOTS = ["yumi", "nao", "pepper"]
 
@@ -154,16 +156,16 @@ def test_wrist_alignment_is_mirror_symmetric_and_points_along_the_hand(name, rob
         torch.testing.assert_close(R.T @ R, torch.eye(3, dtype=torch.float64), atol=1e-9, rtol=0)
         assert float(torch.linalg.det(R)) == pytest.approx(1.0, abs=1e-9)
         frames[side] = R
-        # x along the hand: towards the middle finger base, or along the hand capsule
+        # x along the hand: towards the middle finger base, or towards the hand's collision geometry
         wrist = poses[arm.wrist][0, :3, 3]
         if arm.fingers:
             to_middle = poses[arm.fingers["middle"][0]][0, :3, 3] - wrist
             pinky_to_index = poses[arm.fingers["index"][0]][0, :3, 3] - poses[arm.fingers["pinky"][0]][0, :3, 3]
             assert float(R[:, 1] @ pinky_to_index / pinky_to_index.norm()) > 0.9
         else:
-            cap = robot.spec.capsule(f"{side[0]}_hand")
-            seg = robot.capsule_segments(poses)[0, [c.name for c in robot.spec.capsules].index(cap.name)]
-            to_middle = seg[1] - seg[0]
+            boxes = [shape_mesh(s) for s in link_shapes(robot.model, "collision") if s.link == arm.wrist]
+            centre = np.mean([b.bounds.mean(0) for b in boxes], axis=0)  # in the wrist link's frame
+            to_middle = poses[arm.wrist][0, :3, :3] @ torch.as_tensor(centre)
         assert float(R[:, 0] @ to_middle / to_middle.norm()) > 0.9
     L, Rr = frames["left"], frames["right"]
     # 5e-3: YuMi's published joint-1 angles of the two arms differ by up to 3.4e-3 rad
@@ -332,7 +334,7 @@ def test_spec_capsule_on_missing_link(tmp_path):
     data = json.loads(spec.read_text())
     data["capsules"][0]["link"] = "Tail"
     spec.write_text(json.dumps(data))
-    with pytest.raises(RobotDescriptionError, match=r"capsule 'l_upper_arm'.*'Tail'"):
+    with pytest.raises(RobotDescriptionError, match=rf"capsule '{data['capsules'][0]['name']}'.*'Tail'"):
         load_robot(spec)
 
 
@@ -368,7 +370,8 @@ def test_collision_pair_of_adjacent_links(tmp_path):
     spec, _ = copy_robot(tmp_path)
     data = json.loads(spec.read_text())
     data["capsules"].append({"name": "l_elbow_ball", "link": "LForeArm", "p0": [0, 0, 0], "p1": [0, 0, 0], "radius": 0.02})
-    data["collision_pairs"].append(["l_elbow_ball", "l_hand"])  # LForeArm is l_wrist's parent
+    hand = next(c["name"] for c in data["capsules"] if c["link"] == "l_wrist")
+    data["collision_pairs"].append(["l_elbow_ball", hand])  # LForeArm is l_wrist's parent
     spec.write_text(json.dumps(data))
     with pytest.raises(RobotDescriptionError, match="adjacent"):
         load_robot(spec)

@@ -69,6 +69,10 @@ def segment_distance(p0, p1, q0, q1) -> float:
     """Closest distance between segments [p0, p1] and [q0, q1] (clamped closest-point search)."""
     d1, d2, r = p1 - p0, q1 - q0, p0 - q0
     a, e, f = d1 @ d1, d2 @ d2, d2 @ r
+    if a <= 1e-12 or e <= 1e-12:  # a point (a sphere capsule): the closest point of the other segment
+        (o, u), x = ((q0, d2), p0) if a <= 1e-12 else ((p0, d1), q0)
+        t = float(np.clip((x - o) @ u / (u @ u), 0.0, 1.0)) if u @ u > 1e-12 else 0.0
+        return float(np.linalg.norm(o + t * u - x))
     c, b = d1 @ r, d1 @ d2
     denom = a * e - b * b
     s = float(np.clip((b * f - c * e) / denom, 0.0, 1.0)) if denom > 1e-12 else 0.0
@@ -168,7 +172,12 @@ def test_generated_files_match_the_generator():
     module_spec.loader.exec_module(module)
     text, spec = module.build()
     assert text == URDF.read_text(), "yumi.urdf was edited by hand: regenerate with make_yumi_urdf.py"
-    assert json.dumps(spec, indent=2) + "\n" == SPEC.read_text(), "yumi.json differs from the generator's output"
+    written = json.loads(SPEC.read_text())
+    collision = ("capsules", "collision_pairs", "collision_margin")
+    assert {k: v for k, v in spec.items() if k not in collision[:2]} == {k: v for k, v in written.items() if k not in collision[:2]}, (
+        "yumi.json differs from the generator's output")
+    # the capsules are fitted to the URDF's collision geometry (assets/robots/fit_capsules.py)
+    assert module.fit_capsules.fit("yumi") == {k: written[k] for k in collision}, "yumi.json's capsules differ: run fit_capsules.py yumi"
 
 
 # ----------------------------------------------------------------------------- arm facts
@@ -387,33 +396,23 @@ def test_segment_distance_helper():
 
 def test_capsules_and_pairs_are_well_formed(spec, urdf):
     names = [c["name"] for c in spec["capsules"]]
-    assert len(names) == len(set(names)) == 13
+    assert len(names) == len(set(names))
     link_of = {c["name"]: c["link"] for c in spec["capsules"]}
     for c in spec["capsules"]:
-        assert c["link"] in urdf.link_map and 0.03 <= c["radius"] <= 0.15
+        assert c["link"] in urdf.link_map and 0.002 <= c["radius"] <= 0.15, c
     parents = {j.child: j.parent for j in urdf.robot.joints}
     for a, b in spec["collision_pairs"]:
         la, lb = link_of[a], link_of[b]
         assert la != lb and parents.get(la) != lb and parents.get(lb) != la, (a, b)
-        if a != "body":
-            assert a[0] != b[0], f"pair {a}/{b} is within one arm"
-    assert spec["collision_margin"] == {"default": 0.01, "l_hand/r_hand": 0.06}
-    assert ["l_hand", "r_hand"] in spec["collision_pairs"]
-
-
-def test_margins_start_the_collision_term_at_the_reference_axis_distance(spec):
-    """The reference implementation's d_min (0.1 m, 0.15 m hand-hand) is a threshold on
-    the distance between the two links' axis segments; ours are surface distances, so
-    margin + both radii must land on it (within the 0.01 m of one shared default)."""
-    radius = {c["name"]: c["radius"] for c in spec["capsules"]}
-    margins = spec["collision_margin"]
-    for a, b in spec["collision_pairs"]:
-        margin = margins.get(f"{a}/{b}", margins.get(f"{b}/{a}", margins["default"]))
-        if a == "body":  # not in the reference (it checked arm against arm only)
-            assert margin == pytest.approx(0.01)
-            continue
-        axis = 0.15 if {a, b} == {"l_hand", "r_hand"} else 0.1
-        assert abs(margin + radius[a] + radius[b] - axis) <= 0.01 + 1e-9, (a, b, margin)
+    assert spec["collision_margin"] == {"default": 0.005}
+    # the two hands' finger envelopes, the thumb against the index finger, the forearms and the
+    # body against the forearms are all checked (the hand-written capsules left fingers out: issue 28)
+    links = {frozenset((link_of[a], link_of[b])) for a, b in spec["collision_pairs"]}
+    assert ["yumi_link_7_l_fingers", "yumi_link_7_r_fingers"] in spec["collision_pairs"]
+    assert frozenset(("yumi_link_5_l", "yumi_link_5_r")) in links
+    for s in "lr":
+        assert frozenset((f"yumi_hand_{s}_thumb_distal", f"yumi_hand_{s}_index_intermediate")) in links
+        assert frozenset(("yumi_body", f"yumi_link_5_{s}")) in links
 
 
 def test_neutral_pose_is_collision_free_and_within_limits(poser, spec, urdf):
@@ -424,7 +423,7 @@ def test_neutral_pose_is_collision_free_and_within_limits(poser, spec, urdf):
         assert lim.lower <= value <= lim.upper, name
     poser.set(q)
     d = capsule_distances(poser, spec)
-    assert min(d.values()) > 0.05, min(d.items(), key=lambda kv: kv[1])
+    assert min(d.values()) > 0.0, min(d.items(), key=lambda kv: kv[1])
     # the neutral pose is left/right symmetric
     np.testing.assert_allclose(poser.p("yumi_hand_l_middle_tip") * [1, -1, 1], poser.p("yumi_hand_r_middle_tip"), atol=0.01)
 
@@ -432,20 +431,25 @@ def test_neutral_pose_is_collision_free_and_within_limits(poser, spec, urdf):
 def test_zero_pose_penetrates_only_where_the_flanges_meet(poser, spec):
     """YuMi's all-zero pose brings the two flanges to one point in front of the body.
 
-    So the zero pose is NOT free of penetration: only the distal segments of the
-    two arms (forearm, wrist, hand) touch; nothing touches the body and the
+    So the zero pose is NOT free of penetration: only the distal parts of the two arms
+    (forearm, wrist, hand and fingers) touch each other; nothing touches the body and the
     upper arms are clear.
     """
     poser.set()
     gap = np.linalg.norm(poser.p("yumi_link_7_l") - poser.p("yumi_link_7_r"))
     assert gap < 0.01
     d = capsule_distances(poser, spec)
-    distal = {"forearm", "wrist", "hand"}
+    link_of = {c["name"]: c["link"] for c in spec["capsules"]}
+
+    def distal_side(link: str) -> str | None:
+        m = re.match(r"yumi_link_[567]_([lr])$", link) or re.match(r"yumi_hand_([lr])_", link)
+        return m.group(1) if m else None
+
     for (a, b), value in d.items():
-        if a[2:] in distal and b[2:] in distal:
-            continue
-        assert value > 0.0, (a, b, value)
-    assert d[("l_hand", "r_hand")] < 0.0
+        sa, sb = distal_side(link_of[a]), distal_side(link_of[b])
+        if not (sa and sb and sa != sb):
+            assert value > 0.0, (a, b, value)
+    assert d[("yumi_link_7_l_fingers", "yumi_link_7_r_fingers")] < 0.0
 
 
 def test_no_pair_is_in_contact_at_every_pose(poser, urdf, spec):

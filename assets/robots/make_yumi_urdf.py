@@ -25,9 +25,13 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import fit_capsules  # noqa: E402  (the collision capsules, fitted to the URDF written here)
 
 HERE = Path(__file__).resolve().parent
 URDF_PATH = HERE / "yumi.urdf"
@@ -378,50 +382,6 @@ def wrist_alignment(u: Urdf, s: str) -> np.ndarray:
     return np.stack([x, y, np.cross(x, y)], axis=1)
 
 
-def capsules() -> list[dict]:
-    """Capsules in link frames: per arm shoulder, upper arm, elbow, forearm, wrist, hand; one for the body."""
-    caps = [{"name": "body", "link": "yumi_body", "p0": [-0.04, 0.0, 0.10], "p1": [-0.04, 0.0, 0.34], "radius": 0.12}]
-    for s in SIDES:
-        caps += [
-            # link_2 housing, from the joint-2 axis towards the upper-arm (joint 7) axis
-            {"name": f"{s}_shoulder", "link": arm_link(s, 2), "p0": [0.0, 0.0, 0.0], "p1": [-0.03, 0.06, 0.0],
-             "radius": 0.05},
-            # upper arm on the joint-7 axis (z of link_3), up to the elbow joint's level
-            {"name": f"{s}_upper_arm", "link": arm_link(s, 3), "p0": [0.0, 0.0, -0.09], "p1": [0.0, 0.0, 0.07873],
-             "radius": 0.05},
-            # elbow housing along the joint-3 axis (z of link_4), between the two arm axes
-            {"name": f"{s}_elbow", "link": arm_link(s, 4), "p0": [0.0, -0.04188, 0.0], "p1": [0.0405, 0.0, 0.0],
-             "radius": 0.05},
-            # forearm on the joint-4 axis (z of link_5) from the elbow to the wrist joint's level
-            {"name": f"{s}_forearm", "link": arm_link(s, 5), "p0": [0.0, 0.0, -0.13], "p1": [0.0, 0.0, 0.10039],
-             "radius": 0.045},
-            # wrist: link_6 origin (joint 5) to link_7 origin (joint 6)
-            {"name": f"{s}_wrist", "link": arm_link(s, 6), "p0": [0.0, 0.0, 0.0], "p1": [0.027, 0.029, 0.0],
-             "radius": 0.04},
-            # hand along the flange z axis (the mount turns the fingers onto +z of link_7)
-            {"name": f"{s}_hand", "link": arm_link(s, 7), "p0": [0.0, 0.0, 0.03], "p1": [0.0, 0.0, 0.19],
-             "radius": 0.045},
-        ]
-    return caps
-
-
-ARM_SEGMENTS = ("shoulder", "upper_arm", "elbow", "forearm", "wrist", "hand")
-
-
-def collision_pairs() -> list[list[str]]:
-    pairs = []
-    for a in ARM_SEGMENTS:
-        for b in ARM_SEGMENTS:
-            if a == b == "shoulder":
-                continue  # fixed distance (> 0.15 m) at every pose
-            pairs.append([f"l_{a}", f"r_{b}"])
-    # The shoulder housing sits on the body at every pose: not a pair.
-    for s in SIDES:
-        for a in ARM_SEGMENTS[1:]:
-            pairs.append(["body", f"{s}_{a}"])
-    return pairs
-
-
 # A collision-free neutral pose (deg): elbows lowered beside the body, forearms
 # forward, hands in front pointing forward with the palms facing each other. Right arm: joint 1's frame mirrors the left one's with the
 # rotation sense reversed, so joints 1, 7, 4 and 6 change sign.
@@ -512,9 +472,9 @@ def build() -> tuple[str, dict]:
         "base_link": "world",
         "actuated_joints": actuated_joints(),
         "arms": arms,
-        "capsules": capsules(),
-        "collision_pairs": collision_pairs(),
-        "collision_margin": {"default": 0.01, "l_hand/r_hand": 0.06},
+        "capsules": [],  # fitted to the URDF's collision geometry by fit_capsules.py (main() runs it)
+        "collision_pairs": [],
+        "collision_margin": {"default": 0.005},
         "neutral_pose": neutral_pose(),
         "velocity_limits": velocity_limits(),
         "velocity_limits_source": VELOCITY_SOURCE,
@@ -534,6 +494,7 @@ def main() -> None:
     text, spec = build()
     URDF_PATH.write_text(text, encoding="utf-8")
     SPEC_PATH.write_text(json.dumps(spec, indent=2) + "\n", encoding="utf-8")
+    fit_capsules.update("yumi")  # capsules and pairs fitted to the collision geometry just written
     print(f"wrote {URDF_PATH.name} and {SPEC_PATH.name}")
     for side, arm in spec["arms"].items():
         print(side, "wrist_alignment_rpy", arm["wrist_alignment_rpy"])

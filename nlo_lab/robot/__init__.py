@@ -12,10 +12,17 @@ Modules, along the data's path: :mod:`~nlo_lab.robot.spec` (the spec file),
 (batched FK) with :mod:`~nlo_lab.robot.point_gradient` (its written-out gradient),
 :mod:`~nlo_lab.robot.collision` (segment and capsule distances),
 :mod:`~nlo_lab.robot.structure_graph`, :mod:`~nlo_lab.robot.robot` (``Robot``) and
-:mod:`~nlo_lab.robot.pk_chain` (pytorch-kinematics as the reference FK).
+:mod:`~nlo_lab.robot.pk_chain` (pytorch-kinematics as the reference FK). The link geometry:
+:mod:`~nlo_lab.robot.safe_xml` (XML without entities), :mod:`~nlo_lab.robot.mesh_files`
+(mesh paths confined to the URDF's folder tree, bounded sizes), :mod:`~nlo_lab.robot.geometry`
+(visual and collision shapes as meshes), :mod:`~nlo_lab.robot.geometry_collision` (self-collision
+by the URDF's own geometry), :mod:`~nlo_lab.robot.capsule_fit` and
+:mod:`~nlo_lab.robot.capsule_draft` (capsules and checked pairs fitted to that geometry).
 """
 
 from nlo_lab.robot.collision import capsule_distance, closest_parameters, segment_distance, segment_distance_ends
+from nlo_lab.robot.geometry import Shape, link_shapes, shape_mesh
+from nlo_lab.robot.geometry_collision import GeometryCollision
 from nlo_lab.robot.kinematics import KinematicTree
 from nlo_lab.robot.robot import Robot, check_angles, load_robot
 from nlo_lab.robot.spec import ArmSpec, CapsuleSpec, RobotSpec, known_robots, load_spec
@@ -41,4 +48,8 @@ __all__ = [
     "segment_distance_ends",
     "closest_parameters",
     "capsule_distance",
+    "Shape",
+    "link_shapes",
+    "shape_mesh",
+    "GeometryCollision",
 ]

@@ -26,9 +26,9 @@ from nlo_lab.human.demonstration import FINGERS, SIDES
 from nlo_lab.paths import BUNDLED_ROBOTS, ROBOTS_DIR, is_bundled, repair_hint
 from nlo_lab.rotations import rpy_to_matrix
 
-__all__ = ["ArmSpec", "CapsuleSpec", "RobotSpec", "load_spec", "known_robots", "MAX_SPEC_BYTES"]
+__all__ = ["ArmSpec", "CapsuleSpec", "RobotSpec", "load_spec", "known_robots", "spec_text", "MAX_SPEC_BYTES"]
 
-MAX_SPEC_BYTES = 1 << 20  # a robot spec is a few kB of JSON (the bundled ones 3-9 kB)
+MAX_SPEC_BYTES = 1 << 20  # a robot spec is kB of JSON (the bundled ones 5-45 kB)
 
 
 @dataclass(frozen=True)
@@ -147,6 +147,30 @@ class RobotSpec:
             if c.name == name:
                 return c
         raise KeyError(name)
+
+
+def spec_text(data: dict) -> str:
+    """A spec as JSON text: indented, with each short list or flat object (a point, a pair, a capsule) on one line."""
+
+    def one_line(value) -> str | None:
+        text = json.dumps(value, ensure_ascii=False, separators=(", ", ": "))
+        flat = not isinstance(value, (dict, list)) or all(
+            not isinstance(v, (dict, list)) or (isinstance(v, list) and all(not isinstance(x, (dict, list)) for x in v))
+            for v in (value.values() if isinstance(value, dict) else value)
+        )
+        return text if flat and len(text) <= 150 else None
+
+    def render(value, indent: int) -> str:
+        short = one_line(value)
+        if short is not None:
+            return short
+        pad, inner = " " * indent, " " * (indent + 2)
+        if isinstance(value, dict):
+            items = [f"{inner}{json.dumps(k, ensure_ascii=False)}: {render(v, indent + 2)}" for k, v in value.items()]
+            return "{\n" + ",\n".join(items) + f"\n{pad}}}"
+        return "[\n" + ",\n".join(f"{inner}{render(v, indent + 2)}" for v in value) + f"\n{pad}]"
+
+    return render(data, 0) + "\n"
 
 
 def known_robots() -> list[str]:

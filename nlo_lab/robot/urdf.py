@@ -99,6 +99,16 @@ class URDFModel:
                 return j
         return None
 
+    def subtree(self, link: str) -> list[str]:
+        """``link`` and every link below it, parents first."""
+        out, found = [], {link}
+        for name in self.links:  # parents come before children
+            j = self.parent_joint(name)
+            if name == link or (j is not None and j.parent in found):
+                found.add(name)
+                out.append(name)
+        return out
+
 
 class _LogRecorder(logging.Handler):
     """Collects what yourdfpy logs while it reads one file (it logs, not raises, on bad XML)."""

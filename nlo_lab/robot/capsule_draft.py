@@ -1,0 +1,360 @@
+"""A robot's collision capsules and checked pairs, drafted from its URDF's geometry.
+
+**Capsules.** Each link's ``<collision>`` elements, else its ``<visual>`` ones, get capsules
+that hold their convex hulls (:func:`~nlo_lab.robot.capsule_fit.fit_link_capsules`): every
+point of the geometry lies inside a capsule, so capsules apart means geometry apart. A hand's
+fingers also get an **envelope**: capsules on the wrist link that hold the fingers in every
+pose of a random sample of finger poses; the rest of the robot meets the envelope, the
+fingers meet only each other (a pair count of tens instead of hundreds per hand).
+
+**Checked pairs.** Capsules on two different rigid bodies (an actuated joint between them)
+whose bodies are not adjacent (one hanging from the other by one joint); a finger is never
+paired with its own palm (it closes onto it by design). Of those:
+
+* pairs that never come within :data:`REACH` (or their summed radii, if smaller) of each other
+  in :data:`REACH_SAMPLES` random poses within the joint limits are left out (as MoveIt's
+  "never in collision");
+* pairs whose link *geometry* touches at the rest pose are left out (the self-collision check
+  by the URDF's geometry, :mod:`~nlo_lab.robot.geometry_collision`, leaves them out alike);
+* pairs closer than :data:`NEAR` at rest (or touching, though the geometry does not: a capsule is
+  fatter than a box, or than YuMi's joint housings) are checked with **thinned** copies of both
+  capsules (named ``CAPSULE@OTHER``) when random poses show the geometry allows it: thinned enough
+  to clear each other at rest, and no further than every geometry overlap among
+  :data:`THIN_SAMPLES` random poses is still a capsule overlap (:func:`_thinning`);
+* pairs between the two arms (everything from one shoulder down against everything from the
+  other) are always checked, even when they touch at rest (YuMi's zero pose crosses the
+  forearms: such a robot needs a ``neutral_pose`` in its spec; the draft reports them).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from nlo_lab.robot.capsule_fit import Piece, fit_link_capsules
+from nlo_lab.robot.collision import segment_closest_points
+from nlo_lab.robot.geometry import link_shapes, shape_mesh
+from nlo_lab.robot.geometry_collision import DEPTH_TOLERANCE, overlap_depth, polytope
+from nlo_lab.robot.spec import CapsuleSpec
+
+__all__ = [
+    "REACH",
+    "REACH_SAMPLES",
+    "ENVELOPE_SAMPLES",
+    "Arms",
+    "CapsuleDraft",
+    "draft_collision",
+    "capsule_gaps",
+]
+
+REACH_SAMPLES = 4000  # random poses within the limits of the reach test
+REACH = 0.05  # [m] a pair whose capsules never come this close (nor closer than their radii) in those poses is not checked
+ENVELOPE_SAMPLES = 64  # random finger poses (and open, closed, rest) a hand's envelope holds
+INNER_CLEARANCE = 0.002  # [m] thinned capsules of a pair clear each other at rest by the margin and this ...
+INNER_MAX_THIN = 0.5  # ... taking at most this fraction of a radius
+THIN_SAMPLES = 1500  # random poses that calibrate how far a pair's capsules may be thinned
+THIN_SAFETY = 0.002  # [m] thinned capsules still overlap by this where the sampled geometry overlaps
+NEAR = 0.02  # [m] pairs closer than this at rest (or touching) get their thinning calibrated
+ENVELOPE = "#fingers"  # key suffix of a hand's envelope
+
+
+@dataclass(frozen=True)
+class Arms:
+    """The arms as the pair rules need them.
+
+    Attributes:
+        links: side -> every link from that shoulder down (arm and hand).
+        wrists: side -> the wrist link.
+    """
+
+    links: dict[str, set[str]]
+    wrists: dict[str, str]
+
+
+@dataclass(frozen=True)
+class CapsuleDraft:
+    """What :func:`draft_collision` decided.
+
+    Attributes:
+        capsules: the capsules (named ``LINK``, ``LINK_1``, ``LINK_2`` ... on a link with several,
+            ``WRIST_fingers`` for a hand's envelope, ``CAPSULE@OTHER_LINK`` for thinned copies).
+        pairs: the checked pairs (capsule names).
+        touching: link pairs whose geometry touches at the rest pose: not checked.
+        arms_touching: capsule pairs between the two arms that touch at rest (checked anyway).
+        unchecked: link pairs whose capsules touch at rest though their geometry does not, and whose
+            capsules would need thinning by more than half a radius (not checked; a warning says so).
+        thinned: pairs checked with thinned copies of their capsules.
+        far: capsule pairs left out because they never came within :data:`REACH`.
+    """
+
+    capsules: list[CapsuleSpec]
+    pairs: list[tuple[str, str]]
+    touching: list[tuple[str, str]] = field(default_factory=list)
+    arms_touching: list[tuple[str, str]] = field(default_factory=list)
+    unchecked: list[tuple[str, str]] = field(default_factory=list)
+    thinned: int = 0
+    far: int = 0
+
+
+def _link_hulls(model) -> dict[str, list]:
+    """Link -> the convex hull (link frame) of each geometry element: collision, else visual."""
+    found: dict[str, dict[str, list]] = {"collision": {}, "visual": {}}
+    for role in ("collision", "visual"):
+        for shape in link_shapes(model, role):
+            if role == "visual" and shape.link in found["collision"]:
+                continue  # the link has collision geometry: its visuals are not used
+            try:
+                mesh = shape_mesh(shape)
+            except FileNotFoundError as exc:
+                warnings.warn(f"link {shape.link!r}: {role} mesh {exc.filename} is missing; no capsule from it", stacklevel=3)
+                continue
+            found[role].setdefault(shape.link, []).append(mesh.convex_hull)
+    merged = {**found["visual"], **found["collision"]}
+    return {link: merged[link] for link in getattr(model, "model", model).links if link in merged}
+
+
+def capsule_gaps(capsules, poses: dict[str, np.ndarray], pairs: list[tuple[int, int]]) -> np.ndarray:
+    """Surface distance [m] of capsule pairs (indices into ``capsules``: anything with link, p0, p1,
+    radius) at link poses ``{link: (4, 4)}``; < 0: overlap."""
+    if not pairs:
+        return np.zeros(0)
+    ends = np.zeros((4, 3, len(pairs)))
+    for k, (i, j) in enumerate(pairs):
+        for row, c in ((0, capsules[i]), (2, capsules[j])):
+            T = poses[c.link]
+            ends[row, :, k] = T[:3, :3] @ np.asarray(c.p0) + T[:3, 3]
+            ends[row + 1, :, k] = T[:3, :3] @ np.asarray(c.p1) + T[:3, 3]
+    dist = segment_closest_points(ends)[3]
+    return dist - np.array([capsules[i].radius + capsules[j].radius for i, j in pairs])
+
+
+def _random_poses(rest_q, lower, upper, count: int, seed: int, joints=None) -> np.ndarray:
+    """``(count, n)`` poses: ``joints`` (default all) uniform within the limits, the others at rest."""
+    gen = np.random.default_rng(seed)
+    q = np.repeat(np.asarray(rest_q, dtype=np.float64)[None], count, 0)
+    idx = np.arange(q.shape[1]) if joints is None else np.asarray(joints, dtype=np.int64)
+    lo, hi = np.asarray(lower, dtype=np.float64)[idx], np.asarray(upper, dtype=np.float64)[idx]
+    q[:, idx] = lo + (hi - lo) * gen.random((count, len(idx)))
+    return q
+
+
+def _hands(tree, arms: Arms) -> dict[str, tuple[str, str]]:
+    """Link -> (side, ``"palm"`` or ``"finger"``) for every link at or below a wrist."""
+    body = {n: tree.link_body[i] for i, n in enumerate(tree.link_names)}
+    parent = {j.child: j.parent for j in tree.model.joints}
+    out = {}
+    for side, wrist in arms.wrists.items():
+        for link in arms.links[side]:
+            up = link
+            while up is not None and up != wrist:
+                up = parent.get(up)
+            if up == wrist:
+                out[link] = (side, "palm" if body[link] == body[wrist] else "finger")
+    return out
+
+
+def _envelope(tree, hulls: dict, wrist: str, fingers: list[str], rest_q, lower, upper, seed: int) -> list[Piece]:
+    """Capsules on the wrist link holding the fingers' geometry in :data:`ENVELOPE_SAMPLES` random finger
+    poses, all open, all closed and the rest pose."""
+    import trimesh
+
+    joints = [i for i, name in enumerate(tree.actuated) if tree.model.joint(name).child in set(fingers)]
+    q = _random_poses(rest_q, lower, upper, ENVELOPE_SAMPLES + 3, seed, joints)
+    q[0] = rest_q
+    q[1, joints], q[2, joints] = np.asarray(lower)[joints], np.asarray(upper)[joints]
+    with torch.no_grad():
+        T = tree.forward(torch.as_tensor(q)).numpy()  # (S, L, 4, 4)
+    inv_wrist = np.linalg.inv(T[:, tree.link_index[wrist]])
+    points = []
+    for link in fingers:
+        rel = inv_wrist @ T[:, tree.link_index[link]]  # (S, 4, 4) T_wrist_link
+        for hull in hulls[link]:
+            v = np.asarray(hull.vertices)
+            points.append((np.einsum("sij,kj->ski", rel[:, :3, :3], v) + rel[:, None, :3, 3]).reshape(-1, 3))
+    return fit_link_capsules(wrist, [trimesh.convex.convex_hull(np.concatenate(points))])
+
+
+def _key_pairs(tree, keys: dict[str, str], hand: dict[str, tuple[str, str]]) -> list[tuple[str, str]]:
+    """Pairs of piece groups that may collide (``keys``: group -> the link its capsules sit on)."""
+    body = {n: tree.link_body[i] for i, n in enumerate(tree.link_names)}
+    parent = {0: -1, **{k + 1: p + 1 for k, p in enumerate(tree.moving_parent)}}
+
+    def role(key: str) -> tuple[str | None, str]:
+        return (hand[keys[key]][0], "envelope") if key.endswith(ENVELOPE) else hand.get(key, (None, "other"))
+
+    out = []
+    names = list(keys)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            ba, bb = body[keys[a]], body[keys[b]]
+            if ba == bb or parent[ba] == bb or parent[bb] == ba:
+                continue
+            (sa, ra), (sb, rb) = role(a), role(b)
+            if "finger" in (ra, rb) and not (ra == rb == "finger" and sa == sb):
+                continue  # a finger meets its own hand's fingers; the rest of the robot meets the envelope
+            if "envelope" in (ra, rb) and sa == sb:
+                continue
+            out.append((a, b))
+    return out
+
+
+def _reach(tree, flat: list[Piece], pairs: list[tuple[int, int]], q: np.ndarray) -> np.ndarray:
+    """``(P,)`` the smallest capsule gap of each pair over the poses ``q (S, n)`` [m]."""
+    index = [tree.link_index[p.link] for p in flat]
+    ends = np.array([[p.p0, p.p1] for p in flat])  # (C, 2, 3) in link frames
+    radii = np.array([p.radius for p in flat])
+    pa = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+    best = np.full(len(pa), np.inf)
+    for chunk in np.array_split(q, max(1, len(q) // 250)):
+        with torch.no_grad():
+            T = tree.forward(torch.as_tensor(chunk)).numpy()[:, index]  # (B, C, 4, 4)
+        world = np.einsum("bcij,ckj->bcki", T[..., :3, :3], ends) + T[:, :, None, :3, 3]  # (B, C, 2, 3)
+        E = np.concatenate([world[:, pa[:, 0]], world[:, pa[:, 1]]], axis=2)  # (B, P, 4, 3)
+        dist = segment_closest_points(np.ascontiguousarray(E.reshape(-1, 4, 3).transpose(1, 2, 0)))[3]
+        best = np.minimum(best, (dist.reshape(len(chunk), -1) - radii[pa].sum(1)).min(0))
+    return best
+
+
+class _Sample:
+    """Random poses within the limits with their link poses, and the geometry overlaps found in them
+    (per link pair, computed on demand): what the thinning of near pairs is calibrated on."""
+
+    def __init__(self, tree, hulls: dict, q: np.ndarray):
+        with torch.no_grad():
+            self.T = tree.forward(torch.as_tensor(q)).numpy()  # (S, L, 4, 4)
+        self.tree, self.hulls = tree, hulls
+        self.polytopes: dict[str, list] = {}
+        self.overlaps: dict[tuple[str, str, int], bool] = {}
+
+    def geometry_overlaps(self, a: str, b: str, k: int) -> bool:
+        """Does the geometry of links ``a`` and ``b`` overlap in pose ``k``?"""
+        if (a, b, k) not in self.overlaps:
+            pa, pb = (self.polytopes.setdefault(x, [polytope(x, h) for h in self.hulls[x]]) for x in (a, b))
+            Ta, Tb = self.T[k, self.tree.link_index[a]], self.T[k, self.tree.link_index[b]]
+            self.overlaps[(a, b, k)] = any(overlap_depth(u, Ta, v, Tb) > DEPTH_TOLERANCE for u in pa for v in pb)
+        return self.overlaps[(a, b, k)]
+
+    def gaps(self, a: Piece, b: Piece) -> np.ndarray:
+        """``(S,)`` the capsule gap of ``a`` and ``b`` in every pose [m]."""
+        ia, ib = self.tree.link_index[a.link], self.tree.link_index[b.link]
+        T = self.T
+        ends = np.stack([T[:, ia, :3, :3] @ a.p0 + T[:, ia, :3, 3], T[:, ia, :3, :3] @ a.p1 + T[:, ia, :3, 3],
+                         T[:, ib, :3, :3] @ b.p0 + T[:, ib, :3, 3], T[:, ib, :3, :3] @ b.p1 + T[:, ib, :3, 3]])  # (4, S, 3)
+        return segment_closest_points(np.ascontiguousarray(ends.transpose(0, 2, 1)))[3] - a.radius - b.radius
+
+
+def _thinning(sample: _Sample, a: Piece, b: Piece, rest_gap: float, margin: float) -> float | None:
+    """How far both capsules of a near pair may be thinned (see the module docstring).
+
+    At least enough to clear each other at rest by the collision margin and :data:`INNER_CLEARANCE`
+    (so the collision term is silent at rest); at most so much that
+    every geometry overlap of the links among the sampled poses is still a capsule overlap (by
+    :data:`THIN_SAFETY`), and :data:`INNER_MAX_THIN` of a radius. None when clearing the rest pose
+    takes more than that.
+    """
+    most = INNER_MAX_THIN * min(a.radius, b.radius)
+    least = max(0.0, 0.5 * (margin + INNER_CLEARANCE - rest_gap))
+    if least > most:
+        return None
+    gaps = sample.gaps(a, b)
+    # The geometry lies inside the capsules, so it overlaps only where they do. A thinning t still
+    # flags a sampled overlap at capsule gap g while g + 2t < 0: the shallowest overlap found decides.
+    for k in np.argsort(-gaps):
+        if gaps[k] < 0 and sample.geometry_overlaps(a.link, b.link, k):
+            return max(least, min(most, -0.5 * gaps[k] - THIN_SAFETY))
+    return most
+
+
+def _between_arms(side_of: dict, a: str, b: str) -> bool:
+    """Are groups ``a`` and ``b`` on different arms?"""
+    return None not in (side_of.get(a), side_of.get(b)) and side_of[a] != side_of[b]
+
+
+def _names(pieces: dict[str, list[Piece]]) -> list[CapsuleSpec]:
+    out = []
+    for key, items in pieces.items():
+        stem = key.replace(ENVELOPE, "_fingers")
+        for k, p in enumerate(items):
+            name = stem if len(items) == 1 else f"{stem}_{k + 1}"
+            out.append(CapsuleSpec(name, p.link, tuple(float(x) + 0.0 for x in np.round(p.p0, 5)),
+                                   tuple(float(x) + 0.0 for x in np.round(p.p1, 5)), float(np.ceil(p.radius * 1e4) / 1e4)))
+    return out
+
+
+def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float, samples: int = REACH_SAMPLES, seed: int = 0) -> CapsuleDraft:
+    """Capsules and checked pairs of a robot (see the module docstring).
+
+    Args:
+        model: the parsed :class:`~nlo_lab.robot.urdf.URDFModel` (its geometry).
+        tree: the robot's :class:`~nlo_lab.robot.kinematics.KinematicTree` (bodies and FK).
+        rest_q, lower, upper: ``(n,)`` the rest pose and the joint limits [rad].
+        arms: the arms' links and wrists (:class:`Arms`).
+        margin: the collision margin d_min [m] the spec will give the pairs.
+        samples: random poses of the reach test (0: no reach test); seed: their generator's seed.
+    """
+    rest_q = np.asarray(rest_q, dtype=np.float64)
+    hulls = _link_hulls(model)
+    pieces = {link: fit_link_capsules(link, items) for link, items in hulls.items()}
+    keys = {link: link for link in pieces}
+    hand = _hands(tree, arms)
+    for side, wrist in arms.wrists.items():
+        fingers = [link for link in hulls if hand.get(link) == (side, "finger")]
+        if fingers:
+            pieces[wrist + ENVELOPE] = _envelope(tree, hulls, wrist, fingers, rest_q, lower, upper, seed)
+            keys[wrist + ENVELOPE] = wrist
+    side_of = {link: side for side, links in arms.links.items() for link in links}
+    side_of.update({key: side_of.get(link) for key, link in keys.items()})
+    capsules = _names(pieces)
+    flat = [p for key in pieces for p in pieces[key]]
+    group = [key for key in pieces for _ in pieces[key]]
+    start = {key: group.index(key) for key in pieces}
+    pairs = [(start[a] + u, start[b] + v) for a, b in _key_pairs(tree, keys, hand)
+             for u in range(len(pieces[a])) for v in range(len(pieces[b]))]
+    with torch.no_grad():
+        T = tree.forward(torch.as_tensor(rest_q))
+    poses = {n: T[i].numpy() for i, n in enumerate(tree.link_names)}
+    gaps = capsule_gaps(flat, poses, pairs)
+    reach = _reach(tree, flat, pairs, _random_poses(rest_q, lower, upper, samples, seed)) if samples else np.full(len(pairs), -np.inf)
+    touching = set()  # link pairs whose geometry touches at rest (an envelope counts as touching)
+    for (i, j), gap in zip(pairs, gaps, strict=True):
+        la, lb = flat[i].link, flat[j].link
+        if gap <= 0 and (la, lb) not in touching and not _between_arms(side_of, group[i], group[j]):
+            if ENVELOPE in group[i] + group[j] or any(
+                overlap_depth(polytope(la, u), poses[la], polytope(lb, v), poses[lb]) > DEPTH_TOLERANCE
+                for u in hulls.get(la, []) for v in hulls.get(lb, [])
+            ):
+                touching.add((la, lb))
+    checked, arms_touching, unchecked, inner = [], [], set(), []
+    far, thinned, sample = 0, 0, None
+    for (i, j), gap, near in zip(pairs, gaps, reach, strict=True):
+        a, b = capsules[i], capsules[j]
+        arms = _between_arms(side_of, group[i], group[j])
+        reach_of = min(REACH, a.radius + b.radius)  # small parts (fingers) need to come closer to count
+        if (a.link, b.link) in touching or near > reach_of:
+            far += near > reach_of
+            continue
+        if arms or gap > margin + NEAR:
+            checked.append((a.name, b.name))
+            if gap <= 0:
+                arms_touching.append(checked[-1])
+            continue
+        if sample is None:
+            sample = _Sample(tree, hulls, _random_poses(rest_q, lower, upper, THIN_SAMPLES, seed + 1))
+        thin = _thinning(sample, flat[i], flat[j], gap, margin)
+        if thin is None:
+            unchecked.add((a.link, b.link))
+        elif thin < 5e-4:  # not worth a copy
+            checked.append((a.name, b.name))
+        else:
+            copies = [CapsuleSpec(f"{c.name}@{o.name}", c.link, c.p0, c.p1, float(np.floor((c.radius - thin) * 1e4) / 1e4))
+                      for c, o in ((a, b), (b, a))]
+            inner.extend(copies)
+            checked.append((copies[0].name, copies[1].name))
+            thinned += 1
+    if unchecked:
+        warnings.warn(f"capsules of {len(unchecked)} link pairs touch at the rest pose though their geometry does not; "
+                      f"those pairs are not checked: {sorted(unchecked)}", stacklevel=2)
+    return CapsuleDraft(capsules + inner, checked, sorted(touching), arms_touching, sorted(unchecked), thinned, far)

@@ -1,0 +1,170 @@
+"""Self-collision by the URDF's own geometry, not by the spec's capsules: the independent check.
+
+The optimiser keeps *capsules* apart (:mod:`~nlo_lab.robot.collision`); whether the robot
+really stays clear of itself is a question for the geometry its URDF declares. Each
+``<collision>`` element (or ``<visual>``, with ``role="visual"``) becomes a convex
+polytope: boxes exactly, cylinders and spheres tessellated within 0.2 % of their radius,
+meshes by their convex hull, which holds the mesh (a hull overlap is a bound: the mesh
+itself may still be clear, never the reverse).
+
+Two elements overlap when their polytopes share interior points. A linear programme
+finds the largest ball inside both (its centre ``x`` and radius ``t`` maximise ``t``
+under ``n·x + t <= d`` for every face plane of both); the **overlap depth** is that
+ball's diameter ``2t`` (exact for two slabs or two spheres pressed into each other).
+Bounding spheres skip pairs that are far apart.
+
+Which pairs are checked: links on two different rigid bodies (an actuated joint between
+them: the pose of two links on one body never changes), not adjacent (neither body hangs
+directly from the other by one joint), and not already overlapping at the robot's
+neutral pose (``Robot.neutral_q``), as SRDF files of real robots disable such pairs.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from nlo_lab.robot.geometry import link_shapes, shape_mesh
+
+__all__ = ["DEPTH_TOLERANCE", "Polytope", "polytope", "overlap_depth", "GeometryCollision"]
+
+DEPTH_TOLERANCE = 1e-4  # [m] overlaps up to 0.1 mm are round-off and contact, not collision
+
+
+@dataclass(frozen=True)
+class Polytope:
+    """A convex piece of a link's geometry, in the link frame.
+
+    Attributes:
+        link: the link.
+        normals: ``(m, 3)`` unit outward face normals; offsets: ``(m,)`` with ``normals @ x <= offsets`` inside [m].
+        vertices: ``(k, 3)`` the corners [m].
+        centre, radius: a bounding sphere [m].
+    """
+
+    link: str
+    normals: np.ndarray
+    offsets: np.ndarray
+    vertices: np.ndarray
+    centre: np.ndarray
+    radius: float
+
+
+def polytope(link: str, mesh) -> Polytope:
+    """The convex hull of ``mesh`` (a ``trimesh.Trimesh`` in the frame of ``link``) as a :class:`Polytope`."""
+    hull = mesh.convex_hull
+    normals = np.asarray(hull.face_normals, dtype=np.float64)
+    offsets = np.einsum("ij,ij->i", normals, np.asarray(hull.vertices)[hull.faces[:, 0]])
+    keys = np.round(np.column_stack([normals, offsets]), 9)  # coplanar triangles give one plane
+    _, keep = np.unique(keys, axis=0, return_index=True)
+    v = np.asarray(hull.vertices, dtype=np.float64)
+    centre = 0.5 * (v.min(0) + v.max(0))
+    return Polytope(link, normals[keep], offsets[keep], v, centre, float(np.linalg.norm(v - centre, axis=1).max()))
+
+
+def _face_separated(a: Polytope, Ta: np.ndarray, b: Polytope, Tb: np.ndarray) -> bool:
+    """True when a face plane of one polytope has the other wholly outside (a quick exact "apart")."""
+    for p, Tp, o, To in ((a, Ta, b, Tb), (b, Tb, a, Ta)):
+        n = p.normals @ Tp[:3, :3].T
+        d = p.offsets + n @ Tp[:3, 3]
+        corners = o.vertices @ To[:3, :3].T + To[:3, 3]
+        if ((corners @ n.T).min(0) >= d - DEPTH_TOLERANCE).any():
+            return True
+    return False
+
+
+def overlap_depth(a: Polytope, Ta: np.ndarray, b: Polytope, Tb: np.ndarray) -> float:
+    """Overlap depth [m] of two posed polytopes (0 when they are apart or only touch)."""
+    from scipy.optimize import linprog
+
+    if _face_separated(a, Ta, b, Tb):
+        return 0.0
+
+    rows, rhs = [], []
+    for p, T in ((a, Ta), (b, Tb)):
+        n = p.normals @ T[:3, :3].T  # (m, 3) world normals
+        rows.append(np.column_stack([n, np.ones(len(n))]))
+        rhs.append(p.offsets + n @ T[:3, 3])
+    cap = min(a.radius, b.radius)
+    res = linprog(
+        c=[0.0, 0.0, 0.0, -1.0], A_ub=np.concatenate(rows), b_ub=np.concatenate(rhs),
+        bounds=[(None, None)] * 3 + [(None, cap)], method="highs",
+    )
+    if res.status != 0:  # infeasible cannot happen (t is free below); anything else: report no overlap
+        return 0.0
+    return max(0.0, 2.0 * float(res.x[3]))
+
+
+class GeometryCollision:
+    """The self-collision check of a robot by its URDF's geometry.
+
+    Args:
+        robot: a loaded ``nlo_lab.robot.Robot``.
+        role: ``"collision"`` (default) or ``"visual"`` elements.
+
+    Attributes:
+        pieces: one :class:`Polytope` per element.
+        pairs: ``(P, 2)`` indices into ``pieces`` of the element pairs checked.
+        skipped: ``[(link, reason)]`` elements left out (a mesh file missing or unreadable).
+    """
+
+    def __init__(self, robot, role: str = "collision"):
+        self.robot = robot
+        self.pieces: list[Polytope] = []
+        self.skipped: list[tuple[str, str]] = []
+        for shape in link_shapes(robot.model, role):
+            try:
+                self.pieces.append(polytope(shape.link, shape_mesh(shape)))
+            except (OSError, ValueError) as exc:  # a missing or unreadable mesh: left out, and said so
+                self.skipped.append((shape.link, str(exc)))
+                warnings.warn(f"{robot.name}: {role} geometry of link {shape.link!r} left out of the check ({exc})", stacklevel=2)
+        tree = robot.tree
+        body = {n: tree.link_body[i] for i, n in enumerate(tree.link_names)}  # 0 = root body, k + 1 = moving joint k
+        parent = {0: -1, **{k + 1: p + 1 for k, p in enumerate(tree.moving_parent)}}
+        candidates = []
+        for i, a in enumerate(self.pieces):
+            for j in range(i + 1, len(self.pieces)):
+                ba, bb = body[a.link], body[self.pieces[j].link]
+                if ba != bb and parent[ba] != bb and parent[bb] != ba:
+                    candidates.append((i, j))
+        rest = self.depths(robot.neutral_q.detach().double().cpu().numpy()[None], np.array(candidates).reshape(-1, 2))[0]
+        touching = {frozenset((self.pieces[i].link, self.pieces[j].link)) for (i, j), d in zip(candidates, rest, strict=True) if d > 0}
+        self.rest_contacts = sorted(tuple(sorted(p)) for p in touching)
+        self.pairs = np.array(
+            [(i, j) for i, j in candidates if frozenset((self.pieces[i].link, self.pieces[j].link)) not in touching], dtype=np.int64
+        ).reshape(-1, 2)
+
+    def _poses(self, q: np.ndarray) -> np.ndarray:
+        """``(T, L, 4, 4)`` float64 link poses of ``q (T, n)``."""
+        with torch.no_grad():
+            return self.robot.forward_kinematics_tensor(torch.as_tensor(q, dtype=torch.float64)).numpy()
+
+    def depths(self, angles, pairs: np.ndarray | None = None) -> np.ndarray:
+        """``(T, P)`` overlap depth [m] of each checked pair (or of ``pairs``) for ``(T, n)`` angles."""
+        q = self.robot.check_angles(angles)
+        pairs = self.pairs if pairs is None else pairs
+        out = np.zeros((len(q), len(pairs)))
+        if len(pairs) == 0:
+            return out
+        T = self._poses(q)
+        index = [self.robot.link_index(p.link) for p in self.pieces]
+        centres = np.stack([T[:, index[k], :3, :3] @ p.centre + T[:, index[k], :3, 3] for k, p in enumerate(self.pieces)], 1)
+        radii = np.array([p.radius for p in self.pieces])
+        gap = np.linalg.norm(centres[:, pairs[:, 0]] - centres[:, pairs[:, 1]], axis=-1) - radii[pairs].sum(1)  # (T, P)
+        for t, k in zip(*np.nonzero(gap < 0), strict=True):
+            i, j = pairs[k]
+            out[t, k] = overlap_depth(self.pieces[i], T[t, index[i]], self.pieces[j], T[t, index[j]])
+        return out
+
+    def report(self, angles) -> dict:
+        """``frames`` in collision (depth > :data:`DEPTH_TOLERANCE`), the ``max_depth_m`` and the ``worst`` link pair."""
+        d = self.depths(angles)
+        hit = d > DEPTH_TOLERANCE
+        if not hit.any():
+            return {"frames": 0, "max_depth_m": 0.0, "worst": None}
+        t, k = np.unravel_index(np.argmax(d), d.shape)
+        i, j = self.pairs[k]
+        return {"frames": int(hit.any(1).sum()), "max_depth_m": float(d[t, k]), "worst": (self.pieces[i].link, self.pieces[j].link, int(t))}
