@@ -97,21 +97,27 @@ def _cluster(client, scheduler: str | None, workers: int | None):
             ours.close()  # our connection only: the cluster and its workers keep running
         return
     environ = dict(os.environ)  # dask's nanny writes its workers' variables into this process's environment
-    cluster = distributed.LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-        dashboard_address=None, silence_logs=logging.ERROR,
-        # no dashboard, and the scheduler's HTTP routes (health, metrics) on a free loopback port, not 8787
-        scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
-        env={"NLO_LAB_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"},  # torch: one thread per worker
-    )
     try:
-        ours = distributed.Client(cluster, set_as_default=False)
         try:
-            yield ours
+            cluster = distributed.LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                dashboard_address=None, silence_logs=logging.ERROR,
+                # no dashboard, and the scheduler's HTTP routes (health, metrics) on a free loopback port, not 8787
+                scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
+                env={"NLO_LAB_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"},  # torch: one thread per worker
+            )
+        except Exception as exc:  # noqa: BLE001 - most often a script without a __main__ guard
+            raise SchedulerError(f"the local dask cluster did not start ({type(exc).__name__}: {exc}); a script that calls "
+                                 "retarget_many must do so under `if __name__ == \"__main__\":` (dask's workers import it again)") from None
+        try:
+            ours = distributed.Client(cluster, set_as_default=False)
+            try:
+                yield ours
+            finally:
+                ours.close()
         finally:
-            ours.close()
+            cluster.close()
     finally:
-        cluster.close()
         _restore_environ(environ)
 
 
