@@ -35,8 +35,10 @@ __all__ = ["FastPaths", "fast_paths", "DECODER_NUMPY_MAX_BATCH", "OBJECTIVE_NUMP
 # numpy decoder, batch 1 266 vs 473 us (torch node-major), 170: 15.4 vs 2.6 ms (numpy's
 # stacked small matmuls do not batch)
 DECODER_NUMPY_MAX_BATCH = 8
-# numpy terms, 1 frame 0.70 vs 1.18 ms (torch), 32: 2.0 vs 2.3 ms, 64: equal, 200: 7.7 vs 7.2 ms
-OBJECTIVE_NUMPY_MAX_FRAMES = 64
+# numpy terms (hand terms included, far capsule pairs culled) against the torch terms with
+# culling, FK + terms, forward + backward, CPU time: YuMi 1 frame 0.75 vs 1.67 ms, 64: 2.6 vs
+# 3.7 ms, 128: 4.0 vs 4.5 ms, 170: 5.0 vs 5.1 ms; NAO 170: 1.5 vs 1.8 ms
+OBJECTIVE_NUMPY_MAX_FRAMES = 160
 
 
 @dataclass(frozen=True)

@@ -10,20 +10,16 @@ arithmetic. :class:`NumpyLatentLoss` evaluates the same latent loss
 and its gradient in ``z`` with the numpy forms the pieces already have, chained by hand:
 the frozen decoder (:class:`~nlo_lab.model.numpy_backend.DecoderPlan`), FK's mapped points
 (:class:`~nlo_lab.robot.point_gradient.NumpyPointMap`) and the terms
-(:class:`~nlo_lab.objective.numpy_backend.PointTerms`), each forward then each backward in
-reverse order. The hand terms (``tip``, ``thumb``, ``pinch``, issue 27) have no numpy form:
-on a robot with fingers they run as written (``Objective.hand_terms``, torch autograd) on the
-same mapped points, and their gradient joins the points' before FK's backward. The tests hold
-it equal to the readable torch path (values and gradients) and the optimisation's result
-equal either way.
+(:class:`~nlo_lab.objective.numpy_backend.PointTerms`, the hand terms included), each forward
+then each backward in reverse order. The tests hold it equal to the readable torch path
+(values and gradients) and the optimisation's result equal either way.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import torch
 
-from nlo_lab.objective import HAND_TERMS, Objective
+from nlo_lab.objective import Objective
 from nlo_lab.robot.point_gradient import NumpyPointMap
 
 __all__ = ["NumpyLatentLoss"]
@@ -37,11 +33,7 @@ class NumpyLatentLoss:
 
     def __init__(self, decoder_plan, point_map: NumpyPointMap, objective: Objective, latent_weight: float):
         self.decoder, self.points, self.terms = decoder_plan, point_map, objective.numpy_terms
-        self.objective = objective
-        self.weights = objective.weights.numpy()  # (8,) in the targets' dtype, TERMS order
-        n = objective.numpy_terms.n_terms  # the paper's five terms (numpy), then the three hand terms
-        self.paper_weights, self.hand_weights = self.weights[:n], objective.weights[n:]
-        self.hand = objective.plan.finger_side.numel() > 0  # the hand terms are 0 without fingers
+        self.weights = objective.weights.numpy()  # (len(TERMS),) in the targets' dtype
         self.latent_weight = float(latent_weight)
         self.dtype = self.points.dtype
         self._g_terms: dict[int, np.ndarray] = {}  # batch -> d sum(loss) / d terms: each row the weights
@@ -50,9 +42,9 @@ class NumpyLatentLoss:
     def build(cls, model, robot, objective: Objective, latent_weight: float) -> NumpyLatentLoss | None:
         """The numpy loss of ``model``'s frozen decoder and ``objective`` (built with ``fused=True``), or None
         when the decoder has no numpy form (weights not frozen, off the CPU, another kind) or the
-        objective has terms neither its numpy form nor ``Objective.hand_terms`` computes."""
+        objective has terms its numpy form does not compute."""
         plan = getattr(model.decoder, "numpy_plan", lambda: None)()
-        if plan is None or objective.numpy_terms is None or len(objective.weights) != objective.numpy_terms.n_terms + len(HAND_TERMS):
+        if plan is None or objective.numpy_terms is None or len(objective.weights) != objective.numpy_terms.n_terms:
             return None
         dtype = objective.weights.numpy().dtype
         key = ("numpy_point_map", np.dtype(dtype).str)
@@ -62,26 +54,17 @@ class NumpyLatentLoss:
         return cls(plan, point_map, objective, latent_weight)
 
     def __call__(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``loss (B,)``, ``q (B, n)``, ``terms (B, 8)`` (unweighted, ``TERMS`` order) and ``dL/dz`` (``z``'s shape)."""
+        """``loss (B,)``, ``q (B, n)``, ``terms (B, len(TERMS))`` (unweighted) and ``dL/dz`` (``z``'s shape)."""
         q, decoder_state = self.decoder.forward(z)
         q = q.astype(self.dtype, copy=False)
         points, point_state = self.points.forward(q)
         terms, term_state = self.terms.forward(points)
         latent = (z * z).reshape(z.shape[0], -1).sum(1)
-        loss = terms @ self.paper_weights + (self.latent_weight * latent).astype(self.dtype, copy=False)
+        loss = terms @ self.weights + (self.latent_weight * latent).astype(self.dtype, copy=False)
         g_terms = self._g_terms.get(len(terms))
         if g_terms is None:  # backward of sum(loss): each term's gradient is its weight
-            g_terms = self._g_terms[len(terms)] = np.tile(self.paper_weights, (len(terms), 1)).astype(terms.dtype)
+            g_terms = self._g_terms[len(terms)] = np.tile(self.weights, (len(terms), 1)).astype(terms.dtype)
         g_points = self.terms.backward(g_terms, term_state)
-        hand = np.zeros((len(terms), 3), dtype=terms.dtype)
-        if self.hand:  # the hand terms as written, on the same points
-            p = torch.from_numpy(np.ascontiguousarray(points)).requires_grad_(True)
-            h = self.objective.hand_terms(self.objective.plan.split(p))  # (B, 3)
-            (h @ self.hand_weights).sum().backward()
-            hand = h.detach().numpy()
-            loss = loss + hand @ self.hand_weights.numpy()
-            g_points = g_points + p.grad.numpy()
-        terms = np.concatenate([terms, hand], axis=1)
         g_q = self.points.backward(g_points, point_state)
         g_z = self.decoder.backward(g_q, decoder_state) + (2.0 * self.latent_weight) * z
         return loss, q, terms, g_z.astype(z.dtype, copy=False)

@@ -13,7 +13,8 @@ arithmetic. This module does the same arithmetic in numpy inside one
   through the normalisation ``d / d v = (I - u uᵀ) / |v| · d / d u``;
 * capsule distances ``d = dist(ends) - r`` with the envelope-theorem gradient of
   :mod:`nlo_lab.robot.collision`, through the hinge ``((m - d)/m)²`` or the paper's
-  ``exp(-d²)`` below ``m``;
+  ``exp(-d²)`` below ``m``, measured exactly only for the pairs a lower bound cannot clear
+  of their margin (the others add exactly 0, as in :mod:`~nlo_lab.objective.near_pairs`);
 * the gradient reaches the points as ``Rᵀ g_v + S g_ends`` (``S`` scatters the
   capsule end points back onto the points).
 
@@ -31,12 +32,98 @@ import numpy as np
 import torch
 from torch.autograd.function import once_differentiable
 
+from nlo_lab.objective.near_pairs import CULL_SLACK
 from nlo_lab.objective.points import PointPlan
 from nlo_lab.objective.targets import Targets
-from nlo_lab.objective.terms import UNIT_EPS, unit
+from nlo_lab.objective.terms import UNIT_EPS, in_wrist_frame, pinch_activation, unit
+from nlo_lab.objective.weights import TERMS
 from nlo_lab.robot.collision import segment_closest_points
 
-__all__ = ["PointTerms", "point_terms"]
+__all__ = ["PointTerms", "HandTerms", "point_terms"]
+
+# (3, 4) rows over a pair's end points (a0, a1, b0, b1): a1 - a0, b1 - b0, a0 + a1 - b0 - b1 (twice
+# the midpoints' difference); no point of a segment is farther from its midpoint than half its
+# length, so |m_a - m_b| - h_a - h_b bounds the segments' distance from below (near_pairs' bound)
+_BOUND_ROWS = np.array([[-1.0, 1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 1.0], [1.0, 1.0, -1.0, -1.0]], dtype=np.float32)
+
+
+class HandTerms:
+    """The hand terms (``tip``, ``thumb``, ``pinch``) in numpy, forward and backward, on the mapped points.
+
+    Every wrist -> fingertip vector (``tip``) and thumb tip -> fingertip vector (``thumb``) is a
+    fixed combination of points, ``d = H p`` (``H`` rows over the points), seen in its wrist
+    frame, ``v_i = a_i · d / l`` (``a_i``: the mapped wrist axes, ``l``: the robot's hand length);
+    the term sums ``mask |v - v̂|²`` per kind. The pinch reads the thumb vectors' lengths,
+    ``δ = sqrt(|d|² + ε)/l``: ``active mask ((δ - goal)_+)²``. Backward: ``g_v = 2 mask (v - v̂)``,
+    ``g_d = Σ_i g_v,i a_i / l`` and ``g_a_i = g_v,i d / l`` (summed per side onto the axes), and the
+    pinch's ``2 active mask (δ - goal)_+ d / (l sqrt(|d|² + ε))`` onto ``d``; ``g_p += Hᵀ g_d``.
+    """
+
+    def __init__(self, rows, axes, side, length, kind, v_hat, mask, pinch_goal, pinch_weight):
+        self.items = rows.shape[0]  # K fingertip vectors, then J thumb vectors
+        self.rows, self.rows_t = np.ascontiguousarray(rows), np.ascontiguousarray(rows.T)  # (M, K_points), (K_points, M)
+        self.axes = np.asarray(axes, dtype=np.int64)  # (6,) the wrist axes' points, side-major
+        self.side = np.asarray(side, dtype=np.int64)  # (M,)
+        self.length = np.asarray(length, dtype=rows.dtype)[:, None]  # (M, 1) the robot's hand length per item
+        self.kind = np.eye(2, dtype=rows.dtype)[np.asarray(kind, dtype=np.int64)]  # (M, 2) tip / thumb
+        self.side_sum = np.eye(2, dtype=rows.dtype)[self.side].T  # (2, M): sums the items of each side
+        self.v_hat, self.mask = v_hat, mask[..., None]  # (T, M, 3), (T, M, 1)
+        self.pinch_goal, self.pinch_weight = pinch_goal, pinch_weight  # (T, J): max(d̂, floor), activation x mask
+        self.pairs = slice(self.items - pinch_goal.shape[1], self.items)  # the thumb vectors
+
+    @classmethod
+    def build(cls, plan: PointPlan, t: Targets, tip_mask: torch.Tensor, pair_mask: torch.Tensor, floor: torch.Tensor) -> HandTerms:
+        """The constants for ``plan``'s fingers and thumb pairs and the targets ``t`` (the human side)."""
+        K_points = plan.vectors.shape[0]
+        wrist, tips = range(*plan.rows["wrist"].indices(K_points)), range(*plan.rows["finger_tip"].indices(K_points))
+        fingers, pairs = plan.finger_side.cpu(), plan.thumb_pairs.cpu()
+        items = [(tips[k], wrist[int(s)], int(s), 0) for k, s in enumerate(fingers)]  # (plus, minus, side, kind)
+        items += [(tips[int(f)], tips[int(th)], int(s), 1) for (th, f), s in zip(pairs, plan.pair_side.cpu(), strict=True)]
+        rows = np.zeros((len(items), K_points))
+        for m, (plus, minus, _, _) in enumerate(items):
+            rows[m, plus] += 1.0
+            rows[m, minus] -= 1.0
+        side = [s for *_, s, _ in items]
+        dtype = plan.vectors.dtype
+        with torch.no_grad():
+            sel = (slice(None), plan.finger_side, plan.finger_index)
+            t_tip = t.finger_tip[sel]  # (T, K, 3): the human fingertips the robot has
+            j = plan.thumb_pairs
+            t_vec = torch.cat([t_tip - t.wrist[:, plan.finger_side], t_tip[:, j[:, 1]] - t_tip[:, j[:, 0]]], 1)
+            v_hat = in_wrist_frame(t_vec, t.wrist_rotation, torch.as_tensor(side, dtype=torch.long), t.hand_length)
+            d_hat = (t_tip[:, j[:, 1]] - t_tip[:, j[:, 0]]).norm(dim=-1) / t.hand_length[:, plan.pair_side]
+            goal, active = torch.maximum(d_hat, floor), pinch_activation(d_hat)
+            mask = torch.cat([tip_mask, pair_mask], 1)
+        return cls(
+            torch.as_tensor(rows, dtype=dtype).numpy(), np.arange(*plan.rows["wrist_axes"].indices(K_points)), side,
+            plan.hand_length.cpu().numpy()[side], [k for *_, k in items], v_hat.cpu().numpy(), mask.cpu().numpy(), goal.cpu().numpy(),
+            (active * pair_mask).cpu().numpy().astype(plan.hand_length.cpu().numpy().dtype),
+        )
+
+    def forward(self, P: np.ndarray, out: np.ndarray):
+        """Writes the terms ``(B, 3)`` into ``out``; returns what the backward needs."""
+        d = (self.rows @ P.transpose(1, 0, 2).reshape(P.shape[1], -1)).reshape(self.items, P.shape[0], 3).transpose(1, 0, 2)
+        A = P[:, self.axes].reshape(P.shape[0], 2, 3, 3)[:, self.side]  # (B, M, 3, 3): rows = the wrist axes a_i
+        v = np.matmul(A, d[..., None])[..., 0] / self.length  # (B, M, 3)
+        r = np.where(self.mask, v - self.v_hat, 0.0)
+        out[:, :2] = (r * r).sum(-1) @ self.kind
+        gap = d[:, self.pairs]
+        root = np.sqrt((gap * gap).sum(-1) + UNIT_EPS)  # (B, J)
+        over = np.maximum(root / self.length[self.pairs, 0] - self.pinch_goal, 0.0)
+        out[:, 2] = (self.pinch_weight * over * over).sum(-1)
+        return d, A, r, root, over
+
+    def backward(self, g: np.ndarray, saved, gP: np.ndarray) -> None:
+        """Adds the gradient of ``sum(g * terms)`` (``g (B, 3)``) with respect to the points to ``gP``."""
+        d, A, r, root, over = saved
+        g_v = 2.0 * r * (g[:, :2] @ self.kind.T)[..., None] / self.length  # (B, M, 3), with the 1/l of v
+        g_d = np.matmul(g_v[:, :, None, :], A)[:, :, 0]  # Σ_i g_v,i a_i
+        g_A = g_v[..., None] * d[:, :, None, :]  # (B, M, 3, 3): onto axis i, coordinates c
+        g_axes = np.matmul(self.side_sum, g_A.reshape(g.shape[0], self.items, 9)).reshape(g.shape[0], 6, 3)
+        pinch = 2.0 * g[:, 2:3] * self.pinch_weight * over / (root * self.length[self.pairs, 0])  # (B, J)
+        g_d[:, self.pairs] += pinch[..., None] * d[:, self.pairs]
+        gP += (self.rows_t @ g_d.transpose(1, 0, 2).reshape(self.items, -1)).reshape(-1, g.shape[0], 3).transpose(1, 0, 2)
+        gP[:, self.axes] += g_axes
 
 
 class PointTerms:
@@ -54,9 +141,9 @@ class PointTerms:
         form: ``"hinge"`` or ``"paper"`` (see :func:`nlo_lab.objective.terms.collision_loss`).
     """
 
-    n_terms = 5  # the paper's five: ee, ori, elbow, finger, collision
+    n_terms = len(TERMS)  # the paper's five, then the hand terms
 
-    def __init__(self, rows, finger_row, row_term, goal, mask, pair_points, pair_radii, margins, form: str):
+    def __init__(self, rows, finger_row, row_term, goal, mask, pair_points, pair_radii, margins, form: str, hand: HandTerms):
         self.rows = np.ascontiguousarray(rows)
         self.rows_t = np.ascontiguousarray(self.rows.T)
         self.fingers = np.flatnonzero(finger_row)
@@ -67,18 +154,23 @@ class PointTerms:
         self.radii = np.asarray(pair_radii, dtype=np.float64)
         self.margins = np.asarray(margins, dtype=np.float64)
         self.form = form
+        self.pair_radii = np.tile(self.radii, goal.shape[0])  # (T P,): per pair of every frame
+        self.pair_margins = np.tile(self.margins, goal.shape[0])
         K, n_ends = self.rows.shape[1], self.pair_points.shape[0]
         scatter = np.zeros((K, n_ends))  # (K, 4P): sums the end-point gradients onto the points
         scatter[self.pair_points, np.arange(n_ends)] = 1.0
         self.scatter = scatter.astype(self.rows.dtype)
+        self.hand = hand
 
     @classmethod
-    def build(cls, plan: PointPlan, targets: Targets, form: str) -> PointTerms:
+    def build(cls, plan: PointPlan, targets: Targets, form: str, tip_mask: torch.Tensor, pair_mask: torch.Tensor,
+              pinch_floor: torch.Tensor) -> PointTerms:
         """The terms of :mod:`nlo_lab.objective.terms` as rows over ``plan``'s points, for ``targets``.
 
         Residual rows (each a fixed combination of points, minus the human side):
         ee ``(w - s)/l`` (2), ori the columns of ``R_wrist R_align`` (6), elbow
-        ``(w - e)/l_fore`` (2), finger ``tip - base`` (K, normalised).
+        ``(w - e)/l_fore`` (2), finger ``tip - base`` (K, normalised); the hand terms:
+        :class:`HandTerms` (``tip_mask``, ``pair_mask``, ``pinch_floor``: the objective's).
         """
         t, K = targets, plan.vectors.shape[0]
         rows, goals, masks, term, finger = [], [], [], [], []
@@ -117,11 +209,11 @@ class PointTerms:
         return cls(
             torch.as_tensor(np.array(rows), dtype=plan.vectors.dtype).numpy(), np.array(finger), np.array(term),
             goal.cpu().numpy(), mask.cpu().numpy(), plan.pair_points.cpu().numpy(), plan.pair_radii.cpu().numpy(),
-            plan.margins.cpu().numpy(), form,
+            plan.margins.cpu().numpy(), form, HandTerms.build(plan, targets, tip_mask, pair_mask, pinch_floor),
         )
 
     def forward(self, P: np.ndarray):
-        """Terms ``(B, 5)`` and what the backward needs, for points ``P (B, K, 3)`` (B = T)."""
+        """Terms ``(B, 8)`` (``TERMS`` order) and what the backward needs, for points ``P (B, K, 3)`` (B = T)."""
         goal, mask = self.goal, self.mask
         v = np.matmul(self.rows, P)  # (B, V, 3)
         f = self.fingers
@@ -132,31 +224,33 @@ class PointTerms:
             unit = vf / norm
             v[:, f] = unit
         r = np.where(mask, v - goal, 0.0).astype(P.dtype, copy=False)  # (B, V, 3), 0 where masked
-        terms = np.empty((P.shape[0], 5), dtype=P.dtype)
+        terms = np.zeros((P.shape[0], self.n_terms), dtype=P.dtype)
         terms[:, :4] = (r * r).sum(-1) @ self.term_of_row
-        B, n_pairs = P.shape[0], self.radii.shape[0]
         coll = None
-        if n_pairs:
-            E = P[:, self.pair_points].reshape(B * n_pairs, 4, 3).transpose(1, 2, 0).astype(np.float64)  # (4, 3, B*P)
-            _, _, w, dist, u = segment_closest_points(E)
-            d = dist.reshape(B, n_pairs) - self.radii  # (B, P) surface distance [m]
-            if self.form == "paper":
-                near = d < self.margins
-                e = np.where(near, np.exp(-d * d), 0.0)
-                terms[:, 4] = e.sum(-1)
-                slope = -2.0 * d * e  # d term / d d
-            else:
-                h = np.clip((self.margins - d) / self.margins, 0.0, None)
-                terms[:, 4] = (h * h).sum(-1)
-                slope = -2.0 * h / self.margins
-            coll = (slope, w.reshape(B, n_pairs, 4), u.reshape(B, n_pairs, 3))
-        else:
-            terms[:, 4] = 0.0
-        return terms, (r, unit, norm, coll)
+        if self.radii.shape[0]:
+            ends = P[:, self.pair_points].reshape(-1, 4, 3)  # (B P, 4, 3): a0, a1, b0, b1 of every pair of every frame
+            rows = (_BOUND_ROWS @ ends.transpose(1, 0, 2).reshape(4, -1)).reshape(3, -1, 3)  # one product for all pairs
+            lengths = np.sqrt((rows * rows).sum(-1))  # (3, B P): |a1 - a0|, |b1 - b0|, |a0 + a1 - b0 - b1|
+            bound = (lengths[2] - lengths[0] - lengths[1]) / 2 - self.pair_radii  # <= surface distance
+            near = np.flatnonzero(bound < self.pair_margins + CULL_SLACK)  # the others add exactly 0, as in near_pairs
+            if near.size:
+                _, _, w, dist, u = segment_closest_points(ends[near].transpose(1, 2, 0).astype(np.float64))
+                m = self.pair_margins[near]
+                d = dist - self.pair_radii[near]  # surface distance [m]
+                if self.form == "paper":
+                    e = np.where(d < m, np.exp(-d * d), 0.0)
+                    value, slope = e, -2.0 * d * e  # the term and d term / d d
+                else:
+                    h = np.clip((m - d) / m, 0.0, None)
+                    value, slope = h * h, -2.0 * h / m
+                terms[:, 4] = np.bincount(near // self.radii.shape[0], weights=value, minlength=P.shape[0])
+                coll = (near, slope, w, u)
+        hand = self.hand.forward(P, terms[:, 5:]) if self.hand.items else None
+        return terms, (r, unit, norm, coll, hand)
 
     def backward(self, g: np.ndarray, saved) -> np.ndarray:
         """Gradient ``(B, K, 3)`` of ``sum(g * terms)`` with respect to the points."""
-        r, unit, norm, coll = saved
+        r, unit, norm, coll, hand = saved
         gv = 2.0 * r * (g[:, :4] @ self.term_of_row.T)[..., None]  # (B, V, 3)
         f = self.fingers
         if f.size:
@@ -164,10 +258,13 @@ class PointTerms:
             gv[:, f] = (gu - unit * (unit * gu).sum(-1, keepdims=True)) / norm
         gP = np.matmul(self.rows_t, gv)  # (B, K, 3)
         if coll is not None:
-            slope, w, u = coll
-            gd = g[:, 4:5] * slope  # (B, P)
-            g_ends = (gd[..., None] * w)[..., None] * u[:, :, None, :]  # (B, P, 4, 3)
-            gP += np.matmul(self.scatter, g_ends.reshape(g.shape[0], -1, 3).astype(gP.dtype))
+            near, slope, w, u = coll
+            gd = g[near // self.radii.shape[0], 4] * slope  # (n,) for the near pairs
+            g_ends = np.zeros((g.shape[0] * self.radii.shape[0], 4, 3), dtype=gP.dtype)
+            g_ends[near] = (gd[:, None] * w)[..., None] * u[:, None, :]  # (n, 4, 3): envelope gradient of each end
+            gP += np.matmul(self.scatter, g_ends.reshape(g.shape[0], -1, 3))
+        if hand is not None:
+            self.hand.backward(g[:, 5:], hand, gP)
         return gP
 
 

@@ -45,8 +45,8 @@ class Objective:
     that may be near (``cull``, :mod:`~nlo_lab.objective.near_pairs`), and the FK's
     gradient in closed form (``analytic_fk``). The pipeline chooses them by batch size
     (:class:`nlo_lab.inference.FastPaths`).
-    The hand terms (``tip``, ``thumb``, ``pinch``) always run as written here; with ``fused`` the
-    numpy path computes the paper's five and the hand terms are added on the same mapped points.
+    The hand terms (``tip``, ``thumb``, ``pinch``) run as written here (:meth:`hand_terms`); with
+    ``fused`` their numpy form (:class:`~nlo_lab.objective.numpy_backend.HandTerms`) runs with the others.
 
     Args:
         robot: a loaded :class:`nlo_lab.robot.Robot`.
@@ -84,7 +84,7 @@ class Objective:
         pairs = plan.thumb_pairs
         self.pair_mask = self.tip_mask[:, pairs[:, 0]] & self.tip_mask[:, pairs[:, 1]]
         self.pinch_floor = plan.pinch_floor()  # (J,) found once per robot
-        self.numpy_terms = PointTerms.build(self.plan, targets, collision_form) if fused else None
+        self.numpy_terms = PointTerms.build(plan, targets, collision_form, self.tip_mask, self.pair_mask, self.pinch_floor) if fused else None
 
     def __call__(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``q (T, n)`` -> ``total (T,)`` and the unweighted terms ``(T, 8)`` in ``TERMS`` order."""
@@ -92,8 +92,7 @@ class Objective:
             raise SettingsError(f"q has {q.shape[0]} frames but the targets have {self.n_frames}")
         points = self.plan.map(q, self.analytic_fk)  # (T, k, 3): every point the terms need, one FK
         if self.numpy_terms is not None:
-            # the numpy path has the paper's five terms; the hand terms run as written, on the same points
-            terms = torch.cat([point_terms(points, self.numpy_terms), self.hand_terms(self.plan.split(points))], dim=1)
+            terms = point_terms(points, self.numpy_terms)  # every term, the hand terms too
         else:
             terms = self.terms(self.plan.split(points))
         return terms @ self.weights, terms

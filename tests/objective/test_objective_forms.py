@@ -80,3 +80,27 @@ def test_objective_function_passes_the_faster_forms_on(robot, case):
     fast = objective(robot, q, t, fused=True, cull=True, analytic_fk=True)
     ref = objective(robot, q, t)
     torch.testing.assert_close(fast[0], ref[0], atol=1e-9, rtol=1e-10)
+
+
+def test_numpy_hand_terms_equal_the_term_functions_with_masks_and_pinches(robot, case):
+    """The hand terms' numpy form (HandTerms): fingers and wrist frames unobserved, thumbs touching fingertips."""
+    import dataclasses
+
+    from nlo_lab.objective import HAND_TERMS, TERMS
+
+    t, q = case(6)
+    tip, finger_mask, wrist_mask = t.finger_tip.clone(), t.finger_mask.clone(), t.wrist_mask.clone()
+    tip[:, :, 0] = tip[:, :, 1] + 0.004  # every thumb on its index fingertip: a pinch
+    finger_mask[1, 0, 3], finger_mask[2, 1, :] = False, False  # a ring finger, then a whole hand unseen
+    wrist_mask[3, 0] = False  # a wrist frame unseen: that hand's tip and thumb vectors do not count
+    t = dataclasses.replace(t, finger_tip=tip, finger_mask=finger_mask, wrist_mask=wrist_mask)
+    fast = _terms_and_grad(Objective(robot, t, fused=True), q)
+    ref = _terms_and_grad(Objective(robot, t), q)
+    for a, b in zip(fast, ref, strict=True):
+        torch.testing.assert_close(a, b, atol=1e-9, rtol=1e-10)
+    hand = ref[0][:, [TERMS.index(n) for n in HAND_TERMS]]
+    if robot.has_fingers:
+        assert float(hand[:, 2].max()) > 0, "the pinch should act"
+        assert float(hand[:, :2].min()) > 0
+    else:
+        assert float(hand.abs().max()) == 0
