@@ -65,9 +65,9 @@ class LossWeights:
     collision: float = 1000.0
     latent: float = 1.0
     smooth: float = 10.0
-    tip: float = 100.0
-    thumb: float = 30.0
-    pinch: float = 30.0
+    tip: float = 1000.0
+    thumb: float = 300.0
+    pinch: float = 100.0
 
     def __post_init__(self) -> None:
         validate_fields(self, lambda name, v: check_range(name, v, *WEIGHT_RANGE), prefix="loss weight ")
