@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test lab bench bench-venv bench-hands results clean browser lint wheel-check export-js docs
+.PHONY: setup demo test test-fast lab bench bench-venv bench-hands results clean browser lint wheel-check export-js docs
 
 setup: $(STAMP)
 
@@ -21,10 +21,15 @@ demo: setup
 	$(VENV)/bin/nlo-lab demo
 
 # Tests and every notebook (nbval runs each cell, fails on any error). Test mode
-# shortens the notebooks' loops; tests/test_browser.py runs 01 and 05 in JupyterLab + chromium.
+# shortens the notebooks' loops; tests/lab/test_browser.py runs 01 and 05 in JupyterLab + chromium.
 test: setup browser export-js lint wheel-check
 	NLO_LAB_TEST_MODE=1 $(PY) -m pytest -q -p no:cacheprovider tests notebooks \
 		--nbval-lax --nbval-current-env --nbval-cell-timeout=300
+
+# The tests but the slow (marked `slow`) and the real-browser ones (`browser`): a few minutes on
+# 2 cores (CONTRIBUTING.md, "Tests"). `make test` runs everything.
+test-fast: setup
+	NLO_LAB_TEST_MODE=1 $(PY) -m pytest -q -p no:cacheprovider tests -m "not slow and not browser"
 
 # ruff: the rules and exclusions are in pyproject.toml.
 lint: setup
@@ -46,7 +51,7 @@ browser:
 		echo "note: chromium is not installed and could not be; the browser test will be skipped"
 
 # The CDN files an exported notebook loads (html-manager, anywidget, require.js), installed with npm
-# into the user cache for tests/test_export_notebook.py; a note (and a skipped test) without npm or registry.
+# into the user cache for tests/viz/test_export_notebook.py; a note (and a skipped test) without npm or registry.
 export-js: setup
 	$(PY) tools/export_js.py
 

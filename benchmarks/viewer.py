@@ -43,7 +43,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "tools"))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 import results_doc  # noqa: E402
 from lab_browser import CHROMIUM, CHROMIUM_ARGS, Lab, LabPage, browser_missing  # noqa: E402
@@ -107,7 +107,7 @@ def bare_page_fps(browser, tmp: Path, clip: str, frames: int, size: list[int], d
     import numpy as np
 
     from nlo_lab.human import corpus_clip
-    from nlo_lab.robots import load_robot
+    from nlo_lab.robot import load_robot
     from nlo_lab.viz import RetargetScene, recording_visualizer
     from nlo_lab.viz.export import scene_html
 

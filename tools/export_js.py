@@ -7,7 +7,7 @@
 * which loads each custom widget's front end by its ``model_module`` and version, here anywidget's
   (``https://cdn.jsdelivr.net/npm/anywidget@~0.11.*/dist/index.js``).
 
-Online, a reader's browser fetches them from those CDNs. ``tests/test_export_notebook.py`` opens an
+Online, a reader's browser fetches them from those CDNs. ``tests/viz/test_export_notebook.py`` opens an
 exported notebook in chromium with no CDN reachable: Playwright answers those addresses from the
 packages installed here (:func:`local_file`). Nothing goes into the repository or the wheel.
 

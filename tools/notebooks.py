@@ -4,7 +4,9 @@ The source of every notebook is ``notebooks/src/NN_name.py`` in jupytext's
 percent format: ``# %% [markdown]`` starts a markdown cell (its lines are
 ``# `` comments), ``# %%`` starts a code cell. ``build`` reads it with
 jupytext and writes ``notebooks/NN_name.ipynb`` with nbformat 4, outputs
-stripped, kernelspec python3. ``check`` is our conventions check (learning
+stripped, kernelspec python3, and a stamp of its source in the metadata
+(``nlo_lab.revision``, by which ``nlo-lab lab`` tells a learner that a copy
+is from another version). ``check`` is our conventions check (learning
 goals, exercises, outputs stripped, in sync with the source).
 
 Usage::
@@ -16,6 +18,7 @@ Usage::
 
 from __future__ import annotations
 
+import hashlib
 import sys
 from pathlib import Path
 
@@ -34,11 +37,15 @@ def from_source(text: str) -> nbformat.NotebookNode:
     """A stripped nbformat-4 notebook from a percent-format source (read by jupytext).
 
     jupytext gives the cells; we drop its bookkeeping metadata (the sources are
-    the truth, there is no pairing), fix the kernelspec and give every cell a
-    stable id, so that rebuilding an unchanged source gives the same file.
+    the truth, there is no pairing), fix the kernelspec, stamp the source's digest
+    (``metadata.nlo_lab.revision``, kept by Jupyter when a learner saves) and give
+    every cell a stable id, so that rebuilding an unchanged source gives the same file.
     """
     nb = jupytext.reads(text, fmt="py:percent")
-    nb.metadata = nbformat.from_dict({"kernelspec": dict(KERNELSPEC), "language_info": dict(LANGUAGE_INFO)})
+    revision = hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+    nb.metadata = nbformat.from_dict(
+        {"kernelspec": dict(KERNELSPEC), "language_info": dict(LANGUAGE_INFO), "nlo_lab": {"revision": revision}}
+    )
     for i, cell in enumerate(nb.cells):
         cell.metadata = nbformat.from_dict({})
         cell.id = f"c{i:02d}"

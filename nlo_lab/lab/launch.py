@@ -3,12 +3,16 @@
 The notebooks ship inside the package (:data:`nlo_lab.paths.NOTEBOOKS_DIR`),
 which may sit in a read-only ``site-packages``. :func:`copy_notebooks` copies
 them into a folder the user owns; a notebook already there is the learner's
-work and is never overwritten. JupyterLab then opens that folder.
+work and is never overwritten, but :func:`other_version_copies` names those copied
+from another version of the package (the stamp ``metadata.nlo_lab.revision``, a
+digest of each notebook's source, differs or is missing), so that ``nlo-lab lab``
+can tell the learner to take the new ones. JupyterLab then opens that folder.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import json
 import os
 import sys
 from pathlib import Path
@@ -17,7 +21,7 @@ from nlo_lab.atomic_files import atomic_write_bytes
 from nlo_lab.errors import InstallationError, OutputError
 from nlo_lab.paths import NOTEBOOKS_DIR, repair_hint
 
-__all__ = ["bundled_notebooks", "copy_notebooks", "lab_command"]
+__all__ = ["bundled_notebooks", "copy_notebooks", "notebook_revision", "other_version_copies", "lab_command"]
 
 
 def bundled_notebooks() -> list[Path]:
@@ -61,6 +65,35 @@ def copy_notebooks(dest: str | os.PathLike) -> tuple[list[Path], list[Path]]:
     except OSError as exc:
         raise OutputError(f"cannot write the notebooks to {dest}: {exc.strerror or exc}") from None
     return copied, kept
+
+
+def notebook_revision(path: Path) -> str | None:
+    """A notebook's stamp (``metadata.nlo_lab.revision``), or None: no stamp, or not a notebook we can read."""
+    try:
+        stamp = json.loads(Path(path).read_text(encoding="utf-8"))["metadata"]["nlo_lab"]["revision"]
+    except (OSError, ValueError, KeyError, TypeError):  # unreadable, not JSON, no stamp: not ours to judge
+        return None
+    return stamp if isinstance(stamp, str) else None
+
+
+def other_version_copies(kept: list[Path]) -> list[Path]:
+    """The kept notebooks that another version of nlo_lab copied: their stamp differs from the shipped one's.
+
+    A copy without a stamp predates the stamps (an earlier version); a file that is not a
+    notebook (or not JSON) is left out. Nothing is written.
+    """
+    out = []
+    for path in kept:
+        shipped = NOTEBOOKS_DIR / path.name
+        if path.suffix != ".ipynb" or not shipped.is_file():
+            continue
+        try:
+            json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        if notebook_revision(path) != notebook_revision(shipped):
+            out.append(path)
+    return out
 
 
 def lab_command(folder: Path, port: int) -> list[str]:

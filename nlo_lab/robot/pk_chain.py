@@ -2,7 +2,7 @@
 
 pytorch-kinematics (``pytorch_kinematics``) is what robotics users reach for to
 get differentiable FK from a URDF. Our own FK (:mod:`nlo_lab.robot.kinematics`) must
-agree with it on every robot (``tests/test_kinematics.py``), and notebook 01
+agree with it on every robot (``tests/robot/test_kinematics.py``), and notebook 01
 runs the two side by side::
 
     from nlo_lab.robot.pk_chain import PKChain

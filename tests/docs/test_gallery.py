@@ -77,19 +77,14 @@ def test_a_missing_notebook_is_one_line_exit_2(tmp_path):
 
 
 @pytest.mark.browser
-def test_the_page_draws_the_robot_offline(site, tmp_path):
+def test_the_page_draws_the_robot_offline(site, tmp_path, lab_browser):
     """Chromium opens the page from file:// with every other address refused: NAO drawn, the equation typeset."""
     import matplotlib.image as mimage
 
-    sys.path.insert(0, str(ROOT / "tests"))
-    from lab_browser import browser_missing, hue_mask, offline_view_shot
-
     from nlo_lab.viz import GROUP_COLOURS
 
-    if browser_missing():
-        pytest.skip(browser_missing())
-    seen = offline_view_shot(site / "00_small.html", tmp_path / "page.png", ready="() => document.querySelector('mjx-container') !== null")
+    seen = lab_browser.offline_view_shot(site / "00_small.html", tmp_path / "page.png", ready="() => document.querySelector('mjx-container') !== null")
     img = mimage.imread(str(tmp_path / "page.png"))[..., :3].astype(float)
-    colours = {key: float(hue_mask(img, colour).mean()) for key, colour in GROUP_COLOURS.items()}
+    colours = {key: float(lab_browser.hue_mask(img, colour).mean()) for key, colour in GROUP_COLOURS.items()}
     assert colours["arm"] > 0.002 and colours["torso"] > 0.002, colours  # NAO: arms and torso drawn
     assert seen == {"served": [], "refused": [], "errors": []}, seen

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from robot_targets import demonstration_from_robot
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.evaluation.hands import angle_deg, hand_frames_mask, hand_scores
@@ -43,7 +42,7 @@ def test_angle_deg():
     assert angle_deg(np.array([1.0, 1, 0]), np.array([3.0, 3, 0])) == pytest.approx(0.0, abs=1e-6)
 
 
-def test_a_perfect_match_scores_zero_and_full_pinch_correlation(yumi):
+def test_a_perfect_match_scores_zero_and_full_pinch_correlation(yumi, demonstration_from_robot):
     q = hand_poses(yumi)
     s = hand_scores(yumi, q.numpy(), demonstration_from_robot(yumi, q))
     assert len(s) == 2 * len(q)
@@ -54,7 +53,7 @@ def test_a_perfect_match_scores_zero_and_full_pinch_correlation(yumi):
 
 
 @pytest.mark.parametrize("alpha", [7.0, 30.0, 95.0])
-def test_fingertips_turned_about_the_wrist_by_a_known_angle(yumi, alpha):
+def test_fingertips_turned_about_the_wrist_by_a_known_angle(yumi, alpha, demonstration_from_robot):
     q = hand_poses(yumi, seed=1)
     demo = demonstration_from_robot(yumi, q)
     wrist = demo.arm_positions[:, :, 2][:, :, None]  # (T, 2, 1, 3)
@@ -67,7 +66,7 @@ def test_fingertips_turned_about_the_wrist_by_a_known_angle(yumi, alpha):
 
 
 @pytest.mark.parametrize("beta", [10.0, 45.0])
-def test_finger_bases_moved_change_only_the_base_tip_measure(yumi, beta):
+def test_finger_bases_moved_change_only_the_base_tip_measure(yumi, beta, demonstration_from_robot):
     q = hand_poses(yumi, seed=2)
     demo = demonstration_from_robot(yumi, q)
     base, tip = demo.finger_positions[:, :, :, 0], demo.finger_positions[:, :, :, 1]
@@ -82,7 +81,7 @@ def test_finger_bases_moved_change_only_the_base_tip_measure(yumi, beta):
     assert summary["pinch_r"] < 1.0
 
 
-def test_pinch_correlation_of_an_opposite_pinch_is_minus_one(yumi):
+def test_pinch_correlation_of_an_opposite_pinch_is_minus_one(yumi, demonstration_from_robot):
     q = hand_poses(yumi, seed=3)
     demo = demonstration_from_robot(yumi, q)
     tip = demo.finger_positions[:, :, :, 1]
@@ -94,7 +93,7 @@ def test_pinch_correlation_of_an_opposite_pinch_is_minus_one(yumi):
     assert s.pinch_correlation() == pytest.approx(-1.0)
 
 
-def test_only_hand_frames_count(yumi):
+def test_only_hand_frames_count(yumi, demonstration_from_robot):
     q = hand_poses(yumi, T=6, seed=4)
     demo = demonstration_from_robot(yumi, q)
     demo.finger_mask[2, 0, 3] = False  # left ring finger unseen in frame 2: not a hand-frame
@@ -107,7 +106,7 @@ def test_only_hand_frames_count(yumi):
     assert (2, 0) not in set(zip(s.frame, s.side, strict=True)) and (4, 1) not in set(zip(s.frame, s.side, strict=True))
 
 
-def test_bad_input_is_named(yumi):
+def test_bad_input_is_named(yumi, demonstration_from_robot):
     q = hand_poses(yumi, T=3)
     demo = demonstration_from_robot(yumi, q)
     with pytest.raises(SettingsError, match="do not fit"):

@@ -11,7 +11,6 @@ import dataclasses
 
 import pytest
 import torch
-from robot_targets import demonstration_from_robot, random_feasible_pose
 
 from nlo_lab.objective import (
     HAND_TERMS,
@@ -38,13 +37,17 @@ def yumi():
     return load_robot("yumi").to(dtype=torch.float64)
 
 
-def exact_targets(robot, q):
-    """Targets the robot meets exactly at ``q``, with the robot's own arm and hand lengths."""
-    t = targets_from_demonstration(demonstration_from_robot(robot, q), dtype=torch.float64)
-    c = point_plan(robot, torch.float64)
-    T = len(t)
-    return dataclasses.replace(t, arm_length=c.arm_length.expand(T, 2).clone(), fore_length=c.fore_length.expand(T, 2).clone(),
-                               hand_length=c.hand_length.expand(T, 2).clone())
+@pytest.fixture(scope="session")
+def exact_targets(demonstration_from_robot):
+    def build(robot, q):
+        """Targets the robot meets exactly at ``q``, with the robot's own arm and hand lengths."""
+        t = targets_from_demonstration(demonstration_from_robot(robot, q), dtype=torch.float64)
+        c = point_plan(robot, torch.float64)
+        T = len(t)
+        return dataclasses.replace(t, arm_length=c.arm_length.expand(T, 2).clone(), fore_length=c.fore_length.expand(T, 2).clone(),
+                                   hand_length=c.hand_length.expand(T, 2).clone())
+
+    return build
 
 
 def hand_joints(robot) -> torch.Tensor:
@@ -93,7 +96,7 @@ def test_each_hand_term_gradient_matches_finite_differences_on_its_own():
 
 
 @pytest.mark.parametrize("name", HAND_TERMS)
-def test_hand_term_gradient_through_yumi_matches_finite_differences(yumi, name):
+def test_hand_term_gradient_through_yumi_matches_finite_differences(yumi, name, exact_targets, random_feasible_pose):
     q = random_feasible_pose(yumi, 2, seed=11)
     t = exact_targets(yumi, q)
     # the human pinches: thumb tips 1 cm from the index tips (active pinch on the index)
@@ -108,7 +111,7 @@ def test_hand_term_gradient_through_yumi_matches_finite_differences(yumi, name):
     assert torch.autograd.gradcheck(lambda x: loss(x)[0], (start,), eps=1e-6, atol=1e-5)
 
 
-def test_hand_terms_are_zero_at_a_perfect_match_and_not_away_from_it(yumi):
+def test_hand_terms_are_zero_at_a_perfect_match_and_not_away_from_it(yumi, exact_targets, random_feasible_pose):
     q = random_feasible_pose(yumi, 5, seed=12)
     q[0, hand_joints(yumi)] = yumi.upper_limits[hand_joints(yumi)]  # a closed fist: a pinch the robot makes exactly
     t = exact_targets(yumi, q)
@@ -128,7 +131,7 @@ def test_hand_terms_are_zero_at_a_perfect_match_and_not_away_from_it(yumi):
     assert float(terms["tip"].abs().max()) < 1e-12 and float(terms["thumb"].abs().max()) < 1e-12
 
 
-def test_hand_terms_ignore_masked_fingers(yumi):
+def test_hand_terms_ignore_masked_fingers(yumi, demonstration_from_robot, random_feasible_pose):
     q = random_feasible_pose(yumi, 2, seed=13)
     demo = demonstration_from_robot(yumi, q)
     demo.finger_mask[0, 1, 1] = False  # right index, frame 0
@@ -145,7 +148,7 @@ def test_hand_terms_ignore_masked_fingers(yumi):
     assert float(c["tip"][0]) != pytest.approx(float(a["tip"][0]))
 
 
-def test_hand_terms_are_zero_on_robots_without_fingers():
+def test_hand_terms_are_zero_on_robots_without_fingers(demonstration_from_robot, random_feasible_pose):
     nao = load_robot("nao").to(dtype=torch.float64)
     q = random_feasible_pose(nao, 2, seed=14)
     t = targets_from_demonstration(demonstration_from_robot(nao, q), dtype=torch.float64)
@@ -160,7 +163,7 @@ def test_pinch_activation_is_one_when_touching_and_zero_when_apart():
 
 
 @pytest.mark.parametrize("finger", [1, 4])  # index: the hand can close it; pinky: only down to its floor
-def test_a_human_pinch_closes_the_robots_thumb_and_finger(yumi, finger):
+def test_a_human_pinch_closes_the_robots_thumb_and_finger(yumi, finger, exact_targets):
     """From an open hand, the pinch term alone draws the tips together, down to what the hand can do."""
     q = yumi.neutral_q[None].clone()  # hands open
     t = exact_targets(yumi, q)
@@ -187,7 +190,7 @@ def test_a_human_pinch_closes_the_robots_thumb_and_finger(yumi, finger):
     assert float(tip_distance(yumi, x.detach(), 1, finger)) == pytest.approx(float(tip_distance(yumi, q, 1, finger)))  # other hand untouched
 
 
-def test_numpy_fast_path_gives_the_same_hand_terms_values_and_gradients(yumi):
+def test_numpy_fast_path_gives_the_same_hand_terms_values_and_gradients(yumi, exact_targets, random_feasible_pose):
     q = random_feasible_pose(yumi, 4, seed=15)
     t = exact_targets(yumi, q)
     tip = t.finger_tip.clone()

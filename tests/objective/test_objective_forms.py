@@ -16,9 +16,8 @@ def robot(each_robot64):
 
 
 @pytest.fixture(scope="module")
-def case(robot, random_angles):
+def case(robot, random_angles, demonstration_from_robot):
     """``case(frames)``: targets the robot meets at one pose, and other (random, some colliding) poses to score."""
-    from robot_targets import demonstration_from_robot
 
     def make(frames: int):
         t = targets_from_demonstration(demonstration_from_robot(robot, random_angles(robot, frames, seed=9)), dtype=torch.float64)

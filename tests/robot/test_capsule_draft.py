@@ -64,7 +64,7 @@ def test_a_finger_is_never_checked_against_its_own_palm():
 
 @pytest.mark.parametrize("name", ["nao", "pepper"])
 def test_the_specs_hold_what_the_fit_gives(name):
-    """fit_capsules.py wrote these specs; the fit is deterministic (YuMi: tests/test_yumi.py)."""
+    """fit_capsules.py wrote these specs; the fit is deterministic (YuMi: tests/robot/test_yumi.py)."""
     spec = importlib.util.spec_from_file_location("fit_capsules", ROBOTS_DIR / "fit_capsules.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

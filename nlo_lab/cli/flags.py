@@ -1,0 +1,100 @@
+"""The command line's flags: their stated ranges, their types and the parser class.
+
+The rules are the settings' own (:mod:`nlo_lab.settings`), so a flag and the setting it
+fills accept the same values; the messages state the range, and a huge argument is never
+echoed back whole. :class:`Parser` turns argparse's usage-and-exit into one
+:class:`UsageError` line (exit status 2, :mod:`nlo_lab.cli.run_guard`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+
+from nlo_lab.errors import NloLabError, SettingsError
+from nlo_lab.settings import arg_type, check_int, check_positive
+
+__all__ = [
+    "MAX_SEED",
+    "ITERS_RANGE",
+    "EPOCHS_RANGE",
+    "LIMIT_RANGE",
+    "THREADS_RANGE",
+    "BATCH_RANGE",
+    "LATENT_RANGE",
+    "WEIGHT_RANGE",
+    "UsageError",
+    "Parser",
+    "ranged_int",
+    "positive_float",
+    "LazyChoices",
+]
+
+MAX_SEED = 2**32 - 1  # numpy's and torch's generators both take it
+# Stated ranges of the numeric flags: a value outside is refused (exit 2, one line) before any work.
+ITERS_RANGE = (0, 10_000)  # Adam steps; 0 = the start point. The paper's longest budget is 600
+EPOCHS_RANGE = (1, 10_000)  # passes over the training frames (30 by default)
+LIMIT_RANGE = (1, 1_000_000)  # sequences of a split to evaluate
+THREADS_RANGE = (1, 256)  # Holistic instances of the pose estimation, at most; torch threads of train/evaluate
+BATCH_RANGE = (1, 1_000_000)  # training frames per step
+LATENT_RANGE = (1, 64)  # latent size per robot node
+WEIGHT_RANGE = (0.0, 1e6)  # each loss weight: 1000x the largest default; beyond it float32 losses overflow to NaN
+
+
+class UsageError(NloLabError):
+    """A bad flag or argument on the command line."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse prints usage plus a message and exits; we want one line and status 2.
+
+    Subparsers (and their own subparsers) are of this class too.
+    """
+
+    def error(self, message: str):  # type: ignore[override]
+        raise UsageError(f"{self.prog}: {message}")
+
+
+def ranged_int(lo: int, hi: int):
+    """argparse ``type=``: a whole number in ``[lo, hi]`` (the settings' rule, :func:`nlo_lab.settings.check_int`)."""
+
+    def parse(text: str) -> int:
+        if len(text) > 40:  # int() of a huge digit string is slow and its echo floods the line
+            raise argparse.ArgumentTypeError(f"must be a whole number in [{lo}, {hi}], got {len(text)} characters")
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number in [{lo}, {hi}], got {text!r}") from None
+        try:
+            return check_int("value", value, lo, hi)
+        except SettingsError:
+            raise argparse.ArgumentTypeError(f"must be in [{lo}, {hi}], got {text}") from None
+
+    return parse
+
+
+def positive_float(text: str) -> float:
+    """argparse ``type=``: a finite number > 0 (the settings' own check)."""
+    if len(text) > 40:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {len(text)} characters")
+    return arg_type(check_positive, float)(text)
+
+
+class LazyChoices:
+    """The choices of a flag, taken from their home module on first use.
+
+    The homes import torch; a bad flag or ``--help`` must not wait for that (argparse reads
+    choices only to check a given value or to print them).
+    """
+
+    def __init__(self, module: str, name: str):
+        self.module, self.name = module, name
+
+    def _names(self) -> tuple:
+        return tuple(getattr(importlib.import_module(self.module), self.name))
+
+    def __iter__(self):
+        return iter(self._names())
+
+    def __contains__(self, value) -> bool:
+        return value in self._names()

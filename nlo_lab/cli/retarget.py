@@ -1,0 +1,159 @@
+"""``nlo-lab retarget INPUT --robot R``: one recording (a file, a video or ``demo:NAME``) to a robot.
+
+The outputs of ``--out`` (:data:`OUTPUT_FILES`) appear as a whole set or not at all
+(:func:`nlo_lab.atomic_files.output_set`); every flag is checked before any work starts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from nlo_lab.cli.flags import ITERS_RANGE, MAX_SEED, THREADS_RANGE, WEIGHT_RANGE, LazyChoices, UsageError, ranged_int
+from nlo_lab.cli.run_guard import raise_pending_signal
+from nlo_lab.errors import escape
+
+__all__ = ["OUTPUT_FILES", "add_parser", "run"]
+
+OUTPUT_FILES = ("trajectory.npz", "trajectory.csv", "viewer.html")  # the set `retarget --out` writes
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser("retarget", help="retarget a recording (.pose, .h5, .npz, a video or demo:NAME) to a robot")
+    p.add_argument("input", metavar="INPUT",
+                   help="a .pose/.h5/.npz file, a video (.mp4/.mov/.webm/.avi), or demo:NAME for a clip of the embedded corpus")
+    p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
+    p.add_argument("--init", default="encoder", choices=LazyChoices("nlo_lab.inference", "INITS"), metavar="INIT",
+                   help="initialisation of the latent code: %(choices)s (default: encoder)")
+    p.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=100,
+                   help=f"latent optimisation budget, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
+    p.add_argument("--weights", default=None,
+                   help=f"loss weights, each {WEIGHT_RANGE[0]:g}..{WEIGHT_RANGE[1]:g}, "
+                        "e.g. ee=1000,ori=100,elbow=100,finger=100,collision=1000")
+    p.add_argument("--out", default=None, help="folder for trajectory.npz, trajectory.csv and viewer.html")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal), no warnings")
+    p.add_argument("--save-pose", metavar="FILE", default=None,
+                   help="video input: also keep MediaPipe Holistic's landmarks as this .pose file")
+    p.add_argument("--threads", type=ranged_int(*THREADS_RANGE), default=None,
+                   help=f"video input: the most cores the pose estimation may use, {THREADS_RANGE[0]}..{THREADS_RANGE[1]} "
+                        "(default: NLO_LAB_THREADS, else every core available; the result is the same for any N)")
+    return p
+
+
+def _check_weights(weights) -> None:
+    """Each loss weight within :data:`WEIGHT_RANGE` (refused before any work)."""
+    lo, hi = WEIGHT_RANGE
+    for name, value in weights.as_dict().items():
+        if not lo <= value <= hi:  # NaN fails this too
+            raise UsageError(f"nlo-lab retarget: --weights: weight {name}={value!r} must be in [{lo:g}, {hi:g}]")
+
+
+def _load_input(text: str):
+    from nlo_lab.corpus import corpus_clip
+    from nlo_lab.human import load_demonstration
+
+    if text.startswith("demo:"):
+        return corpus_clip(text[len("demo:"):])
+    return load_demonstration(text)
+
+
+def _is_video(text: str) -> bool:
+    from nlo_lab.human.io_video import VIDEO_SUFFIXES
+
+    return not text.startswith("demo:") and Path(text).suffix.lower() in VIDEO_SUFFIXES
+
+
+def _check_save_pose(args) -> Path | None:
+    """``--save-pose`` is checked before the (slow) pose estimation, written after everything else."""
+    if args.save_pose is None:
+        return None
+    if not _is_video(args.input):
+        raise UsageError("nlo-lab retarget: --save-pose needs a video INPUT (.mp4, .mov, .webm or .avi)")
+    path = Path(args.save_pose)
+    if path.suffix.lower() != ".pose":
+        raise UsageError(f"nlo-lab retarget: --save-pose FILE must end in .pose, got {args.save_pose!r}")
+    if path.is_dir():
+        raise UsageError(f"nlo-lab retarget: --save-pose {args.save_pose!r} is a folder")
+    if not path.resolve().parent.is_dir():
+        raise UsageError(f"nlo-lab retarget: --save-pose: the folder {str(path.parent)!r} does not exist")
+    return path
+
+
+def _load_video(args, progress: bool):
+    """A video's demonstration and its landmarks (warnings go to the one channel of :func:`nlo_lab.cli.main`)."""
+    from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration
+
+    video = estimate_pose(args.input, threads=args.threads, progress=progress)
+    return pose_to_demonstration(video), video
+
+
+def _write_outputs(out_dir: Path, result, demo, robot) -> None:
+    """Write the set into a temporary folder beside ``out_dir``, then swap it in (all or nothing)."""
+    from nlo_lab.atomic_files import output_set
+    from nlo_lab.viz import export_html
+
+    with output_set(out_dir, OUTPUT_FILES) as tmp:
+        result.trajectory.save_npz(tmp / "trajectory.npz")
+        result.trajectory.save_csv(tmp / "trajectory.csv")
+        # the page plays the trajectory on its own (retimed) time base: what the robot would play
+        export_html(tmp / "viewer.html", robot, result.trajectory.angles, demo=demo, fps=demo.fps, single_precision=True,
+                    times=result.trajectory.times)
+        raise_pending_signal()  # a signal an import swallowed still ends the run, before the swap
+
+
+def _finite_or_null(summary: dict) -> dict:
+    """NaN and infinity are not JSON: a figure that is not finite is reported as null."""
+    return {k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in summary.items()}
+
+
+def _print_summary(summary: dict) -> None:
+    width = max(len(k) for k in summary)
+    for key, value in summary.items():
+        if isinstance(value, float):
+            value = f"{value:.4f}"
+        print(f"  {key:<{width}}  {value}")
+
+
+def run(args) -> int:
+    from nlo_lab.atomic_files import check_output_place
+    from nlo_lab.inference import OptimizeSettings, RetargetConfig
+    from nlo_lab.objective import LossWeights
+    from nlo_lab.robot import load_robot
+
+    if args.out:
+        check_output_place(args.out, OUTPUT_FILES)  # refused before any work starts
+    weights = LossWeights.from_string(args.weights) if args.weights else LossWeights()
+    _check_weights(weights)
+    settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed)
+    robot = load_robot(args.robot)
+    save_pose = _check_save_pose(args)
+    progress = not args.quiet and sys.stderr.isatty()
+    video = None
+    if _is_video(args.input):
+        demo, video = _load_video(args, progress)
+    else:
+        demo = _load_input(args.input)
+    result = RetargetConfig(robot, settings, weights, progress=progress).build()(demo)
+    if video is not None:
+        result.summary["pose_seconds"] = round(video.seconds, 4)
+    if args.out:
+        _write_outputs(Path(args.out), result, demo, robot)
+    if save_pose is not None:
+        from nlo_lab.atomic_files import atomic_write_bytes
+
+        atomic_write_bytes(save_pose, video.to_bytes())
+    if args.json:
+        print(json.dumps(_finite_or_null(result.summary), allow_nan=False))  # valid JSON: no NaN
+    else:
+        print(f"retargeted {escape(demo.name or args.input)} ({len(demo)} frames) to {escape(robot.name)}:")
+        _print_summary({k: escape(v) if isinstance(v, str) else v for k, v in result.summary.items()})
+        if args.out:
+            print(f"wrote {escape(args.out)}/trajectory.npz, trajectory.csv, viewer.html")
+        if save_pose is not None:
+            print(f"wrote {escape(save_pose)}")
+    return 0
