@@ -18,6 +18,9 @@ Methods, on every hand-frame (one hand in one frame with its wrist frame and fiv
   fingertip vectors in the robot's wrist-link frame, scaled by robot hand length / human hand length
   (the scale nlo_lab's terms use); mimic joints are expanded as the URDF says (both tools agree).
 * **open hand, not moving**: the hands at their neutral (open) pose, for scale.
+* **nlo_lab without the collision term** (a diagnostic, not a robot-safe method): what the
+  self-collision pairs cost the handshape (YuMi's spec pairs the fingers of one hand: a fist's
+  thumb over the fingers, or a pinch, is a contact the collision term pushes apart).
 
 One scorer for all: ``nlo_lab.evaluation.hands.hand_scores`` (our FK of YuMi; the measures and
 their definitions are in its docstring and in docs/RESULTS.md). Also: joint-limit violations of
@@ -32,6 +35,7 @@ Then the targets of issue 27. Unless ``--no-write``, the tables replace the ``ha
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import hashlib
 import os
 import subprocess
@@ -61,7 +65,8 @@ VIDEO = RECORDINGS / "signer_webcam_58f.mp4"
 RUNNER = Path(__file__).resolve().parent / "hands" / "dex_runner.py"
 DEX_PYTHON = ROOT / ".venv-bench" / "bin" / "python"
 TIPS = (4, 8, 12, 16, 20)  # MediaPipe hand landmarks of the fingertips (0: the wrist)
-METHODS = ("nlo_lab", "dex, filtered", "dex, unfiltered", "open hand, not moving")
+NO_COLLISION = "nlo_lab without the collision term (diagnostic)"
+METHODS = ("nlo_lab", "dex, filtered", "dex, unfiltered", "open hand, not moving", NO_COLLISION)
 DEX = {"dex, filtered": "filtered", "dex, unfiltered": "unfiltered"}
 
 
@@ -165,11 +170,14 @@ def main() -> None:
     scores = {m: [] for m in METHODS}
     per_recording, nlo_seconds, nlo_frames, velocity, nlo_limits, nlo_hand_limits = [], 0.0, 0, 0, 0, 0
     retarget = RetargetConfig(robot, model=model, weights=weights).build()
+    # what the collision pairs between one hand's fingers cost the handshape (not robot-safe: no collision term)
+    diagnostic = RetargetConfig(robot, model=model, weights=dataclasses.replace(weights, collision=0.0)).build()
     retarget(items[0][1].slice(0, min(5, len(items[0][1]))))  # once untimed: the robot's point plan and pinch floor
     for label, demo in items:
         result = retarget(demo)
         q = result.trajectory.angles
         scores["nlo_lab"].append(hand_scores(robot, q, demo))
+        scores[NO_COLLISION].append(hand_scores(robot, diagnostic(demo).trajectory.angles, demo))
         scores["open hand, not moving"].append(hand_scores(robot, np.tile(robot.neutral_q.numpy(), (len(demo), 1)), demo))
         nlo_seconds += result.summary["seconds"]
         nlo_frames += len(demo)
