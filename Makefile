@@ -79,6 +79,7 @@ bench: setup
 	$(PY) benchmarks/video.py $(if $(QUICK),--repeats 1 --no-cli --no-write,)
 	$(PY) benchmarks/conditioning.py
 	$(PY) benchmarks/motion.py $(if $(QUICK),--robots yumi --clips 3 --no-write,)
+	$(PY) benchmarks/batch.py $(if $(QUICK),--inputs 10 --iters 10 --no-write,)
 	$(MAKE) bench-hands
 
 # The hand benchmark's second environment: dex-retargeting 0.5 needs numpy >= 2, mediapipe (the `video`

@@ -213,6 +213,11 @@ def smoke(py: Path, work: Path) -> None:
     copied = sorted(p.name for p in Path(folder).glob("*.ipynb"))
     if len(copied) != len(list((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb"))) or not Path(folder).is_relative_to(work / "home"):
         fail(f"nlo-lab lab --copy-only copied {copied} to {folder}")
+    # `nlo-lab batch` without its extra (dask is not a core dependency): one line naming the extra, exit 2.
+    sample = Path(info["assets"]) / "recordings" / "holistic_both_hands_47f.pose"
+    err = run([cli, "batch", sample, "--robot", "nao", "--out", "batch_out", "--iters", "1"], cwd=work, env=env, expect=2).stderr
+    if len(err.strip().splitlines()) != 1 or 'pip install "nlo_lab[batch]"' not in err:
+        fail(f"nlo-lab batch without the batch extra gave:\n{err}")
     # A damaged install: one line naming the file and the repair, exit 2.
     ckpt = Path(info["assets"]) / "checkpoints" / "yumi.pt"
     moved = ckpt.with_suffix(".moved")
@@ -226,7 +231,7 @@ def smoke(py: Path, work: Path) -> None:
         fail(f"a missing bundled checkpoint gave:\n{err}")
     print(f"wheel-check: from {work}: nlo_lab {info['version']} imported from site-packages; load_robot + load_pretrained "
           f"{', '.join(ROBOTS)}; PKChain; the .pose sample ({info['pose_frames']} frames); a plot; retarget (frechet {summary['frechet_m']:.3f} m); demo; lab --copy-only ({len(copied)} notebooks); "
-          f"damaged install -> exit 2 naming {ckpt.name} ({time.perf_counter() - t0:.0f} s)")  # fmt: skip
+          f"batch without its extra -> exit 2; damaged install -> exit 2 naming {ckpt.name} ({time.perf_counter() - t0:.0f} s)")  # fmt: skip
 
 
 def prune(root: Path, days: float = 3.0) -> None:

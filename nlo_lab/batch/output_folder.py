@@ -28,7 +28,7 @@ def finite_or_null(summary: dict) -> dict:
 
 
 def write_output_folder(out_dir, result, demo, robot, *, viewer: bool = True, summary: dict | None = None,
-                        before_swap: Callable[[], None] | None = None) -> Path:
+                        stale: tuple[str, ...] = (), before_swap: Callable[[], None] | None = None) -> Path:
     """Write a retargeting's files into ``out_dir``, all or nothing.
 
     Args:
@@ -37,9 +37,10 @@ def write_output_folder(out_dir, result, demo, robot, *, viewer: bool = True, su
         demo: the demonstration it was made from (the viewer shows it beside the robot).
         robot: the robot.
         viewer: write ``viewer.html`` (the robot's motion beside the human's, played on the
-            trajectory's retimed time base); without it an older ``viewer.html`` goes.
-        summary: also write this object as ``summary.json`` (figures that are not finite as null);
-            without it an older ``summary.json`` goes.
+            trajectory's retimed time base).
+        summary: also write this object as ``summary.json`` (figures that are not finite as null).
+        stale: files of an earlier set that go when this one does not write them (``batch`` passes
+            ``viewer.html`` and ``summary.json``: a folder's files all come from one run).
         before_swap: called when every file is written, before the swap (raise to abandon it).
 
     Returns:
@@ -49,7 +50,7 @@ def write_output_folder(out_dir, result, demo, robot, *, viewer: bool = True, su
         OutputError: the place cannot take the folder (see :func:`nlo_lab.atomic_files.check_output_place`).
     """
     names = ("trajectory.npz", "trajectory.csv") + ((VIEWER_FILE,) if viewer else ()) + ((SUMMARY_FILE,) if summary else ())
-    with output_set(out_dir, names, replaces=(VIEWER_FILE, SUMMARY_FILE)) as tmp:
+    with output_set(out_dir, names, replaces=stale) as tmp:
         result.trajectory.save_npz(tmp / "trajectory.npz")
         result.trajectory.save_csv(tmp / "trajectory.csv")
         if viewer:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from nlo_lab.batch.inputs import BatchInput
-from nlo_lab.batch.output_folder import write_output_folder
+from nlo_lab.batch.output_folder import SUMMARY_FILE, VIEWER_FILE, write_output_folder
 from nlo_lab.batch.settings import BatchSettings
 from nlo_lab.batch.table import failed_row, row_from_summary
 from nlo_lab.errors import NloLabError, escape
@@ -178,7 +178,8 @@ def retarget_input(job: Job, segments=None) -> dict:
             "settings_key": job.settings_key, "seconds": round(seconds, 4),
             "warnings": list(dict.fromkeys(escape(w.message) for w in caught)),
         }
-        write_output_folder(Path(job.folder), result, demo, retargeter.robot, viewer=job.settings.viewer, summary=summary)
+        write_output_folder(Path(job.folder), result, demo, retargeter.robot, viewer=job.settings.viewer, summary=summary,
+                            stale=(VIEWER_FILE, SUMMARY_FILE))
         return row_from_summary(summary)
     except Exception as exc:  # noqa: BLE001 - a bad input is a failed row, never a retried task
         return failed_row(path, job.item.name, failure_text(exc, path), input_sha256=job.input_sha256,

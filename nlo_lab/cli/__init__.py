@@ -13,7 +13,7 @@ The package: :mod:`~nlo_lab.cli.app` (the registry of commands, :func:`build_par
 and its error path), :mod:`~nlo_lab.cli.run_guard` (how a run ends: error line, warnings,
 signals), :mod:`~nlo_lab.cli.flags` (ranges, flag types, the parser class), and one module
 per command: :mod:`~nlo_lab.cli.retarget`, :mod:`~nlo_lab.cli.train`, :mod:`~nlo_lab.cli.evaluate`,
-:mod:`~nlo_lab.cli.demo`, :mod:`~nlo_lab.cli.lab`.
+:mod:`~nlo_lab.cli.demo`, :mod:`~nlo_lab.cli.lab`, :mod:`~nlo_lab.cli.batch`.
 """
 
 from nlo_lab.cli.app import COMMANDS, build_parser, main

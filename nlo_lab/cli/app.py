@@ -3,7 +3,7 @@
 :data:`COMMANDS` is the registry: each command is a module of this package with
 ``add_parser(subparsers)`` (its flags) and ``run(args) -> int`` (its work, which
 imports what it needs when it runs, so that ``--help`` and a bad flag never wait
-for torch). Adding a command is one module plus one line here (CONTRIBUTING.md).
+for torch); a module with ``NEEDS_TORCH = False`` runs without torch imported here. Adding a command is one module plus one line here (CONTRIBUTING.md).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import argparse
 import signal
 import sys
 
-from nlo_lab.cli import demo, evaluate, lab, retarget, train
+from nlo_lab.cli import batch, demo, evaluate, lab, retarget, train
 from nlo_lab.cli.flags import Parser
 from nlo_lab.cli.run_guard import error_line, one_warning_channel, os_error_text, raise_pending_signal, signals_raise
 from nlo_lab.errors import Interrupted, NloLabError
@@ -26,6 +26,7 @@ COMMANDS = {
     "evaluate": evaluate,
     "demo": demo,
     "lab": lab,
+    "batch": batch,
 }
 
 
@@ -44,11 +45,12 @@ def main(argv: list[str] | None = None) -> int:
         try:
             args = build_parser().parse_args(argv)
             with one_warning_channel(getattr(args, "quiet", False)):
-                import torch  # here, not at the top: `--help` and a bad flag never wait for it
+                if getattr(COMMANDS[args.command], "NEEDS_TORCH", True):  # batch's own process does without it
+                    import torch  # here, not at the top: `--help` and a bad flag never wait for it
 
-                from nlo_lab.threads import default_threads
+                    from nlo_lab.threads import default_threads
 
-                torch.set_num_threads(default_threads())  # see nlo_lab.threads: one thread unless NLO_LAB_THREADS says otherwise
+                    torch.set_num_threads(default_threads())  # see nlo_lab.threads: one thread unless NLO_LAB_THREADS says otherwise
                 status = COMMANDS[args.command].run(args)
                 raise_pending_signal()
                 return status

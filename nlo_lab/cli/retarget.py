@@ -1,24 +1,23 @@
 """``nlo-lab retarget INPUT --robot R``: one recording (a file, a video or ``demo:NAME``) to a robot.
 
 The outputs of ``--out`` (:data:`OUTPUT_FILES`) appear as a whole set or not at all
-(:func:`nlo_lab.atomic_files.output_set`); every flag is checked before any work starts.
+(:func:`nlo_lab.batch.write_output_folder`, which ``nlo-lab batch`` writes each input's folder with);
+every flag is checked before any work starts.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
+from nlo_lab.batch.output_folder import OUTPUT_FILES, finite_or_null, write_output_folder
 from nlo_lab.cli.flags import ITERS_RANGE, MAX_SEED, THREADS_RANGE, WEIGHT_RANGE, LazyChoices, UsageError, ranged_int
 from nlo_lab.cli.run_guard import raise_pending_signal
 from nlo_lab.errors import escape
 
 __all__ = ["OUTPUT_FILES", "add_parser", "run"]
-
-OUTPUT_FILES = ("trajectory.npz", "trajectory.csv", "viewer.html")  # the set `retarget --out` writes
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -92,25 +91,6 @@ def _load_video(args, progress: bool):
     return pose_to_demonstration(video), video
 
 
-def _write_outputs(out_dir: Path, result, demo, robot) -> None:
-    """Write the set into a temporary folder beside ``out_dir``, then swap it in (all or nothing)."""
-    from nlo_lab.atomic_files import output_set
-    from nlo_lab.viz import export_html
-
-    with output_set(out_dir, OUTPUT_FILES) as tmp:
-        result.trajectory.save_npz(tmp / "trajectory.npz")
-        result.trajectory.save_csv(tmp / "trajectory.csv")
-        # the page plays the trajectory on its own (retimed) time base: what the robot would play
-        export_html(tmp / "viewer.html", robot, result.trajectory.angles, demo=demo, fps=demo.fps, single_precision=True,
-                    times=result.trajectory.times)
-        raise_pending_signal()  # a signal an import swallowed still ends the run, before the swap
-
-
-def _finite_or_null(summary: dict) -> dict:
-    """NaN and infinity are not JSON: a figure that is not finite is reported as null."""
-    return {k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in summary.items()}
-
-
 def _print_summary(summary: dict) -> None:
     width = max(len(k) for k in summary)
     for key, value in summary.items():
@@ -142,13 +122,14 @@ def run(args) -> int:
     if video is not None:
         result.summary["pose_seconds"] = round(video.seconds, 4)
     if args.out:
-        _write_outputs(Path(args.out), result, demo, robot)
+        # a signal an import swallowed still ends the run, before the swap
+        write_output_folder(Path(args.out), result, demo, robot, before_swap=raise_pending_signal)
     if save_pose is not None:
         from nlo_lab.atomic_files import atomic_write_bytes
 
         atomic_write_bytes(save_pose, video.to_bytes())
     if args.json:
-        print(json.dumps(_finite_or_null(result.summary), allow_nan=False))  # valid JSON: no NaN
+        print(json.dumps(finite_or_null(result.summary), allow_nan=False))  # valid JSON: no NaN
     else:
         print(f"retargeted {escape(demo.name or args.input)} ({len(demo)} frames) to {escape(robot.name)}:")
         _print_summary({k: escape(v) if isinstance(v, str) else v for k, v in result.summary.items()})

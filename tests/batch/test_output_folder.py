@@ -31,7 +31,9 @@ def test_the_viewer_and_the_summary_come_and_go_with_the_set(tmp_path, made):
     assert sorted(os.listdir(out)) == ["notes.txt", SUMMARY_FILE, "trajectory.csv", "trajectory.npz", "viewer.html"]
     assert json.loads((out / SUMMARY_FILE).read_text())["final_loss"] is None  # not finite: null, valid JSON
     assert read_summary(out)["frames"] == 47
-    write_output_folder(out, result, demo, robot, viewer=False)  # an older viewer.html and summary.json go
+    write_output_folder(out, result, demo, robot, viewer=False)  # retarget --out keeps the folder's other files
+    assert sorted(os.listdir(out)) == ["notes.txt", SUMMARY_FILE, "trajectory.csv", "trajectory.npz", "viewer.html"]
+    write_output_folder(out, result, demo, robot, viewer=False, stale=("viewer.html", SUMMARY_FILE))  # batch's: they go
     assert sorted(os.listdir(out)) == ["notes.txt", "trajectory.csv", "trajectory.npz"]
     assert read_summary(out) is None and (out / "notes.txt").read_text() == "mine"
 

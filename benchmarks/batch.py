@@ -1,0 +1,316 @@
+"""Throughput of ``nlo-lab batch`` on the real recordings, and the targets of issue 29 (PASS/FAIL).
+
+    nice -n 10 python benchmarks/batch.py [--inputs 40] [--robot yumi] [--iters 100] [--no-write] [--keep DIR]
+
+The corpus: the real MediaPipe recordings (``../shared/data/pose/*.pose`` when present, and
+``assets/recordings``: a ``.pose`` and the sample video), copied into numbered folders until there
+are at least ``--inputs`` inputs. Each run is a fresh process, as a user runs it (interpreter start
+and imports included):
+
+1. a plain loop over ``retarget`` in one process (one torch thread, the video's pose estimation on
+   one core; the same files written): the engine's baseline;
+2. ``nlo-lab batch --workers 1`` and ``--workers 2`` (a LocalCluster), each into a fresh folder;
+3. the 2-worker run again over its finished folder (the resume);
+4. ``nlo-lab batch --scheduler`` on a separately started ``dask scheduler`` and two ``dask worker``
+   processes over loopback, one of which is killed with SIGKILL mid-run.
+
+It prints the times, then each target with PASS or FAIL: 2 workers >= 1.6x the throughput of 1;
+1 worker within 10 % of the plain loop; the resumed run < 5 % of the first run's time; the
+kill -9 run with every input ok (and the cluster left running); results identical across 1 and
+2 workers; everything listening on 127.0.0.1 only (the sockets of every process, as ``ss -ltnp``
+shows them). Rewrites the ``batch`` section of docs/RESULTS.md unless ``--no-write``.
+Timings on a shared machine are provisional: the load average is printed beside them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import psutil
+from results_doc import ROOT, stamp, update_section
+
+SHARED_POSE = ROOT.parent / "shared" / "data" / "pose"
+RECORDINGS = ROOT / "assets" / "recordings"
+TARGET_SPEEDUP, TARGET_OVERHEAD, TARGET_RESUME = 1.6, 0.10, 0.05
+
+
+def sources() -> list[Path]:
+    shared = sorted(SHARED_POSE.glob("*.pose")) if SHARED_POSE.is_dir() else []
+    return shared + sorted(RECORDINGS.glob("*.pose")) + sorted(RECORDINGS.glob("*.mp4"))
+
+
+def build_corpus(folder: Path, n: int) -> list[Path]:
+    """Copies of the real recordings in folders take_00, take_01, ... until there are at least ``n``."""
+    files = []
+    for take in range(math.ceil(n / len(sources()))):
+        for src in sources():
+            dst = folder / f"take_{take:02d}" / f"{src.parent.name}_{src.name}"
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy(src, dst)
+            files.append(dst)
+    return files
+
+
+def plain_loop(corpus: Path, out: Path, robot: str, iters: int) -> None:
+    """The baseline, run as its own process: one model, one input after the other, the same files written."""
+    from nlo_lab.batch import BatchSettings, find_inputs, write_output_folder
+    from nlo_lab.human import load_demonstration
+    from nlo_lab.human.io_video import load_video
+
+    retargeter = BatchSettings(robot, iterations=iters).build()
+    for item in find_inputs([corpus], out):
+        demo = load_video(item.path, threads=1) if item.is_video else load_demonstration(item.path)
+        result = retargeter(demo)
+        write_output_folder(out / item.name, result, demo, retargeter.robot, viewer=False)
+
+
+def children_cpu() -> float:
+    """CPU seconds (user + system) of every ended and waited-for descendant of this process."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def timed(cmd: list, **options) -> tuple[float, subprocess.CompletedProcess]:
+    start = time.perf_counter()
+    proc = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, **options)
+    return time.perf_counter() - start, proc
+
+
+def listening(pids) -> set[str]:
+    """``ip:port`` of every socket the processes ``pids`` and their children listen on."""
+    found = set()
+    for pid in pids:
+        try:
+            procs = [psutil.Process(pid), *psutil.Process(pid).children(recursive=True)]
+        except psutil.Error:
+            continue
+        for proc in procs:
+            try:
+                found |= {f"{c.laddr.ip}:{c.laddr.port}" for c in proc.net_connections(kind="inet") if c.status == psutil.CONN_LISTEN}
+            except psutil.Error:
+                pass
+    return found
+
+
+def ss_lines(pids) -> list[str]:
+    """What ``ss -ltnp`` says about the processes ``pids`` and their children (when ss is installed)."""
+    if not shutil.which("ss"):
+        return []
+    tree = set()
+    for pid in pids:
+        try:
+            tree |= {pid, *(c.pid for c in psutil.Process(pid).children(recursive=True))}
+        except psutil.Error:
+            pass
+    text = subprocess.run(["ss", "-ltnp"], capture_output=True, text=True).stdout
+    return [line for line in text.splitlines() if any(f"pid={p}," in line for p in tree)]
+
+
+def batch_cmd(corpus: Path, out: Path, robot: str, iters: int, *extra) -> list:
+    return [sys.executable, "-m", "nlo_lab.cli", "batch", corpus, "--robot", robot, "--out", out, "--iters", str(iters), *extra]
+
+
+def run_watched(cmd: list) -> tuple[float, int, set[str], list[str]]:
+    """Run ``cmd``, noting what its processes listen on while it runs."""
+    start = time.perf_counter()
+    proc = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    seen, lines = set(), []
+    while proc.poll() is None:
+        now = listening([proc.pid])
+        if now - seen:
+            lines = ss_lines([proc.pid]) or lines
+        seen |= now
+        time.sleep(0.5)
+    out, err = proc.communicate()
+    if proc.returncode not in (0, 1):
+        print(err, file=sys.stderr)
+    return time.perf_counter() - start, proc.returncode, seen, lines
+
+
+def rows(out: Path) -> list[dict]:
+    with open(out / "results.csv", newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def same_results(a: Path, b: Path, names: list[str]) -> tuple[bool, str]:
+    """Every input's trajectory (angles and times) equal in ``a`` and ``b``, and its .csv byte for byte."""
+    for name in names:
+        ta, tb = np.load(a / name / "trajectory.npz"), np.load(b / name / "trajectory.npz")
+        if not (np.array_equal(ta["angles"], tb["angles"]) and np.array_equal(ta["time"], tb["time"])):
+            return False, f"{name}: trajectory.npz differs"
+        if (a / name / "trajectory.csv").read_bytes() != (b / name / "trajectory.csv").read_bytes():
+            return False, f"{name}: trajectory.csv differs"
+    return True, f"{len(names)} inputs: angles, times and trajectory.csv equal"
+
+
+def dask_command(*args) -> list[str]:
+    script = Path(sys.executable).with_name("dask")
+    return [str(script), *args] if script.exists() else [sys.executable, "-m", "dask", *args]
+
+
+def external_cluster(corpus: Path, out: Path, robot: str, iters: int, log: Path) -> dict:
+    """``dask scheduler`` + two ``dask worker`` over loopback; one worker killed with SIGKILL once a few inputs are done."""
+    from distributed import Client
+
+    env = dict(os.environ, NLO_LAB_THREADS="1", OMP_NUM_THREADS="1")
+    sched_file = log / "scheduler.json"
+    procs = [subprocess.Popen(dask_command("scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                                           "--dashboard-address", "127.0.0.1:0", "--scheduler-file", str(sched_file)), stdout=open(log / "scheduler.log", "w"),
+                              stderr=subprocess.STDOUT, env=env)]
+    try:
+        deadline = time.monotonic() + 60
+        while not sched_file.is_file() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        address = json.loads(sched_file.read_text())["address"]
+        for i in range(2):
+            procs.append(subprocess.Popen(dask_command("worker", address, "--nthreads", "1", "--no-nanny", "--host", "127.0.0.1",
+                                                       "--no-dashboard", "--dashboard-address", "127.0.0.1:0", "--name", f"worker-{i}"),
+                                          stdout=open(log / f"worker-{i}.log", "w"), stderr=subprocess.STDOUT, env=env))
+        with Client(address, timeout=60) as client:
+            client.wait_for_workers(2, timeout=120)
+        sockets = listening([p.pid for p in procs])
+        ss = ss_lines([p.pid for p in procs])
+        start = time.perf_counter()
+        batch = subprocess.Popen([str(c) for c in batch_cmd(corpus, out, robot, iters, "--scheduler", address, "--quiet")],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        killed_after = None
+        while batch.poll() is None:
+            if killed_after is None and (out / "results.csv").is_file() and len(rows(out)) >= 3:
+                procs[1].send_signal(signal.SIGKILL)  # the first worker, mid-run
+                killed_after = len(rows(out))
+            time.sleep(0.2)
+        seconds = time.perf_counter() - start
+        _, err = batch.communicate()
+        with Client(address, timeout=30) as client:
+            alive = len(client.scheduler_info()["workers"])
+        return {"seconds": seconds, "exit": batch.returncode, "stderr": err.strip(), "rows": rows(out), "killed_after": killed_after,
+                "workers_left": alive, "scheduler_alive": procs[0].poll() is None, "sockets": sockets, "ss": ss, "address": address}
+    finally:
+        for p in reversed(procs):
+            if p.poll() is None:
+                p.terminate()
+                try:
+                    p.wait(timeout=20)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+
+
+def leftovers(out: Path) -> list[str]:
+    return [str(p.relative_to(out)) for p in out.rglob(".*") if p.name != ".nlo-lab-batch.lock"]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--inputs", type=int, default=40, help="at least this many inputs (copies of the recordings)")
+    ap.add_argument("--robot", default="yumi")
+    ap.add_argument("--iters", type=int, default=100)
+    ap.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
+    ap.add_argument("--keep", type=Path, default=None, help="work in this folder and keep it (default: a temporary one)")
+    ap.add_argument("--plain-loop", nargs=2, metavar=("CORPUS", "OUT"), help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.plain_loop:
+        return plain_loop(Path(args.plain_loop[0]), Path(args.plain_loop[1]), args.robot, args.iters)
+
+    work = args.keep or Path(tempfile.mkdtemp(prefix="nlo_lab_batch_bench_"))
+    work.mkdir(parents=True, exist_ok=True)
+    corpus = work / "corpus"
+    files = build_corpus(corpus, args.inputs)
+    load_start = os.getloadavg()[0]
+    print(f"corpus: {len(files)} inputs ({len(files) // len(sources())} copies of {', '.join(s.name for s in sources())}); "
+          f"robot {args.robot}, {args.iters} iterations; {os.cpu_count()} cores, niceness {os.nice(0)}, load average {load_start:.1f}")
+
+    results: list[tuple[str, float, float]] = []
+    cpu_mark = [children_cpu()]
+
+    def report(label, seconds):
+        cpu = children_cpu() - cpu_mark[0]  # the run's processes, all of them (they have ended)
+        cpu_mark[0] += cpu
+        results.append((label, seconds, cpu))
+        print(f"  {label:<44} {seconds:8.1f} s  {len(files) / seconds:6.2f} inputs/s  CPU {cpu:7.1f} s  "
+              f"(load {os.getloadavg()[0]:.1f})", flush=True)
+
+    loop_s, proc = timed([sys.executable, __file__, "--plain-loop", corpus, work / "loop", "--robot", args.robot, "--iters", args.iters])
+    if proc.returncode:
+        sys.exit(f"the plain loop failed:\n{proc.stderr[-3000:]}")
+    report("plain loop over retarget, one process", loop_s)
+    w1_s, code1, _, _ = run_watched(batch_cmd(corpus, work / "w1", args.robot, args.iters, "--workers", "1", "--quiet"))
+    report("nlo-lab batch --workers 1", w1_s)
+    w2_s, code2, local_sockets, local_ss = run_watched(batch_cmd(corpus, work / "w2", args.robot, args.iters, "--workers", "2", "--quiet"))
+    report("nlo-lab batch --workers 2", w2_s)
+    first_rows = {"1 worker": rows(work / "w1"), "2 workers": rows(work / "w2")}  # before the resume rewrites w2's table
+    resume_s, resume_proc = timed(batch_cmd(corpus, work / "w2", args.robot, args.iters, "--workers", "2", "--quiet"))
+    resumed = rows(work / "w2")
+    print(f"  {'nlo-lab batch --workers 2, resumed':<44} {resume_s:8.2f} s  "
+          f"({sum(r['status'] == 'skipped' for r in resumed)} skipped, exit {resume_proc.returncode})")
+    ext = external_cluster(corpus, work / "ext", args.robot, args.iters, work)
+    ext_ok = sum(r["status"] == "ok" for r in ext["rows"])
+    print(f"  {'dask scheduler + 2 dask workers, one kill -9':<44} {ext['seconds']:8.1f} s  {ext_ok}/{len(ext['rows'])} ok, "
+          f"exit {ext['exit']}, killed after {ext['killed_after']} rows; workers left {ext['workers_left']}")
+
+    names = [r["output"] for r in first_rows["1 worker"]]
+    all_ok = all(r["status"] == "ok" for v in first_rows.values() for r in v) and code1 == code2 == 0
+    same, same_note = same_results(work / "w1", work / "w2", names)
+    same_loop, _ = same_results(work / "w1", work / "loop", names)
+    sockets = local_sockets | ext["sockets"]
+    speedup, overhead, resume_share = w1_s / w2_s, w1_s / loop_s - 1, resume_s / w2_s
+    ext_pass = (ext["exit"] == 0 and ext_ok == len(files) == len(ext["rows"]) and ext["killed_after"] is not None
+                and ext["workers_left"] == 1 and ext["scheduler_alive"] and not leftovers(work / "ext"))
+    targets = [
+        (speedup >= TARGET_SPEEDUP, f"2 workers vs 1: {speedup:.2f}x the throughput (target >= {TARGET_SPEEDUP}x)"),
+        (overhead <= TARGET_OVERHEAD, f"1 worker vs the plain loop: {overhead * 100:+.1f} % time (target within {TARGET_OVERHEAD:.0%})"),
+        (resume_share < TARGET_RESUME and resume_proc.returncode == 0 and all(r["status"] == "skipped" for r in resumed),
+         f"resumed run over the finished corpus: {resume_share * 100:.1f} % of the first run's time (target < {TARGET_RESUME:.0%})"),
+        (ext_pass, f"dask scheduler + 2 dask workers, kill -9 of one after {ext['killed_after']} rows: {ext_ok}/{len(files)} ok, "
+                   f"exit {ext['exit']}, the cluster left running ({ext['workers_left']} worker), no half-written folder"),
+        (same and all_ok, f"results identical across 1 and 2 workers ({same_note}; every input ok: {all_ok}); "
+                          f"equal to the plain loop's too: {same_loop}"),
+        (bool(sockets) and all(s.startswith("127.0.0.1:") for s in sockets),
+         f"listening on 127.0.0.1 only: {len(local_sockets)} sockets of the LocalCluster run, {len(ext['sockets'])} of the "
+         f"dask scheduler and workers"),
+    ]
+    print("\ntargets")
+    for ok, text in targets:
+        print(f"  {'PASS' if ok else 'FAIL'}  {text}")
+    print("\nwhat listened (ss -ltnp):")
+    for line in local_ss + ext["ss"]:
+        print("  " + " ".join(line.split()))
+    if ext["stderr"]:
+        print(f"\nthe --scheduler run's stderr: {ext['stderr'][:500]}")
+    if not args.keep:
+        shutil.rmtree(work, ignore_errors=True)
+    if args.no_write:
+        return
+
+    lines = [
+        "## Batch: a corpus on dask.distributed (`nlo-lab batch`)",
+        "",
+        stamp().rstrip(),
+        "- a load above the core count means the runs shared the machine: the ratios are provisional unless it stayed under 1",
+        f"- corpus: {len(files)} inputs, copies of {', '.join(s.name for s in sources())}; robot {args.robot}, {args.iters} iterations",
+        "",
+        "| run (a fresh process each) | wall [s] | inputs/s | CPU [s] (all its processes) |",
+        "|---|---:|---:|---:|",
+        *(f"| {label} | {s:.1f} | {len(files) / s:.2f} | {cpu:.1f} |" for label, s, cpu in results),
+        f"| nlo-lab batch --workers 2, resumed (all skipped) | {resume_s:.2f} | |",
+        f"| dask scheduler + 2 dask workers over loopback, one killed -9 | {ext['seconds']:.1f} | {len(files) / ext['seconds']:.2f} |",
+        "",
+        *(f"- **{'PASS' if ok else 'FAIL'}** {text}" for ok, text in targets),
+    ]
+    print(f"wrote {update_section('batch', chr(10).join(lines))} (section batch)")
+
+
+if __name__ == "__main__":
+    main()
