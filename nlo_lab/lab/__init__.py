@@ -32,7 +32,16 @@ from nlo_lab.lab.cells import (
 from nlo_lab.lab.graph_plot import GraphLayout, graph_layout, plot_graph
 from nlo_lab.lab.hand_panel import HAND_SLIDERS, HandPanel
 from nlo_lab.lab.joint_panel import JointPanel
-from nlo_lab.lab.launch import bundled_notebooks, copy_notebooks, lab_command, notebook_revision, other_version_copies
+from nlo_lab.lab.launch import (
+    bundled_notebooks,
+    copy_notebooks,
+    lab_command,
+    notebook_revision,
+    open_hint,
+    other_version_copies,
+    root_refusal,
+    running_jupyter,
+)
 from nlo_lab.lab.retarget_panel import RetargetPanel
 from nlo_lab.lab.video_view import VideoView, jpeg_bytes, save_upload
 from nlo_lab.lab.views import View, guarded, svg_convergence
@@ -47,4 +56,5 @@ __all__ = [
     "VideoView", "jpeg_bytes", "save_upload",
     # launch
     "bundled_notebooks", "copy_notebooks", "lab_command", "notebook_revision", "other_version_copies",
+    "running_jupyter", "open_hint", "root_refusal",
 ]

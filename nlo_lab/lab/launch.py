@@ -7,6 +7,12 @@ work and is never overwritten, but :func:`other_version_copies` names those copi
 from another version of the package (the stamp ``metadata.nlo_lab.revision``, a
 digest of each notebook's source, differs or is missing), so that ``nlo-lab lab``
 can tell the learner to take the new ones. JupyterLab then opens that folder.
+
+Inside a Jupyter that already runs (a JupyterHub's single-user server, Binder, a
+notebook cell's ``!nlo-lab lab``: :func:`running_jupyter`) a second server would
+be a mistake: the notebooks are copied and :func:`open_hint` says where they are
+and how to open them in the Jupyter at hand. As root, JupyterLab refuses to start
+without ``--allow-root``: :func:`root_refusal` says so in one line before anything runs.
 """
 
 from __future__ import annotations
@@ -21,7 +27,8 @@ from nlo_lab.atomic_files import atomic_write_bytes
 from nlo_lab.errors import InstallationError, OutputError
 from nlo_lab.paths import NOTEBOOKS_DIR, repair_hint
 
-__all__ = ["bundled_notebooks", "copy_notebooks", "notebook_revision", "other_version_copies", "lab_command"]
+__all__ = ["bundled_notebooks", "copy_notebooks", "notebook_revision", "other_version_copies", "lab_command",
+           "running_jupyter", "open_hint", "root_refusal"]
 
 
 def bundled_notebooks() -> list[Path]:
@@ -96,12 +103,59 @@ def other_version_copies(kept: list[Path]) -> list[Path]:
     return out
 
 
-def lab_command(folder: Path, port: int) -> list[str]:
-    """The JupyterLab command line on ``folder``, bound to loopback only.
+def lab_command(folder: Path, port: int, allow_root: bool = False) -> list[str]:
+    """The JupyterLab command line on ``folder``, bound to loopback only (``allow_root``: JupyterLab's ``--allow-root``).
 
     Raises:
         NloLabError: JupyterLab is not installed (it is the ``lab`` extra).
     """
     if importlib.util.find_spec("jupyterlab") is None:
         raise InstallationError("JupyterLab is not installed in this environment; install it with `pip install \"nlo_lab[lab]\"`")
-    return [sys.executable, "-m", "jupyter", "lab", f"--notebook-dir={folder}", "--ip=127.0.0.1", f"--port={port}"]
+    command = [sys.executable, "-m", "jupyter", "lab", f"--notebook-dir={folder}", "--ip=127.0.0.1", f"--port={port}"]
+    return command + (["--allow-root"] if allow_root else [])
+
+
+def running_jupyter(environ: dict[str, str] | None = None) -> str | None:
+    """The Jupyter this process runs inside, or None.
+
+    ``"JupyterHub"`` when a ``JUPYTERHUB_*`` variable is set (a hub's single-user server and
+    its terminals and kernels; Binder is a JupyterHub too), ``"Jupyter"`` inside a kernel of a
+    running Jupyter server (``JPY_SESSION_NAME`` or ``JPY_PARENT_PID``: ``!nlo-lab lab`` in a cell).
+    """
+    env = os.environ if environ is None else environ
+    if any(key.startswith("JUPYTERHUB_") and env[key] for key in env):
+        return "JupyterHub"
+    if env.get("JPY_SESSION_NAME") or env.get("JPY_PARENT_PID"):
+        return "Jupyter"
+    return None
+
+
+def open_hint(folder: Path, first: str, environ: dict[str, str] | None = None) -> list[str]:
+    """At most three lines: where the copy is and how to open ``first`` (a notebook's name) in the running Jupyter.
+
+    The file browser shows the folder relative to the server's root (the home folder on a hub:
+    ``JUPYTER_SERVER_ROOT`` when set); on a hub, ``JUPYTERHUB_SERVICE_PREFIX`` (``/user/NAME/``)
+    gives the address of the notebook after the hub's own.
+    """
+    env = os.environ if environ is None else environ
+    folder = Path(folder).expanduser().resolve()
+    root = Path(env.get("JUPYTER_SERVER_ROOT") or Path.home()).expanduser().resolve()
+    try:
+        shown = folder.relative_to(root).as_posix()
+    except ValueError:  # outside the server's root: its file browser cannot reach it
+        return [f"the notebooks are in {folder}, outside the running Jupyter's folder {root}:",
+                f"copy them below {root} (nlo-lab lab --dir {root / 'nlo_lab_notebooks'}) to open them there"]
+    lines = [f"a Jupyter is running here, so none is started: open {shown}/{first} in its file browser"]
+    prefix = env.get("JUPYTERHUB_SERVICE_PREFIX")
+    if prefix:
+        lines.append(f"or at {prefix.rstrip('/')}/lab/tree/{shown}/{first} after your hub's address")
+    return lines
+
+
+def root_refusal(uid: int | None = None) -> str | None:
+    """Why ``nlo-lab lab`` stops as root (JupyterLab refuses to run as root unless told), or None."""
+    uid = os.geteuid() if uid is None and hasattr(os, "geteuid") else uid
+    if uid != 0:
+        return None
+    return ("nlo-lab lab: running as root, and JupyterLab refuses to start as root; run it as your own user, "
+            "or pass --allow-root if you mean it (--copy-only copies the notebooks without starting anything)")
