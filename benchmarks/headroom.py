@@ -40,8 +40,9 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
 
+from nlo_lab.corpus import sign_corpus  # noqa: E402
 from nlo_lab.evaluation import BaselineSettings, run_method  # noqa: E402
-from nlo_lab.human import map_to_robot, sign_corpus  # noqa: E402
+from nlo_lab.human import map_to_robot  # noqa: E402
 from nlo_lab.inference import JointOptimizeSettings, optimize_joints  # noqa: E402
 from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402

@@ -14,7 +14,7 @@ import statistics
 
 import torch
 
-from nlo_lab.human import corpus_clip
+from nlo_lab.corpus import corpus_clip
 from nlo_lab.lab import RetargetPanel
 
 

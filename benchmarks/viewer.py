@@ -54,7 +54,7 @@ def notebook(clip: str, frames: int) -> dict:
 
     cells = [
         "from nlo_lab.lab import setup\nsetup()",
-        f"from nlo_lab.human import corpus_clip\ndemo = corpus_clip({clip!r}).slice(0, {frames})\nprint(len(demo), 'frames')",
+        f"from nlo_lab.corpus import corpus_clip\ndemo = corpus_clip({clip!r}).slice(0, {frames})\nprint(len(demo), 'frames')",
         "from nlo_lab.lab import RetargetPanel\npanel = RetargetPanel(demo, 'yumi')\npanel",
         "from nlo_lab.robot import load_robot\nfrom nlo_lab.lab import JointPanel\njoints = JointPanel(load_robot('yumi'))\njoints",
         "from nlo_lab.viz import SceneWidget\nSceneWidget.default_detail = 'full'  # meshcat's own tessellation\n"
@@ -106,7 +106,7 @@ def bare_page_fps(browser, tmp: Path, clip: str, frames: int, size: list[int], d
     """Frames/s of the same scene (robot, hands, human, lights) in a bare meshcat page outside Jupyter, same browser."""
     import numpy as np
 
-    from nlo_lab.human import corpus_clip
+    from nlo_lab.corpus import corpus_clip
     from nlo_lab.robot import load_robot
     from nlo_lab.viz import RetargetScene, recording_visualizer
     from nlo_lab.viz.export import scene_html
@@ -172,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
     import nbformat
     from playwright.sync_api import sync_playwright
 
-    from nlo_lab.human import corpus_clip
+    from nlo_lab.corpus import corpus_clip
 
     duration = args.frames / corpus_clip(args.clip).fps  # the page's animation plays the clip once
 

@@ -53,11 +53,8 @@ def _check_weights(weights) -> None:
 
 
 def _load_input(text: str):
-    from nlo_lab.corpus import corpus_clip
-    from nlo_lab.human import load_demonstration
+    from nlo_lab.sources import load_demonstration  # the corpus and the readers: not for --help
 
-    if text.startswith("demo:"):
-        return corpus_clip(text[len("demo:"):])
     return load_demonstration(text)
 
 

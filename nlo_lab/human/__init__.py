@@ -1,8 +1,6 @@
 """Human demonstrations: the data model, readers and writers, the skeleton graph.
 
-``sign_corpus``, ``corpus_clip`` and ``corpus_names`` (the synthetic corpus, which lives in
-:mod:`nlo_lab.corpus`) are re-exported here on first use: the corpus is built on this
-package, so importing it eagerly would make the two import each other.
+The synthetic sign corpus is built on this package and lives after it, in :mod:`nlo_lab.corpus`.
 """
 
 from nlo_lab.human.demonstration import ARM_JOINTS, FINGER_POINTS, FINGERS, SIDES, Demonstration
@@ -27,14 +25,5 @@ __all__ = [
     "resample",
     "map_to_robot",
     "wrist_frame_from_hand",
-    "sign_corpus", "corpus_clip", "corpus_names",
 ]
 
-
-def __getattr__(name: str):
-    """``nlo_lab.human.sign_corpus`` & co.: the objects of :mod:`nlo_lab.corpus`, imported on first use."""
-    if name in ("sign_corpus", "corpus_clip", "corpus_names"):
-        import nlo_lab.corpus
-
-        return getattr(nlo_lab.corpus, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -18,7 +18,7 @@ from nlo_lab.inference.fast_paths import FastPaths, fast_paths
 from nlo_lab.inference.joint_space import optimize_joints
 from nlo_lab.inference.latent import initial_latent, optimize_latent, optimize_stream, sequence_start
 from nlo_lab.inference.pipeline import CHUNK_FRAMES, RetargetConfig, Retargeter, RetargetInputs, RetargetResult, retarget, summary
-from nlo_lab.inference.retime import joint_speeds, retime_times, segment_durations, speed_ratios
+from nlo_lab.inference.retime import retime_times, segment_durations
 from nlo_lab.inference.settings import INITS, JOINT_INITS, JOINT_LIMITS, PAPER_LR, SMOOTH_LR, JointOptimizeSettings, OptimizeSettings
 from nlo_lab.inference.trajectory import FORMAT_VERSION, RobotTrajectory, TrajectoryError
 
@@ -32,7 +32,7 @@ __all__ = [
     # latent, joint_space
     "initial_latent", "sequence_start", "optimize_latent", "optimize_stream", "optimize_joints",
     # retime, trajectory
-    "retime_times", "segment_durations", "joint_speeds", "speed_ratios",
+    "retime_times", "segment_durations",
     "RobotTrajectory", "TrajectoryError", "FORMAT_VERSION",
     # pipeline
     "CHUNK_FRAMES", "RetargetConfig", "Retargeter", "RetargetInputs", "RetargetResult", "retarget", "summary",

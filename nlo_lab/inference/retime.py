@@ -28,20 +28,11 @@ from __future__ import annotations
 import numpy as np
 
 from nlo_lab.errors import SettingsError
+from nlo_lab.metrics import speed_ratios
 
-__all__ = ["SAFETY", "segment_durations", "retime_times", "joint_speeds", "speed_ratios"]
+__all__ = ["SAFETY", "segment_durations", "retime_times"]
 
 SAFETY = 1.0 + 1e-9  # segments are stretched by this much more than needed (float rounding of cumsum)
-
-
-def _inputs(angles, limits) -> tuple[np.ndarray, np.ndarray]:
-    q = np.asarray(angles, dtype=np.float64)
-    v = np.asarray(limits, dtype=np.float64).reshape(-1)
-    if q.ndim != 2 or q.shape[1] != v.shape[0]:
-        raise SettingsError(f"angles must be (T, {v.shape[0]}) to match the velocity limits, got {q.shape}")
-    if not (v > 0).all():
-        raise SettingsError("velocity limits must be > 0 (inf = no limit)")
-    return q, v
 
 
 def segment_durations(angles, fps: float, limits) -> np.ndarray:
@@ -52,30 +43,16 @@ def segment_durations(angles, fps: float, limits) -> np.ndarray:
         fps: the recording's frame rate; no segment is faster than ``1/fps``.
         limits: ``(n,)`` joint velocity limits [rad/s] (``inf`` = unlimited).
     """
-    q, v = _inputs(angles, limits)
     if not fps > 0:
         raise SettingsError(f"fps must be > 0, got {fps!r}")
+    q = np.asarray(angles, dtype=np.float64)
+    # a segment's speed ratio when it takes one second is the time [s] it needs at full speed
+    ratios = speed_ratios(q, np.arange(len(q), dtype=np.float64), limits)  # (T-1, n), validates the shapes
     if len(q) < 2:
         return np.zeros(0)
-    need = (np.abs(np.diff(q, axis=0)) / v).max(axis=1) * SAFETY  # (T-1,) [s]
-    return np.maximum(need, 1.0 / fps)
+    return np.maximum(ratios.max(axis=1) * SAFETY, 1.0 / fps)
 
 
 def retime_times(angles, fps: float, limits) -> np.ndarray:
     """``(T,)`` sample times [s] from 0, so that no joint exceeds its velocity limit."""
     return np.concatenate([[0.0], np.cumsum(segment_durations(angles, fps, limits))])
-
-
-def joint_speeds(angles, times) -> np.ndarray:
-    """``(T-1, n)`` finite-difference joint speeds ``|Δq| / Δt`` [rad/s] on the time base ``times``."""
-    q = np.asarray(angles, dtype=np.float64)
-    t = np.asarray(times, dtype=np.float64)
-    if t.shape != (q.shape[0],):
-        raise SettingsError(f"times must be ({q.shape[0]},) to match the angles, got {t.shape}")
-    return np.abs(np.diff(q, axis=0)) / np.diff(t)[:, None]
-
-
-def speed_ratios(angles, times, limits) -> np.ndarray:
-    """``(T-1, n)`` joint speed over its limit: > 1 is a violation (0 for unlimited joints)."""
-    q, v = _inputs(angles, limits)
-    return joint_speeds(q, times) / v

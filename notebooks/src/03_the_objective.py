@@ -19,7 +19,7 @@ setup()
 import matplotlib.pyplot as plt
 import torch
 
-from nlo_lab.human import corpus_clip, corpus_names
+from nlo_lab.corpus import corpus_clip, corpus_names
 from nlo_lab.objective import LossWeights, objective, targets_from_demonstration
 from nlo_lab.robot import load_robot
 

@@ -52,7 +52,7 @@ print(f"angles outside the limits: {int(((q < lo) | (q > hi)).sum())} of {q.nume
 # starts: the next section starts it at random.
 
 # %%
-from nlo_lab.human import corpus_clip, corpus_names
+from nlo_lab.corpus import corpus_clip, corpus_names
 from nlo_lab.objective import targets_from_demonstration
 
 demo = corpus_clip(corpus_names("test")[1])

@@ -16,7 +16,7 @@ setup()
 # %%
 import numpy as np
 
-from nlo_lab.human import corpus_clip, corpus_names
+from nlo_lab.corpus import corpus_clip, corpus_names
 from nlo_lab.model import encoder_input, load_pretrained
 from nlo_lab.objective import targets_from_demonstration
 from nlo_lab.robot import load_robot

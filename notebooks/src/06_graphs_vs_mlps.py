@@ -107,8 +107,8 @@ with time_bar(SECONDS * len(VARIANTS), f"training {len(VARIANTS)} variants") as 
 # the frozen decoder (`latent_encoder`). The metric is the Fréchet distance of `docs/DESIGN.md`, "Metric" (wrist and elbow, mean).
 
 # %%
+from nlo_lab.corpus import corpus_clip, corpus_names
 from nlo_lab.evaluation import BaselineSettings, run_method
-from nlo_lab.human import corpus_clip, corpus_names
 from nlo_lab.metrics import tracking_errors
 
 demos = [corpus_clip(n) for n in corpus_names("test")[: budget(4, 1)]]

@@ -22,7 +22,7 @@ setup()
 # here sees unseen motions. In test mode we keep two short clips.
 
 # %%
-from nlo_lab.human import corpus_clip, corpus_names
+from nlo_lab.corpus import corpus_clip, corpus_names
 from nlo_lab.model import load_pretrained
 from nlo_lab.robot import load_robot
 

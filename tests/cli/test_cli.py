@@ -62,7 +62,8 @@ def test_corrupt_file_exit_2_nothing_written(capsys, tmp_path, assert_one_line_e
 
 
 def test_nan_in_npz_names_field_exit_2(capsys, tmp_path, assert_one_line_error):
-    from nlo_lab.human import save_npz, sign_corpus
+    from nlo_lab.corpus import sign_corpus
+    from nlo_lab.human import save_npz
 
     demo = sign_corpus("test")[0].slice(0, 10)
     path = tmp_path / "clip.npz"
@@ -81,7 +82,7 @@ def test_unknown_demo_clip_exit_2(capsys, assert_one_line_error):
 
 
 def test_retarget_json_and_files(capsys, tmp_path):
-    from nlo_lab.human import corpus_names
+    from nlo_lab.corpus import corpus_names
 
     name = corpus_names("test")[0]
     out_dir = tmp_path / "out"
@@ -152,7 +153,7 @@ class _Terminal:
 
 @pytest.mark.parametrize("quiet", [False, True])
 def test_retarget_progress_bar_on_a_terminal_unless_quiet(monkeypatch, capsys, quiet):
-    from nlo_lab.human import corpus_names
+    from nlo_lab.corpus import corpus_names
 
     term = _Terminal()
     monkeypatch.setattr(sys, "stderr", term)
@@ -166,7 +167,7 @@ def test_retarget_progress_bar_on_a_terminal_unless_quiet(monkeypatch, capsys, q
 
 
 def test_retarget_progress_bar_leaves_the_result_unchanged(capsys):
-    from nlo_lab.human import corpus_clip, corpus_names
+    from nlo_lab.corpus import corpus_clip, corpus_names
     from nlo_lab.inference import OptimizeSettings, retarget
     from nlo_lab.robot import load_robot
 

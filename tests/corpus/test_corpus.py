@@ -226,14 +226,3 @@ def test_motion_is_smooth(all_demos):
         assert tip_acc.max() < FINGERTIP_ACCEL_BOUND, (d.name, tip_acc.max())
         # signing actually moves: the dominant wrist travels and changes speed
         assert speed.max() > 0.3
-
-
-def test_human_re_exports_the_corpus_objects():
-    """``nlo_lab.human.sign_corpus`` & co. (the README's path) are the corpus package's objects, imported on first use."""
-    import nlo_lab.corpus
-    import nlo_lab.human
-
-    for name in ("sign_corpus", "corpus_clip", "corpus_names"):
-        assert getattr(nlo_lab.human, name) is getattr(nlo_lab.corpus, name)
-    with pytest.raises(AttributeError, match="no attribute 'corpus_nothing'"):
-        nlo_lab.human.corpus_nothing  # noqa: B018

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import torch
 
+from nlo_lab.corpus import corpus_clip
 from nlo_lab.errors import SettingsError
-from nlo_lab.human import corpus_clip
 from nlo_lab.inference import FastPaths, OptimizeSettings, RetargetConfig, RetargetInputs, fast_paths, optimize_joints, optimize_latent
 from nlo_lab.inference.fast_paths import DECODER_NUMPY_MAX_BATCH, OBJECTIVE_NUMPY_MAX_FRAMES
 from nlo_lab.model import load_pretrained

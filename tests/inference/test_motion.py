@@ -13,7 +13,8 @@ import pytest
 import torch
 
 from nlo_lab.cli import main
-from nlo_lab.human import corpus_clip, load_demonstration
+from nlo_lab.corpus import corpus_clip
+from nlo_lab.human import load_demonstration
 from nlo_lab.human.conditioning import condition_demonstration, savgol
 from nlo_lab.inference import (
     OptimizeSettings,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from nlo_lab.human import corpus_clip
+from nlo_lab.corpus import corpus_clip
 from nlo_lab.inference import OptimizeSettings, RetargetInputs, descend, optimize_latent
 from nlo_lab.inference.numpy_descent import NumpyLatentLoss
 from nlo_lab.model import GraphDecoder, MLPDecoder, build_model

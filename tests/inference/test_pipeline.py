@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import torch
 
+from nlo_lab.corpus import corpus_clip
 from nlo_lab.errors import SettingsError
 from nlo_lab.evaluation import BaselineSettings, run_method
-from nlo_lab.human import corpus_clip
 from nlo_lab.inference import (
     OptimizeSettings,
     RetargetConfig,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nlo_lab.corpus import sign_corpus
 from nlo_lab.errors import NloLabError
-from nlo_lab.human import sign_corpus
 from nlo_lab.lab import VideoView, jpeg_bytes, save_upload
 from nlo_lab.robot import load_robot
 

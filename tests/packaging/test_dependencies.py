@@ -1,114 +1,79 @@
-"""Dependencies run one way along the data's path: the stages downstream of inference
-(training, evaluation, the notebooks' side, the command line) are never imported by what
-comes before them, not even inside a function. Read from the source with ast."""
+"""Dependencies run one way along the data's path (docs/ARCHITECTURE.md, "The order"): every module of
+nlo_lab belongs to a stage of ``ORDER`` and imports only from its own stage or earlier ones, not even
+inside a function; no modules import each other in a circle; and the picture of docs/ARCHITECTURE.md
+is the code's. ``tools/architecture.py`` holds the order and reads the imports with ast."""
 
 from __future__ import annotations
 
-import ast
+import importlib.util
 from pathlib import Path
 
 import pytest
 
-PACKAGE = Path(__file__).resolve().parents[2] / "nlo_lab"
-
-# stage -> the nlo_lab modules (prefixes) that belong to it, in the data's order
-STAGES = {
-    "training": ("nlo_lab.training",),
-    "evaluation": ("nlo_lab.evaluation",),
-    "lab": ("nlo_lab.lab",),
-    "batch": ("nlo_lab.batch",),
-    "cli": ("nlo_lab.cli",),
-}
-ORDER = list(STAGES)
-# still to fix; entries only go (empty: the model loads without the training stage)
-PENDING: set[tuple[str, str]] = set()
+ROOT = Path(__file__).resolve().parents[2]
 
 
-def _module_name(path: Path) -> str:
-    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+@pytest.fixture(scope="module")
+def arch():
+    spec = importlib.util.spec_from_file_location("nlo_lab_tools_architecture", ROOT / "tools" / "architecture.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def _stage(module: str) -> int:
-    """Index in ORDER, or -1 for everything upstream (robot, human, objective, model, inference, viz ...)."""
-    for i, stage in enumerate(ORDER):
-        if any(module == p or module.startswith(p + ".") for p in STAGES[stage]):
-            return i
-    return -1
+def test_every_module_has_a_stage(arch):
+    lost = sorted(m for m in arch.modules() if arch.stage(m) < 0)
+    assert not lost, f"place these in tools/architecture.py's ORDER (and in docs/ARCHITECTURE.md): {lost}"
 
 
-def _is_main_block(node: ast.stmt) -> bool:
-    return isinstance(node, ast.If) and isinstance(node.test, ast.Compare) and getattr(node.test.left, "id", None) == "__name__"
+def test_nothing_imports_a_later_stage(arch):
+    found = arch.backward_imports()
+    assert not found, "imports against the data's path (move the code or the import):\n" + "\n".join(map(str, found))
 
 
-def _imports(path: Path) -> set[str]:
-    module = _module_name(path)
-    package = module.split(".") if path.name == "__init__.py" else module.split(".")[:-1]
-    tree = ast.parse(path.read_text(encoding="utf-8"))
-    # a module's `if __name__ == "__main__":` block is a program that runs it, not a dependency
-    main_blocks = {id(n) for block in tree.body if _is_main_block(block) for n in ast.walk(block)}
-    found = set()
-    for node in ast.walk(tree):
-        if id(node) in main_blocks:
-            continue
-        if isinstance(node, ast.Import):
-            found |= {a.name for a in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                base = ".".join(package[: len(package) - node.level + 1] + ([base] if base else []))
-            found |= {base} | {f"{base}.{a.name}" for a in node.names}
-    return {m for m in found if m.startswith("nlo_lab")}
+def test_no_modules_import_each_other_in_a_circle(arch):
+    assert arch.cycles() == []
 
 
-def backward_imports() -> list[tuple[str, str]]:
-    """``(importer, imported)`` where the imported module belongs to a later stage than the importer."""
-    out = []
-    for path in sorted(PACKAGE.rglob("*.py")):
-        importer = _module_name(path)
-        if importer.endswith("__main__"):
-            continue
-        for imported in sorted(_imports(path)):
-            if _stage(imported) > _stage(importer):
-                out.append((importer, imported))
-    return out
+def test_the_front_door_is_seen_importing_its_homes(arch):
+    import nlo_lab
+
+    graph = arch.import_graph()
+    assert set(nlo_lab._HOMES.values()) <= graph["nlo_lab"]
 
 
-def test_nothing_imports_a_later_stage():
-    new = sorted(set(backward_imports()) - PENDING)
-    assert not new, "imports against the data's path (move the code or the import):\n" + "\n".join(map(str, new))
+def test_the_picture_in_the_docs_is_the_codes(arch):
+    text = (ROOT / "docs" / "ARCHITECTURE.md").read_text(encoding="utf-8")
+    assert arch.current_picture(text) == arch.diagram(), "stale: run `python tools/architecture.py`"
 
 
-def test_the_check_sees_an_import_inside_a_function(tmp_path, monkeypatch):
+def test_the_checks_see_what_they_look_for(arch, tmp_path):
+    """An import inside a function, a relative import, a later stage, the front door and a circle are all found."""
     fake = tmp_path / "nlo_lab"
-    (fake / "model").mkdir(parents=True)
+    for folder in ("model", "lab", "training", "human", "evaluation", "cli"):
+        (fake / folder).mkdir(parents=True)
+        (fake / folder / "__init__.py").write_text("", encoding="utf-8")
+    (fake / "__init__.py").write_text("", encoding="utf-8")
     (fake / "model" / "checkpoint.py").write_text("def f():\n    from nlo_lab.training import train_model\n", encoding="utf-8")
-    (fake / "lab").mkdir()
     (fake / "lab" / "cells.py").write_text("from ..evaluation import evaluate\nimport nlo_lab.cli\n", encoding="utf-8")
-    (fake / "training").mkdir()
     (fake / "training" / "run.py").write_text("if __name__ == '__main__':\n    from nlo_lab.cli import main\n", encoding="utf-8")
-    monkeypatch.setitem(globals(), "PACKAGE", fake)
-    assert backward_imports() == [
+    (fake / "human" / "a.py").write_text("from nlo_lab.human import b\n", encoding="utf-8")
+    (fake / "human" / "b.py").write_text("def g():\n    from . import a\n", encoding="utf-8")
+    (fake / "human" / "c.py").write_text("import nlo_lab\nv = nlo_lab.__version__\n", encoding="utf-8")  # allowed
+    (fake / "human" / "d.py").write_text("import nlo_lab\nf = nlo_lab.retarget\n", encoding="utf-8")  # the front door: not
+    assert arch.backward_imports(fake) == [
+        ("nlo_lab.human.d", "nlo_lab"),
         ("nlo_lab.lab.cells", "nlo_lab.cli"),
         ("nlo_lab.model.checkpoint", "nlo_lab.training"),
-        ("nlo_lab.model.checkpoint", "nlo_lab.training.train_model"),
     ]
+    assert arch.cycles(fake) == [["nlo_lab.human.a", "nlo_lab.human.b"]]
 
 
-@pytest.mark.parametrize("module, stage", [("nlo_lab.training.train", 0), ("nlo_lab.evaluation.scores", 1), ("nlo_lab.lab", 2), ("nlo_lab.robot", -1)])
-def test_stages(module, stage):
-    assert _stage(module) == stage
-
-
-# the synthetic corpus is built on the human package: human imports it only to re-export it
-# (nlo_lab.human's lazy sign_corpus & co.)
-CORPUS_REEXPORTS = {"nlo_lab.human"}
-
-
-def test_human_imports_the_corpus_only_to_re_export_it():
-    importers = {_module_name(p) for p in sorted((PACKAGE / "human").rglob("*.py")) if any(m.startswith("nlo_lab.corpus") for m in _imports(p))}
-    assert importers == CORPUS_REEXPORTS, "nlo_lab.human must not build on nlo_lab.corpus (the corpus comes after it)"
-    for module in CORPUS_REEXPORTS:  # a re-export holds no code of its own
-        tree = ast.parse((PACKAGE.parent / (module.replace(".", "/") + ("/__init__.py" if module == "nlo_lab.human" else ".py"))).read_text())
-        if module != "nlo_lab.human":
-            assert all(isinstance(n, (ast.Expr, ast.ImportFrom, ast.Assign)) for n in tree.body), module
+@pytest.mark.parametrize("module, before, after", [
+    ("nlo_lab.training.train", "nlo_lab.inference.latent", "nlo_lab.evaluation.scores"),
+    ("nlo_lab.metrics", "nlo_lab.robot.robot", "nlo_lab.inference.retime"),
+    ("nlo_lab.corpus.body", "nlo_lab.human.demonstration", "nlo_lab.sources"),
+    ("nlo_lab", "nlo_lab.batch", "nlo_lab.cli.app"),
+])
+def test_stages(arch, module, before, after):
+    assert arch.stage(before) < arch.stage(module) < arch.stage(after)

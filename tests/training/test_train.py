@@ -111,7 +111,7 @@ def test_load_pretrained_without_a_checkpoint_says_how_to_make_one(tmp_path, mon
 
 
 def test_validation_is_held_out_of_the_training_split_never_the_test_split():
-    from nlo_lab.human import corpus_names
+    from nlo_lab.corpus import corpus_names
     from nlo_lab.training import train_validation_split
 
     fit, val = train_validation_split()
