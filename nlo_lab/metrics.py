@@ -28,7 +28,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from nlo_lab.errors import SettingsError, SettingsTypeError
+from nlo_lab.human import map_to_robot
 from nlo_lab.human.demonstration import SIDES
+from nlo_lab.robot import check_angles
 
 if TYPE_CHECKING:  # pragma: no cover
     from nlo_lab.human import Demonstration
@@ -217,13 +219,12 @@ def acceleration_error(a: Any, b: Any, fps: float) -> float:
 
 # ----------------------------------------------------------------- robot side
 def _angles(robot, angles: Any) -> np.ndarray:
-    from nlo_lab.robot import check_angles
-
     return check_angles(angles, robot.n_joints, robot.name, getattr(robot, "joint_names", None))  # (T, n) float64
 
 
 def _poses_torch(robot, q: np.ndarray):
     """FK of ``(T, n)`` angles in the robot's dtype and device: link -> ``(T, 4, 4)`` tensors."""
+    # lazy: torch: the command line's --help and bad flags do not wait for it
     import torch
 
     ref = robot.lower_limits
@@ -238,8 +239,6 @@ def _forward(robot, q: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def _mapped_human(demo: Demonstration, robot) -> np.ndarray:
-    from nlo_lab.human import map_to_robot
-
     mapped = np.asarray(map_to_robot(demo, robot), dtype=np.float64)
     if mapped.shape != (len(demo), 2, 3, 3):
         raise SettingsError(f"map_to_robot returned shape {mapped.shape}, expected {(len(demo), 2, 3, 3)}")
@@ -301,6 +300,7 @@ def self_collision_frames(robot, angles: Any) -> int:
         angles: ``(T, n_joints)`` [rad].
     """
     q = _angles(robot, angles)
+    # lazy: torch: the command line's --help and bad flags do not wait for it
     import torch
 
     with torch.no_grad():

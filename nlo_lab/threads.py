@@ -68,6 +68,7 @@ def default_threads() -> int:
 @contextlib.contextmanager
 def single_thread(n: int | None = None) -> Iterator[None]:
     """Run the block with ``n`` torch and BLAS threads (default :func:`default_threads`), then restore."""
+    # lazy: torch: the command line's --help and bad flags do not wait for it
     import torch
 
     n = default_threads() if n is None else check_threads("threads", n)
@@ -83,6 +84,7 @@ def single_thread(n: int | None = None) -> Iterator[None]:
 @functools.cache
 def _blas():
     """The loaded BLAS libraries' thread pools (threadpoolctl; found once, the search takes about 0.5 ms)."""
+    # lazy: only when threads are set
     from threadpoolctl import ThreadpoolController
 
     return ThreadpoolController()

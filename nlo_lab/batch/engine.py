@@ -32,7 +32,7 @@ from nlo_lab.batch.lock import run_lock
 from nlo_lab.batch.plan import plan_run
 from nlo_lab.batch.progress import Progress
 from nlo_lab.batch.settings import BatchSettings
-from nlo_lab.batch.table import ResultsTable, failed_row
+from nlo_lab.batch.table import COLUMNS, ResultsTable, failed_row
 from nlo_lab.errors import NloLabError, escape
 
 __all__ = ["SchedulerError", "CONNECT_TIMEOUT", "available_cores", "retarget_many", "to_frame"]
@@ -135,6 +135,7 @@ def _warm_up(client, settings: BatchSettings, token: str) -> list:
     """Every worker builds the retargeter (robot, model) before any input is sent; the first to finish
     decides: a bad setting (an unknown robot ...) or a worker that cannot run nlo_lab is an error here,
     before any row is written. Returns the futures (kept until the run ends, so every worker warms up)."""
+    # lazy: the batch extra: only a run on a cluster needs it
     from distributed import as_completed
 
     from nlo_lab.batch import tasks
@@ -158,6 +159,7 @@ def _warm_up(client, settings: BatchSettings, token: str) -> list:
 def _run(client, jobs, table: ResultsTable, progress: Progress, on_row) -> None:
     """Submit every job, collect the rows as they come (a video: plan, segments, then its job).
     The progress starts once a worker has loaded the model (a bad setting is one error line, alone)."""
+    # lazy: the batch extra: only a run on a cluster needs it
     from distributed import as_completed
 
     from nlo_lab.batch import tasks
@@ -224,10 +226,10 @@ def _sweep(jobs) -> None:
 def to_frame(rows: list[dict]):
     """The rows as a pandas DataFrame when pandas is installed, else the list itself."""
     try:
+        # lazy: optional (dask's); only this table needs it
         import pandas
     except ImportError:
         return rows
-    from nlo_lab.batch.table import COLUMNS
 
     return pandas.DataFrame(rows, columns=list(COLUMNS))
 

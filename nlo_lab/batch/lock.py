@@ -35,6 +35,7 @@ def run_lock(out: Path) -> Iterator[Path]:
         raise OutputError(f"cannot write in {out}: {err.strerror or err}") from None
     try:
         try:
+            # lazy: POSIX only
             import fcntl
 
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

@@ -54,6 +54,7 @@ def write_output_folder(out_dir, result, demo, robot, *, viewer: bool = True, su
         result.trajectory.save_npz(tmp / "trajectory.npz")
         result.trajectory.save_csv(tmp / "trajectory.csv")
         if viewer:
+            # lazy: meshcat: only when the viewer page is asked for
             from nlo_lab.viz import export_html
 
             export_html(tmp / VIEWER_FILE, robot, result.trajectory.angles, demo=demo, fps=demo.fps, single_precision=True,

@@ -10,6 +10,8 @@ from __future__ import annotations
 import sys
 import time
 
+from tqdm.auto import tqdm
+
 __all__ = ["LOG_INTERVAL", "Progress", "format_seconds"]
 
 LOG_INTERVAL = 10.0  # seconds between two plain progress lines
@@ -52,8 +54,6 @@ class Progress:
             return
         interactive = getattr(self.stream, "isatty", lambda: False)() or "ipykernel" in sys.modules
         if interactive:
-            from tqdm.auto import tqdm
-
             note = f" ({skipped} from earlier runs)" if skipped else ""
             self._bar = tqdm(total=total, desc=f"batch{note}", unit="input", file=self.stream, dynamic_ncols=True,
                              bar_format="{desc}: {bar} {n_fmt}/{total_fmt} done, {postfix} [{elapsed}<{remaining}, {rate_fmt}]")

@@ -109,6 +109,7 @@ class BatchSettings:
         Raises:
             NloLabError: an unknown robot, a bad spec or checkpoint, a setting out of range.
         """
+        # lazy: torch: building the retargeter is the workers' work, not the client's
         from nlo_lab.inference import OptimizeSettings, RetargetConfig
         from nlo_lab.objective import LossWeights
         from nlo_lab.robot import load_robot

@@ -106,6 +106,7 @@ def warm_up(settings: BatchSettings) -> str | NloLabError:
     """Build the retargeter of ``settings`` in this worker (kept for the inputs to come): nlo_lab's version
     here, or the error that building met (an unknown robot, a bad spec or checkpoint, a setting out of
     range), returned rather than raised so that the worker's log stays clean."""
+    # lazy: the version, on the worker
     import nlo_lab
 
     try:
@@ -117,6 +118,7 @@ def warm_up(settings: BatchSettings) -> str | NloLabError:
 
 def video_segments(path: str) -> list[tuple[int, int | None]] | Failure:
     """The frame ranges of a video's pose estimation, one task each (:func:`nlo_lab.human.pose_estimation.segment_bounds`)."""
+    # lazy: mediapipe (the video extra): only for videos
     from nlo_lab.human.pose_estimation import segment_bounds
 
     try:
@@ -127,6 +129,7 @@ def video_segments(path: str) -> list[tuple[int, int | None]] | Failure:
 
 def video_segment(path: str, first: int, end: int | None):
     """MediaPipe Holistic on frames ``[first, end)`` of a video (:func:`nlo_lab.human.pose_estimation.estimate_segment`)."""
+    # lazy: mediapipe (the video extra): only for videos
     from nlo_lab.human.pose_estimation import estimate_segment
 
     try:
@@ -138,9 +141,11 @@ def video_segment(path: str, first: int, end: int | None):
 def _read(job: Job, segments) -> tuple:
     """The demonstration and, for a video, the pose estimation's seconds (None otherwise)."""
     if not job.item.is_video:
+        # lazy: the readers, on the worker
         from nlo_lab.human import load_demonstration
 
         return load_demonstration(job.item.path), None
+    # lazy: mediapipe (the video extra): only for videos
     from nlo_lab.human.io_video import pose_to_demonstration
     from nlo_lab.human.pose_estimation import join_segments
 

@@ -39,6 +39,7 @@ import numpy as np
 import torch
 
 from nlo_lab.errors import SettingsError
+from nlo_lab.human import map_to_robot, node_features
 from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetConfig, optimize_joints, retime_times
 from nlo_lab.objective import LossWeights, objective, targets_from_demonstration
 from nlo_lab.settings import (
@@ -280,8 +281,6 @@ def ik(robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResu
     """Inverse kinematics of the wrists only: the human wrists mapped into the robot
     frame (:func:`nlo_lab.human.map_to_robot`), damped least squares with clamping
     (:func:`ik_wrists`), every frame from the neutral pose."""
-    from nlo_lab.human import map_to_robot
-
     s = settings or BaselineSettings()
     start = time.perf_counter()
     mapped = map_to_robot(demo, robot)[:, :, 2]  # (T, 2, 3) wrists [m], NaN where masked
@@ -297,8 +296,6 @@ def nn_supervised(robot, demo, settings: BaselineSettings | None = None, *, netw
         network: a trained :class:`SupervisedNet` (default: :func:`supervised_network`
             with ``settings.supervised``; training time is not part of ``seconds``).
     """
-    from nlo_lab.human import node_features
-
     s = settings or BaselineSettings()
     net = network if network is not None else supervised_network(robot, s.supervised)
     start = time.perf_counter()

@@ -33,6 +33,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from nlo_lab.corpus import sign_corpus
 from nlo_lab.errors import SettingsError
@@ -167,7 +168,6 @@ def evaluate(
         info["nn_label_seconds"] = network.info.get("label_seconds")
         info["nn_train_seconds"] = network.info.get("train_seconds")
     scores: dict[str, dict[str, SequenceScore]] = {m: {} for m in methods}
-    from tqdm.auto import tqdm
 
     bar = tqdm(total=len(demos) * len(methods), desc=f"evaluate {robot.name}", disable=not progress, file=sys.stderr, leave=False)
     for name, demo in zip(names, demos, strict=True):

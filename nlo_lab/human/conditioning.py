@@ -36,6 +36,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from nlo_lab.human.demonstration import Demonstration
+from nlo_lab.human.transforms import fill_gaps
+
 __all__ = [
     "SMOOTH_SECONDS",
     "SMOOTH_ORDER",
@@ -227,9 +230,6 @@ def condition_demonstration(demo, max_gap_seconds: float = 0.25):
     in the camera frame (plus hand scaling and depth); this is for other sources, e.g. a
     demonstration with injected noise.
     """
-    from nlo_lab.human.demonstration import Demonstration
-    from nlo_lab.human.transforms import fill_gaps
-
     fps = float(demo.fps)
     max_gap = int(round(max_gap_seconds * fps))
     window = window_frames(fps)
@@ -265,8 +265,6 @@ def continuous_rotations(R: np.ndarray, ok: np.ndarray, max_gap: int, fps: float
     Returns:
         ``(rotations, valid, repaired)``: NaN where not valid; the number of flipped frames.
     """
-    from nlo_lab.human.transforms import fill_gaps
-
     ok = np.asarray(ok, bool) & np.isfinite(R).all(axis=(1, 2))
     steps = np.nan_to_num(rotation_steps(np.where(ok[:, None, None], R, np.nan)))  # (T-1,)
     jump = np.concatenate([[0.0], steps]) > ROTATION_JUMP  # turned away from the previous frame

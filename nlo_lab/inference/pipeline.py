@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from tqdm.auto import tqdm
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.human import Demonstration
@@ -307,7 +308,6 @@ def _progress_bar(show: bool, total: int, desc: str):
     if not show:
         yield None
         return
-    from tqdm.auto import tqdm
 
     bar = tqdm(total=total, desc=desc, unit="it", file=sys.stderr, leave=False)
 

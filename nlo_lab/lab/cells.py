@@ -21,9 +21,14 @@ import time
 from pathlib import Path
 
 import numpy as np
+import torch
+from tqdm.auto import tqdm
 
 from nlo_lab.errors import NloLabError, OutputError, SettingsError
 from nlo_lab.paths import RECORDINGS_DIR
+from nlo_lab.robot import load_robot
+from nlo_lab.threads import default_threads
+from nlo_lab.viz.tracks import LOOP
 
 __all__ = [
     "TEST_ENV",
@@ -65,10 +70,6 @@ def setup(seed: int = 0, quiet: bool = False) -> None:
         seed: the seed of every generator.
         quiet: print nothing.
     """
-    import torch
-
-    from nlo_lab.threads import default_threads
-
     random.seed(seed)
     np.random.seed(seed)
     torch.manual_seed(seed)
@@ -80,8 +81,6 @@ def setup(seed: int = 0, quiet: bool = False) -> None:
 # ------------------------------------------------------------------ the 3-D views
 def _robot(robot):
     if isinstance(robot, str):
-        from nlo_lab.robot import load_robot
-
         return load_robot(robot)
     return robot
 
@@ -118,8 +117,8 @@ def show_view(robot, angles=None, demo=None, *, layout: str = "side", height: in
         A :class:`nlo_lab.viz.SceneWidget`. Bad input (an unknown robot, non-finite angles, frames
         that do not match) gives the widget with the reason shown in it.
     """
+    # lazy: anywidget and ipywidgets: only when a view is drawn in a kernel
     from nlo_lab.viz import RetargetScene, SceneWidget
-    from nlo_lab.viz.tracks import LOOP
 
     widget = SceneWidget(height=height)
     try:
@@ -137,6 +136,7 @@ def show_view(robot, angles=None, demo=None, *, layout: str = "side", height: in
 
 def show_robot(robot, q=None, *, height: int = 400):
     """One pose of ``robot`` (``(n,)`` [rad], neutral if None) as a new scene; see :func:`show_view`."""
+    # lazy: anywidget and ipywidgets: only when a view is drawn in a kernel
     from nlo_lab.viz import SceneWidget
 
     try:
@@ -151,10 +151,10 @@ def show_robot(robot, q=None, *, height: int = 400):
 
 def show_human(demo, *, height: int = 400):
     """An animated (looping) 3-D view of a human ``Demonstration`` alone (skeleton and fingers) as a new scene; see :func:`show_view`."""
+    # lazy: meshcat's scene classes: only when a view is drawn
     from meshcat.animation import Animation
 
     from nlo_lab.viz import HumanScene, SceneWidget, frame_points, style_viewer
-    from nlo_lab.viz.tracks import LOOP
 
     widget = SceneWidget(height=height)
     try:
@@ -174,6 +174,7 @@ def show_human(demo, *, height: int = 400):
 # ------------------------------------------------------------------ small things
 def joint_table(robot):
     """An HTML table of the robot's actuated joints and limits ([rad] and [deg])."""
+    # lazy: a kernel's display: only in a notebook
     from IPython.display import HTML
 
     rows = []
@@ -236,8 +237,6 @@ def time_bar(seconds: float, desc: str = ""):
     Yields:
         The tqdm bar (``bar.set_postfix_str(...)`` says what runs now).
     """
-    from tqdm.auto import tqdm
-
     total = max(1, round(float(seconds)))
     bar = tqdm(total=total, desc=desc, unit="s", bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s{postfix}")
     start, stop = time.monotonic(), threading.Event()

@@ -132,6 +132,7 @@ def plot_graph(graph, names: Sequence[str] | None = None, ax=None, title: str = 
     Returns:
         ``(fig, ax)``.
     """
+    # lazy: pyplot picks a backend on import: only when a figure is drawn
     import matplotlib.pyplot as plt
 
     edges = np.asarray(graph.edge_index.detach().cpu() if hasattr(graph.edge_index, "detach") else graph.edge_index)

@@ -18,7 +18,10 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.evaluation.hands import hand_scores
 from nlo_lab.inference import OptimizeSettings, RetargetConfig
 from nlo_lab.lab.views import View, guarded
+from nlo_lab.model import load_pretrained
 from nlo_lab.objective import HAND_TERMS, LossWeights, point_plan, targets_from_demonstration
+from nlo_lab.viz import RobotScene, frame_points, style_viewer
+from nlo_lab.viz.tracks import translation
 
 __all__ = ["HandPanel", "HAND_SLIDERS"]
 
@@ -47,6 +50,7 @@ class HandPanel:
 
     def __init__(self, demo, robot, model=None, weights: LossWeights | None = None, frame: int = 0, side: str = "right",
                  iterations: int = 60, view: Any = "auto", height: int = 380):
+        # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W
 
         if not robot.has_fingers:
@@ -56,8 +60,6 @@ class HandPanel:
         if not 0 <= frame < len(demo):
             raise SettingsError(f"frame {frame} is outside 0..{len(demo) - 1}")
         if model is None:
-            from nlo_lab.model import load_pretrained
-
             model = load_pretrained(robot)
         self.demo, self.robot, self.model, self.side = demo, robot, model, side
         self.iterations = int(iterations)
@@ -135,10 +137,8 @@ class HandPanel:
         vis = self._view.vis
         if vis is None:
             return
+        # lazy: meshcat's scene classes: only when a view is drawn
         import meshcat.geometry as g
-
-        from nlo_lab.viz import RobotScene, frame_points, style_viewer
-        from nlo_lab.viz.tracks import translation
 
         with self._view.hold():
             if self._camera is None:

@@ -15,6 +15,7 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.lab.views import View, guarded
+from nlo_lab.viz import RobotScene, frame_points, style_viewer
 
 __all__ = ["JointPanel"]
 
@@ -38,6 +39,7 @@ class JointPanel:
     """
 
     def __init__(self, robot, q=None, link: str | None = None, view: Any = "auto", height: int = 360):
+        # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W
 
         self.robot = robot
@@ -62,8 +64,6 @@ class JointPanel:
         self._view = View(view, height)
         self.scene = None
         if self._view.vis is not None:
-            from nlo_lab.viz import RobotScene, frame_points, style_viewer
-
             with self._view.hold():
                 self._view.vis.delete()
                 self.scene = RobotScene(self._view.vis, robot).draw()

@@ -33,9 +33,13 @@ import torch
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import INITS, OptimizeResult, OptimizeSettings, RetargetConfig, Retargeter, RetargetInputs, retime_times
 from nlo_lab.lab.views import View, guarded, svg_convergence
+from nlo_lab.model import load_pretrained
 from nlo_lab.objective import TERMS, LossWeights, Targets
 from nlo_lab.paths import BUNDLED_ROBOTS
+from nlo_lab.robot import load_robot
 from nlo_lab.threads import single_thread
+from nlo_lab.viz import RetargetScene
+from nlo_lab.viz.tracks import set_key_times, tick_ms
 
 __all__ = ["RetargetPanel"]
 
@@ -102,8 +106,6 @@ class RetargetPanel:
         if not 0 <= frame < len(demo):
             raise SettingsError(f"frame {frame} is outside 0..{len(demo) - 1}")
         if model_loader is None:
-            from nlo_lab.model import load_pretrained
-
             model_loader = load_pretrained
         self.demo = demo
         self.model_loader = model_loader
@@ -209,7 +211,6 @@ class RetargetPanel:
             return robot
         if robot in self._models:
             return self._models[robot][0]
-        from nlo_lab.robot import load_robot
 
         r = load_robot(robot)
         self._models[r.name] = (r, None)
@@ -226,8 +227,6 @@ class RetargetPanel:
             self.angles = self.model.decode(self.latents).to(robot.lower_limits.dtype).cpu().double().numpy()  # (T, n)
         self.curves = []
         if self._view.vis is not None:
-            from nlo_lab.viz import RetargetScene
-
             with self._view.hold():
                 self._view.vis.delete()
                 self.scene = RetargetScene(self._view.vis, robot, self.angles, demo=self.demo)
@@ -243,9 +242,8 @@ class RetargetPanel:
 
     def _playing_changed(self, change) -> None:
         """Play starts: the clip plays as a meshcat animation in the page. Play stops: back to the slider's frame."""
+        # lazy: meshcat's scene classes: only when a view is drawn
         from meshcat.animation import Animation
-
-        from nlo_lab.viz.tracks import set_key_times, tick_ms
 
         times = self.play_times()  # what the robot would play, not the recording's rate
         self.play.interval = tick_ms(times)  # one time base: the slider ends with the page's animation

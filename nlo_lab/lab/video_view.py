@@ -19,14 +19,18 @@ from typing import Any
 
 import numpy as np
 
+from nlo_lab.atomic_files import atomic_write_bytes
 from nlo_lab.errors import DemonstrationError, SettingsError
+from nlo_lab.human.io_video import VIDEO_SUFFIXES
 from nlo_lab.lab.views import View
+from nlo_lab.viz import RetargetScene
 
 __all__ = ["VideoView", "jpeg_bytes", "save_upload"]
 
 
 def jpeg_bytes(image: np.ndarray, quality: int = 80) -> bytes:
     """One RGB ``uint8`` image ``(H, W, 3)`` as JPEG bytes (for an ``ipywidgets.Image``)."""
+    # lazy: Pillow: only when a frame is encoded
     from PIL import Image
 
     buffer = io.BytesIO()
@@ -49,9 +53,6 @@ def save_upload(upload, folder) -> Path | None:
     Raises:
         NloLabError: the upload's name has no video extension.
     """
-    from nlo_lab.atomic_files import atomic_write_bytes
-    from nlo_lab.human.io_video import VIDEO_SUFFIXES
-
     value = getattr(upload, "value", upload) or ()
     if not value:
         return None
@@ -86,9 +87,8 @@ class VideoView:
 
     def __init__(self, frames: np.ndarray, robot, angles, demo, *, fps: float | None = None,
                  view: Any = "auto", height: int = 360):
+        # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W
-
-        from nlo_lab.viz import RetargetScene
 
         frames = np.asarray(frames)
         q = np.asarray(angles, dtype=np.float64)

@@ -85,6 +85,7 @@ class View:
         if isinstance(view, str):
             if view != "auto":
                 raise SettingsError(f"view must be 'auto', None or a meshcat Visualizer, got {view!r}")
+            # lazy: anywidget and ipywidgets: only when a view is drawn in a kernel
             from nlo_lab.viz import SceneWidget
 
             self.widget = SceneWidget(height=height)

@@ -10,6 +10,7 @@ drive headlessly: set ``panel.sliders[name].value`` and read ``panel.q``, ``pane
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import io
 from typing import Any
@@ -17,7 +18,10 @@ from typing import Any
 import torch
 
 from nlo_lab.errors import SettingsError
+from nlo_lab.inference import JointOptimizeSettings, optimize_joints
 from nlo_lab.lab.views import View, guarded
+from nlo_lab.objective import TERMS, LossWeights, objective
+from nlo_lab.viz import RetargetScene, plot_loss_terms
 
 __all__ = ["WeightsPanel"]
 
@@ -44,9 +48,8 @@ class WeightsPanel:
 
     def __init__(self, robot, targets, demo=None, *, weights=None, iterations: int = 100, view: Any = "auto",
                  height: int = 360):
+        # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W
-
-        from nlo_lab.objective import TERMS, LossWeights
 
         if len(targets) != 1:
             raise SettingsError(f"WeightsPanel optimises one frame; got targets of {len(targets)} frames")
@@ -69,8 +72,6 @@ class WeightsPanel:
         self.scene = None
         self._optimise()
         if self._view.vis is not None:
-            from nlo_lab.viz import RetargetScene
-
             with self._view.hold():
                 self._view.vis.delete()
                 self.scene = RetargetScene(self._view.vis, robot, self.q[None], demo=demo)
@@ -86,14 +87,9 @@ class WeightsPanel:
     @property
     def weights(self):
         """The ``LossWeights`` the sliders hold (the other weights as given)."""
-        import dataclasses
-
         return dataclasses.replace(self._base, **{name: float(s.value) for name, s in self.sliders.items()})
 
     def _optimise(self) -> None:
-        from nlo_lab.inference import JointOptimizeSettings, optimize_joints
-        from nlo_lab.objective import objective
-
         weights = self.weights
         settings = JointOptimizeSettings(iterations=self.iterations, patience=self.iterations)
         result = optimize_joints(self.robot, self.targets, settings, weights=weights, fast=True)  # a slider answers quickly
@@ -106,9 +102,8 @@ class WeightsPanel:
         self.terms = {name: float(value.sum()) for name, value in terms.items()}
 
     def _draw(self) -> None:
+        # lazy: matplotlib: only when a figure is drawn
         from matplotlib.figure import Figure
-
-        from nlo_lab.viz import plot_loss_terms
 
         weights = self.weights.as_dict()
         fig = Figure(figsize=(4.4, 2.6), dpi=100)

@@ -26,6 +26,7 @@ import math
 import torch
 from torch import nn
 
+from nlo_lab.errors import SettingsError
 from nlo_lab.graph import Graph
 
 __all__ = [
@@ -58,7 +59,6 @@ def activation_function(name: str):
         return lambda x: nn.functional.leaky_relu(x, LEAKY_SLOPE)
     if name in ("sigmoid", "tanh", "relu"):
         return getattr(torch, name)
-    from nlo_lab.errors import SettingsError
 
     raise SettingsError(f"unknown activation {name!r}; expected one of {', '.join(ACTIVATIONS)}")
 

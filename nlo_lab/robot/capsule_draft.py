@@ -159,6 +159,7 @@ def _hands(tree, arms: Arms) -> dict[str, tuple[str, str]]:
 def _envelope(tree, hulls: dict, wrist: str, fingers: list[str], rest_q, lower, upper, seed: int) -> list[Piece]:
     """Capsules on the wrist link holding the fingers' geometry in :data:`ENVELOPE_SAMPLES` random finger
     poses, all open, all closed and the rest pose."""
+    # lazy: trimesh loads its mesh formats on import: only where meshes are read
     import trimesh
 
     joints = [i for i, name in enumerate(tree.actuated) if tree.model.joint(name).child in set(fingers)]

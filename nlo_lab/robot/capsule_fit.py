@@ -39,6 +39,7 @@ def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
 
 def _circle_centre(points2d: np.ndarray) -> np.ndarray:
     """Centre of the smallest circle around 2-D points (trimesh's minimum n-sphere)."""
+    # lazy: trimesh loads its mesh formats on import: only where meshes are read
     from trimesh.nsphere import minimum_nsphere
 
     if len(points2d) >= 4:
@@ -138,6 +139,7 @@ class Piece:
 def _merged(link: str, hulls: list) -> list[Piece]:
     """One capsule per hull, merged while one capsule around two is cheap (:data:`MERGE_RATIO`) and
     still fits (:data:`CUT_RATIO`)."""
+    # lazy: trimesh loads its mesh formats on import: only where meshes are read
     import trimesh
 
     pieces = [Piece.around(link, h) for h in hulls]

@@ -105,6 +105,7 @@ def shape_mesh(shape: Shape):
         FileNotFoundError: a mesh file that is missing.
         RobotDescriptionError: a mesh file out of bounds or unreadable (:func:`~nlo_lab.robot.mesh_files.read_mesh`).
     """
+    # lazy: trimesh loads its mesh formats on import: only where meshes are read
     import trimesh
 
     if shape.kind == "box":

@@ -78,6 +78,7 @@ def _face_separated(a: Polytope, Ta: np.ndarray, b: Polytope, Tb: np.ndarray) ->
 
 def overlap_depth(a: Polytope, Ta: np.ndarray, b: Polytope, Tb: np.ndarray) -> float:
     """Overlap depth [m] of two posed polytopes (0 when they are apart or only touch)."""
+    # lazy: scipy.optimize is slow to import: only here
     from scipy.optimize import linprog
 
     if _face_separated(a, Ta, b, Tb):

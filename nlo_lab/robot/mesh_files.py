@@ -144,6 +144,7 @@ def read_mesh(path: str | Path):
 @functools.lru_cache(maxsize=128)
 def _read_checked(name: str, size: int, mtime_ns: int):
     """The mesh of file ``name`` (size and time are the cache key: a changed file is read again)."""
+    # lazy: trimesh loads its mesh formats on import: only where meshes are read
     import trimesh
 
     path = Path(name)

@@ -17,6 +17,7 @@ __all__ = ["parse_xml"]
 
 
 def _parser(huge: bool):
+    # lazy: the XML parser: only when a URDF is read
     from lxml import etree
 
     return etree.XMLParser(
@@ -39,6 +40,7 @@ def parse_xml(data: bytes, where: str | Path, huge: bool = False):
     Raises:
         RobotDescriptionError: malformed XML, or a document that declares a DTD or entities.
     """
+    # lazy: the XML parser: only when a URDF is read
     from lxml import etree
 
     try:

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from torch import nn
+from tqdm.auto import tqdm
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import JointOptimizeSettings, RetargetInputs, optimize_joints
@@ -126,8 +127,6 @@ def supervised_labels(robot, targets: Targets, iterations: int, *, progress: boo
     samples (every ``frame_stride``-th frame, several sequences end to end), not a motion.
     ``progress``: a tqdm bar of the optimisation steps (every chunk of frames takes ``iterations + 1``).
     """
-    from tqdm.auto import tqdm
-
     chunk = 2048  # bounded memory; frames are independent
     starts = range(0, len(targets), chunk)
     out = []

@@ -28,11 +28,15 @@ import time
 from dataclasses import dataclass
 
 import torch
+from tqdm.auto import tqdm
 
 from nlo_lab.errors import SettingsError
+from nlo_lab.human import skeleton_graph
+from nlo_lab.human.skeleton import NODE_FEATURES
 from nlo_lab.inference import FastPaths, RetargetInputs, fast_paths
 from nlo_lab.model import ACTIVATIONS, DEFAULT_ACTIVATION, MODEL_KINDS, EncoderInput, RetargetModel, build_model
 from nlo_lab.objective import COLLISION_FORMS, LossWeights, latent_loss, objective
+from nlo_lab.robot import load_robot
 from nlo_lab.settings import (
     BATCH_RANGE,
     COUNT_RANGE,
@@ -151,21 +155,15 @@ class TrainResult:
 
 def _resolve_robot(robot):
     if isinstance(robot, str):
-        from nlo_lab.robot import load_robot
-
         return load_robot(robot)
     return robot
 
 
 def new_model(robot, settings: TrainSettings | None = None, in_features: int | None = None) -> RetargetModel:
     """An untrained model for ``robot`` on the human skeleton graph."""
-    from nlo_lab.human import skeleton_graph
-
     settings = settings or TrainSettings()
     human = skeleton_graph()
     if in_features is None:
-        from nlo_lab.human.skeleton import NODE_FEATURES
-
         in_features = NODE_FEATURES
     return build_model(
         robot.name,
@@ -283,8 +281,6 @@ def train_model(
     total_steps = settings.epochs * steps_per_epoch
     if settings.max_steps is not None:
         total_steps = min(total_steps, settings.max_steps)
-
-    from tqdm.auto import tqdm
 
     label = "train" if not autodecoder else "auto-decode"
     bar = tqdm(total=total_steps, desc=f"{label} {robot.name}", disable=not settings.progress, leave=False)

@@ -53,6 +53,7 @@ __all__ = [
 def __getattr__(name: str):
     # The widget needs ipywidgets and anywidget: imported when first asked for, so the command line stays light.
     if name == "SceneWidget":
+        # lazy: anywidget and ipywidgets: only when a view is drawn in a kernel
         from nlo_lab.viz.widget import SceneWidget
 
         return SceneWidget

@@ -16,6 +16,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import umsgpack
 from meshcat import Visualizer
 from meshcat.servers.tree import SceneTree, find_node, walk
@@ -24,6 +25,8 @@ from meshcat.servers.zmqserver import VIEWER_ROOT, create_command
 from nlo_lab.atomic_files import atomic_path
 from nlo_lab.errors import OutputError, SettingsError
 from nlo_lab.viz._packing import packb_single
+from nlo_lab.viz.scene import RetargetScene
+from nlo_lab.viz.tracks import LOOP, set_key_times
 
 __all__ = [
     "VIEWER_MAX_FRAMES",
@@ -136,8 +139,6 @@ def decimate(angles: Any, demo: Any = None, fps: float | None = None, max_frames
     Returns:
         ``(angles, demo, fps)``, decimated.
     """
-    import numpy as np
-
     max_frames = VIEWER_MAX_FRAMES if max_frames is None else int(max_frames)
     q = np.asarray(angles)
     rate = float(fps if fps is not None else (demo.fps if demo is not None else 30.0))
@@ -191,11 +192,6 @@ def static_html(
     Returns:
         The page's HTML.
     """
-    import numpy as np
-
-    from nlo_lab.viz.scene import RetargetScene
-    from nlo_lab.viz.tracks import LOOP, set_key_times
-
     if times is not None:
         times = np.asarray(times, dtype=np.float64)
         if times.shape != (len(np.asarray(angles)),):

@@ -50,6 +50,7 @@ def draw_hand_pair(ax, human: np.ndarray, robot: Mapping[str, np.ndarray], title
 def handshape_gallery(labels: Sequence[str], humans: Sequence[np.ndarray], robots: Sequence[Mapping[str, np.ndarray]],
                       captions: Sequence[str] | None = None, columns: int = 4):
     """A grid of :func:`draw_hand_pair`, one per handshape (human red, robot blue). Returns the figure."""
+    # lazy: pyplot picks a backend on import: only when a figure is drawn
     import matplotlib.pyplot as plt
 
     n = len(labels)

@@ -15,6 +15,7 @@ __all__ = ["plot_convergence", "plot_joint_trajectories", "plot_loss_terms"]
 def _axes(ax):
     if ax is not None:
         return ax.figure, ax
+    # lazy: pyplot picks a backend on import: only when a figure is drawn
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 3.5))
@@ -71,6 +72,7 @@ def plot_joint_trajectories(angles: Any, joint_names: Sequence[str], lower: Any 
     Returns:
         ``(fig, axes)``.
     """
+    # lazy: pyplot picks a backend on import: only when a figure is drawn
     import matplotlib.pyplot as plt
 
     q = _numpy(angles)

@@ -23,6 +23,9 @@ import numpy as np
 from meshcat.animation import Animation
 
 from nlo_lab.errors import RobotDescriptionError, SettingsError
+from nlo_lab.human import map_to_robot
+from nlo_lab.paths import ROBOTS_DIR
+from nlo_lab.robot.urdf import load_urdf
 from nlo_lab.viz.camera import CameraView, frame_points, style_viewer
 from nlo_lab.viz.human_scene import HUMAN_COLOURS, HumanScene
 from nlo_lab.viz.tracks import Y_TO_Z, add_pose_tracks, cylinder, detail_of, material, matrix_to_quaternion, sphere, translation
@@ -86,14 +89,10 @@ def urdf_path_of(robot: Any) -> Path:
                     if spec_path is not None:
                         path = Path(spec_path).parent / path
                     else:
-                        from nlo_lab.paths import ROBOTS_DIR
-
                         path = ROBOTS_DIR / path
                 return path
     name = getattr(robot, "name", None)
     if name:
-        from nlo_lab.paths import ROBOTS_DIR
-
         candidate = ROBOTS_DIR / f"{name}.urdf"
         if candidate.is_file():
             return candidate
@@ -101,8 +100,6 @@ def urdf_path_of(robot: Any) -> Path:
 
 
 def _load_urdf(path: Path):
-    from nlo_lab.robot.urdf import load_urdf  # the package's one URDF reader (yourdfpy), errors naming the file
-
     return load_urdf(path)
 
 
@@ -228,6 +225,7 @@ class RobotScene:
 
     def link_poses(self, angles: Any) -> dict[str, np.ndarray]:
         """``{link: (F, 4, 4)}`` viewer poses of the drawn links for ``(F, n)`` (or ``(n,)``) angles [rad]."""
+        # lazy: torch: the command line's --help and bad flags do not wait for it
         import torch
 
         q = np.array(angles, dtype=np.float64)  # a copy: torch.as_tensor warns on read-only arrays
@@ -340,8 +338,6 @@ class RetargetScene:
         if demo is not None:
             mapped = None
             if human_scale == "robot":
-                from nlo_lab.human import map_to_robot
-
                 mapped = map_to_robot(demo, robot)  # (T, 2, 3, 3), NaN where masked
             self.human_scene = HumanScene(vis, demo, mapped=mapped, body=layout == "side")
             if layout == "side":

@@ -6,14 +6,14 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from nlo_lab.metrics import joint_speed_ratios
+
 __all__ = ["fastest_joints", "plot_joint_speeds"]
 
 
 def fastest_joints(robot, trajectory, k: int = 3) -> list[int]:
     """Indices of the ``k`` joints with the largest speed over their limit in ``trajectory``
     (frames 1/fps apart, i.e. before retiming)."""
-    from nlo_lab.metrics import joint_speed_ratios
-
     ratios = joint_speed_ratios(robot, trajectory.angles, fps=trajectory.fps)  # (T-1, n)
     return [int(j) for j in np.argsort(-ratios.max(axis=0))[:k]]
 
@@ -32,6 +32,7 @@ def plot_joint_speeds(robot, trajectories: Mapping[str, object], joints: Sequenc
     Returns:
         The matplotlib figure.
     """
+    # lazy: pyplot picks a backend on import: only when a figure is drawn
     import matplotlib.pyplot as plt
 
     first = next(iter(trajectories.values()))

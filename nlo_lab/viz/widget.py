@@ -34,6 +34,7 @@ from pathlib import Path
 import anywidget
 import ipywidgets
 import traitlets
+import umsgpack
 from meshcat import Visualizer
 
 from nlo_lab.errors import SettingsError
@@ -52,8 +53,6 @@ def pack_commands(commands: list[bytes]) -> bytes:
 
 def unpack_commands(data: bytes) -> list[dict]:
     """The commands of a :func:`pack_commands` buffer (a message, a widget's saved ``_scene``) as meshcat dicts."""
-    import umsgpack
-
     commands, at = [], 0
     while at + 4 <= len(data):
         (n,) = struct.unpack_from("<I", data, at)
@@ -90,6 +89,7 @@ def sync_all(*_args) -> None:
 def _hook_cells() -> None:
     """Register :func:`sync_all` after every cell of the running IPython kernel (nothing outside IPython)."""
     try:
+        # lazy: a kernel's display: only in a notebook
         from IPython import get_ipython
     except ImportError:
         return
@@ -128,6 +128,7 @@ class WidgetWindow(RecordingWindow):
 
     def _transform_of(self, command) -> bytes | None:
         """The recorded transform bytes of the node a ``set_transform`` command targets (None otherwise)."""
+        # lazy: meshcat's scene classes: only when a view is drawn
         from meshcat.commands import SetTransform
         from meshcat.servers.tree import find_node
 
@@ -230,7 +231,7 @@ class SceneWidget(anywidget.AnyWidget):
 
     def snapshot(self) -> bytes:
         """The whole current scene: a delete of meshcat's root, then every command of the tree."""
-        import umsgpack
+        # lazy: meshcat's scene classes: only when a view is drawn
         from meshcat.commands import Delete
         from meshcat.path import Path as MeshcatPath
 
