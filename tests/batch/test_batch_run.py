@@ -52,6 +52,7 @@ def _hidden(folder: Path) -> list[Path]:
     return [p for p in folder.rglob(".*") if p.name != ".nlo-lab-batch.lock"]
 
 
+@pytest.mark.slow
 def test_a_corpus_with_bad_files_on_a_local_cluster_then_resumed(tmp_path, monkeypatch):
     corpus, out = _corpus(tmp_path), tmp_path / "out"
     listening: list[str] = []
@@ -130,6 +131,7 @@ def test_the_allocator_thresholds_dask_freezes_are_raised_again():
     assert subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True).stdout.strip() == "True"
 
 
+@pytest.mark.slow
 def test_an_unknown_robot_is_refused_when_the_first_worker_loads_it(tmp_path):
     from nlo_lab.errors import UnknownRobotError
 

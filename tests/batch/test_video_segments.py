@@ -17,6 +17,7 @@ from nlo_lab.paths import RECORDINGS_DIR  # noqa: E402
 SAMPLE = RECORDINGS_DIR / "signer_webcam_58f.mp4"
 
 
+@pytest.mark.slow
 def test_ranges_estimated_apart_join_to_the_landmarks_of_the_whole_video():
     assert SEGMENT_FRAMES == 30
     bounds = segment_bounds(SAMPLE)

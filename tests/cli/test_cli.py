@@ -102,6 +102,7 @@ def test_retarget_json_and_files(capsys, tmp_path):
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary folder left
 
 
+@pytest.mark.slow
 def test_viewer_plays_on_the_trajectory_time_base(capsys, tmp_path):
     """viewer.html shows the motion as the robot would play it: its keys sit at trajectory.npz's `time`."""
     import base64
@@ -196,6 +197,7 @@ def test_the_command_line_is_the_only_argument_parser():
     assert users and all(u.startswith("cli/") for u in users), users  # the command line's package, nowhere else
 
 
+@pytest.mark.slow
 def test_a_bad_flag_or_help_does_not_wait_for_torch():
     """The flags' choices come from modules that import torch; they are read only when needed."""
     code = (

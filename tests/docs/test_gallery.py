@@ -22,6 +22,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 import export_js  # noqa: E402
 
 pytest.importorskip("mkdocs_jupyter", reason="the docs extra is not installed (pip install -e '.[docs]')")
+pytestmark = pytest.mark.slow  # the site fixture runs a notebook and mkdocs (about 40 s on 2 cores)
 
 
 def _docs(*args: str) -> subprocess.CompletedProcess:

@@ -94,6 +94,7 @@ def _steps(angles: np.ndarray, robot) -> np.ndarray:
     return (np.abs(np.diff(angles, axis=0)) / robot.velocity_limits.double().numpy()).max(1)
 
 
+@pytest.mark.slow
 def test_chunk_edges_are_as_smooth_as_the_inside():
     """With the smoothness term, a chunk starts anchored at the previous chunk's last frame:
     no step across a chunk edge is larger than the largest step inside the chunks."""

@@ -175,6 +175,7 @@ def test_smoothness_loss_is_the_speed_in_units_of_the_limit():
     assert float(smoothness_loss(big, 10.0, limits)[1]) > ((SMOOTH_MAX_STEP + 0.1) * 10 / 2) ** 2
 
 
+@pytest.mark.slow
 def test_smoothing_removes_jumps_and_keeps_the_best_sequence(robots):
     robot = robots["nao"]
     model = load_pretrained(robot)
@@ -231,6 +232,7 @@ def test_conditioning_repairs_outliers_and_jitter():
     assert np.arccos(np.clip((np.trace(R0.T @ R) - 1) / 2, -1, 1)) < 0.3  # the flip is repaired
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("robot_name", ["yumi", "nao", "pepper"])
 def test_noisy_demonstration_gives_robot_ready_motion(robots, robot_name):
     robot = robots[robot_name]

@@ -41,6 +41,7 @@ def _relative(robot, q):
     return pts["wrist"] - pts["shoulder"], pts["elbow"] - pts["shoulder"]  # (T, 2, 3) each
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["yumi", "nao", "pepper"])
 def test_round_trip_recovers_wrist_and_elbow(name, demonstration_from_robot, random_feasible_pose):
     robot = load_robot(name)

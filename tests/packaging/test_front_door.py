@@ -57,6 +57,7 @@ def test_load_demonstration_takes_a_file_or_demo_name(tmp_path):
         nlo_lab.load_demonstration("demo:no_such_clip")
 
 
+@pytest.mark.slow
 def test_the_readme_example_runs_as_written(tmp_path):
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     section = readme[readme.index("### Library"):]

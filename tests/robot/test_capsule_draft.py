@@ -62,6 +62,7 @@ def test_a_finger_is_never_checked_against_its_own_palm():
             assert not ((la in palm and finger[1]) or (lb in palm and finger[0])), (a, b)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["nao", "pepper"])
 def test_the_specs_hold_what_the_fit_gives(name):
     """fit_capsules.py wrote these specs; the fit is deterministic (YuMi: tests/robot/test_yumi.py)."""

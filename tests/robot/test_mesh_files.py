@@ -105,6 +105,7 @@ def test_missing_empty_and_garbage_files(tmp_path):
         read_mesh(tmp_path / "junk.obj")
 
 
+@pytest.mark.slow
 def test_real_robot_meshes_pass_the_bounds(robot_data):
     """The largest meshes of robots we did not model (tens of thousands of faces, MBs) read."""
     files = sorted((p for p in robot_data.rglob("*") if p.suffix.lower() in (".stl", ".dae")), key=lambda p: -p.stat().st_size)[:4]

@@ -165,6 +165,7 @@ def test_only_primitive_geometry():
     assert text.count("<collision>") > 30 and text.count("<visual>") == text.count("<collision>")
 
 
+@pytest.mark.slow
 def test_generated_files_match_the_generator():
     path = ROBOTS / "make_yumi_urdf.py"
     module_spec = importlib.util.spec_from_file_location("make_yumi_urdf", path)

@@ -73,6 +73,7 @@ def test_the_range_is_the_flags():
     assert THREADS_RANGE == (1, 256)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", ["100000", "1" * 20, "zero"])
 def test_command_line_refuses_a_bad_environment_with_one_line(value, tmp_path):
     """100000 used to crash torch (SIGSEGV), a 20-digit value gave a traceback: now one line, exit 2."""

@@ -63,6 +63,7 @@ def _step_script(tmp_path: Path, name: str, fail: bool = False) -> Path:
     return script
 
 
+@pytest.mark.slow
 def test_the_runner_runs_each_step_resumes_and_reports_a_failure(tools, tmp_path, capsys, monkeypatch):
     _, results, _ = tools
     Step = results.Step
@@ -98,6 +99,7 @@ def test_every_registered_step_exists_and_each_benchmark_writing_sections_is_reg
             assert f"benchmarks/{script.name}" in registered, f"{script.name} writes docs/RESULTS.md but make results does not run it"
 
 
+@pytest.mark.slow
 def test_a_quick_run_of_a_real_step_writes_its_stamped_section_elsewhere(tmp_path):
     """`make results QUICK=1` on the cheapest real step: the section lands in the quick file, docs/RESULTS.md is left alone."""
     out = tmp_path / "RESULTS.md"
