@@ -50,6 +50,7 @@ def site(tmp_path_factory) -> Path:
     return tmp / "site"
 
 
+@pytest.mark.slow  # the site fixture runs a notebook and mkdocs: about 15 s on 2 cores
 def test_the_site_has_the_readme_results_and_the_executed_notebook(site):
     home = (site / "index.html").read_text(encoding="utf-8")
     assert "Learn and try" in home and "00_small.html" in home  # the README, with the notebook in the navigation
@@ -61,6 +62,7 @@ def test_the_site_has_the_readme_results_and_the_executed_notebook(site):
     assert len(scenes) == 1 and any(b["path"] == ["_scene"] for b in scenes[0]["buffers"])  # the 3-D scene travels in the page
 
 
+@pytest.mark.slow
 def test_every_script_of_a_page_is_a_file_of_the_site(site):
     page = (site / "00_small.html").read_text(encoding="utf-8")
     sources = re.findall(r'<script[^>]* src="([^"]+)"', page) + re.findall(r"widgetRendererSrc = '([^']+)'", page)
@@ -77,6 +79,7 @@ def test_a_missing_notebook_is_one_line_exit_2(tmp_path):
     assert not (tmp_path / "site").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.browser
 def test_the_page_draws_the_robot_offline(site, tmp_path, lab_browser):
     """Chromium opens the page from file:// with every other address refused: NAO drawn, the equation typeset."""
