@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from nlo_lab.cli.flags import ITERS_RANGE, LIMIT_RANGE, THREADS_RANGE, ranged_int
+from nlo_lab.cli.flags import ITERS_RANGE, LIMIT_RANGE, THREADS_RANGE, LazyChoices, ranged_int
 
 __all__ = ["add_parser", "run"]
 
@@ -19,6 +19,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help=f"evaluate only the first N sequences, {LIMIT_RANGE[0]}..{LIMIT_RANGE[1]}")
     p.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=None,
                    help=f"iterations of the latent and joint-space methods, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
+    p.add_argument("--mode", default="robot-ready", choices=LazyChoices("nlo_lab.evaluation", "EVALUATION_MODES"), metavar="MODE",
+                   help="%(choices)s: robot-ready = the shipped defaults (smoothness term, warm start, latent methods retimed); "
+                        "paper = the paper's objective, frames independent, no retiming (default: robot-ready)")
     p.add_argument("--methods", default=None,
                    help="comma-separated subset of the methods (nlo_lab.evaluation.METHODS; default: all)")
     p.add_argument("--threads", type=ranged_int(*THREADS_RANGE), default=None,
@@ -39,7 +42,8 @@ def run(args) -> int:
     if args.threads is not None:
         torch.set_num_threads(args.threads)
     methods = check_methods([m.strip() for m in args.methods.split(",") if m.strip()] if args.methods is not None else METHODS)
-    settings = BaselineSettings() if args.iters is None else dataclasses.replace(BaselineSettings(), iterations=args.iters)
+    settings = BaselineSettings(mode=args.mode)
+    settings = settings if args.iters is None else dataclasses.replace(settings, iterations=args.iters)
     robot = load_robot(args.robot)
     start = time.perf_counter()
     ev = evaluate_split(robot, args.split, limit=args.limit, settings=settings, methods=methods, progress=not args.quiet)

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from nlo_lab.batch.output_folder import OUTPUT_FILES, finite_or_null, write_output_folder
-from nlo_lab.cli.flags import ITERS_RANGE, MAX_SEED, THREADS_RANGE, WEIGHT_RANGE, LazyChoices, UsageError, ranged_int
+from nlo_lab.cli.flags import ITERS_RANGE, MAX_SEED, THREADS_RANGE, WEIGHT_RANGE, LazyChoices, UsageError, positive_float, ranged_int
 from nlo_lab.cli.run_guard import raise_pending_signal
 from nlo_lab.errors import escape
 
@@ -35,6 +35,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="folder for trajectory.npz, trajectory.csv and viewer.html")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
+    p.add_argument("--sigma", type=positive_float, default=1.0,
+                   help="σ of --init random, a standard deviation: z0 ~ N(0, σ²) (default: 1, the paper's; its ablation's "
+                        "variances 0.1 and 0.2 are σ 0.32 and 0.45)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal), no warnings")
     p.add_argument("--save-pose", metavar="FILE", default=None,
                    help="video input: also keep MediaPipe Holistic's landmarks as this .pose file")
@@ -106,7 +109,7 @@ def run(args) -> int:
         check_output_place(args.out, OUTPUT_FILES)  # refused before any work starts
     weights = LossWeights.from_string(args.weights) if args.weights else LossWeights()
     _check_weights(weights)
-    settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed)
+    settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed, latent_sigma=args.sigma)
     robot = load_robot(args.robot)
     save_pose = _check_save_pose(args)
     progress = not args.quiet and sys.stderr.isatty()

@@ -1,4 +1,4 @@
-"""``nlo-lab train --robot R``: train a robot's encoder and decoder on the synthetic corpus (paper Eq. 10)."""
+"""``nlo-lab train --robot R``: train a robot's networks on the synthetic corpus (paper Eq. 10, or ``--mode autodecoder``)."""
 
 from __future__ import annotations
 
@@ -33,6 +33,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="%(choices)s: graph is the paper's (default: graph)")
     p.add_argument("--latent-per-node", type=ranged_int(*LATENT_RANGE), default=None,
                    help=f"latent size per robot node, {LATENT_RANGE[0]}..{LATENT_RANGE[1]} (default: 4)")
+    p.add_argument("--activation", default=None, choices=LazyChoices("nlo_lab.model", "ACTIVATIONS"), metavar="NAME",
+                   help="message activation of every graph layer, the paper's Table II: %(choices)s (default: leaky_relu, the paper's)")
+    p.add_argument("--mode", default=None, choices=LazyChoices("nlo_lab.training", "TRAIN_MODES"), metavar="MODE",
+                   help="%(choices)s: encoder = encoder and decoder end to end (paper Eq. 10, the default); autodecoder = "
+                        "the decoder and one latent code per training frame (the paper's auto-decoder; no encoder: "
+                        "retarget it with --init train-stats, random or zeros)")
+    p.add_argument("--max-steps", type=ranged_int(1, EPOCHS_RANGE[1] * BATCH_RANGE[1]), default=None,
+                   help="stop after this many optimiser steps: a budget that does not depend on the machine's load (default: epochs decide)")
     p.add_argument("--out", default=None, help="checkpoint path (default: assets/checkpoints/NAME.pt in a checkout, ./NAME.pt in an installed package)")
     p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0)
     p.add_argument("--threads", type=ranged_int(*THREADS_RANGE), default=None,
@@ -52,7 +60,8 @@ def run(args) -> int:
     from nlo_lab.training import TrainSettings, train_model
 
     flags = {"epochs": args.epochs, "max_seconds": args.max_seconds, "batch_size": args.batch_size, "lr": args.lr,
-             "kind": args.kind, "latent_per_node": args.latent_per_node}
+             "kind": args.kind, "latent_per_node": args.latent_per_node, "activation": args.activation, "mode": args.mode,
+             "max_steps": args.max_steps}
     settings = dataclasses.replace(TrainSettings(seed=args.seed, progress=not args.quiet), **{k: v for k, v in flags.items() if v is not None})
     if args.threads is not None:
         torch.set_num_threads(args.threads)
@@ -65,4 +74,6 @@ def run(args) -> int:
         f"trained {escape(robot.name)}: {result.steps} steps in {result.seconds:.1f} s, "
         f"best validation loss {result.val_loss:.4f}; wrote {escape(out)} ({out.stat().st_size / 1e6:.2f} MB)"
     )
+    if not result.model.has_encoder:
+        print("an auto-decoder has no encoder: start its latent optimisation from train-stats, random or zeros")
     return 0

@@ -38,6 +38,7 @@ def trained(nao, frames):
     return train_model(nao, settings, train_data=train, val_data=val)
 
 
+@pytest.mark.slow
 def test_the_prior_term_is_the_squared_norm_over_sigma_squared(robot64, frames):
     nao = robot64("nao")
     train, _ = frames
@@ -86,7 +87,8 @@ def test_the_learned_codes_fit_their_frames_better_than_the_mean_code(nao, frame
     with torch.no_grad():
         own, _ = objective(nao, model.decode(trained.codes), train.targets, weights)
         mean, _ = objective(nao, model.decode(trained.codes.mean(0).expand_as(trained.codes)), train.targets, weights)
-    assert float(own.mean()) < 0.8 * float(mean.mean())
+    assert float(own.mean()) < float(mean.mean())  # each frame's own code fits it better than the common start
+    assert float((own < mean).float().mean()) > 0.6
 
 
 def test_a_step_moves_only_the_codes_of_its_batch(nao, frames):
