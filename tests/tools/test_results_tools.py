@@ -132,3 +132,21 @@ def test_the_readme_and_paper_quote_only_figures_that_results_shows(tools):
     quoted = tools[2]
     problems = [p for doc in quoted.DOCS for p in quoted.check(doc)]
     assert not problems, "\n".join(problems)
+
+
+@pytest.mark.slow
+def test_a_quick_run_of_the_paper_benchmark_trains_every_configuration_and_writes_its_sections(tmp_path):
+    """benchmarks/paper.py --quick: Table II's four activations and the auto-decoder on NAO, a few steps each."""
+    out = tmp_path / "RESULTS.md"
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "NLO_LAB_RESULTS": str(out), "NLO_LAB_CACHE": str(tmp_path / "cache"), "TQDM_DISABLE": "1"}
+    r = subprocess.run([sys.executable, "benchmarks/paper.py", "--robots", "nao", "--quick", "--parts", "table2,autodecoder"], cwd=ROOT,
+                       env=env, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    text = out.read_text()
+    assert "| sequence | Sigmoid | Tanh | ReLU | LeakyReLU |" in text
+    assert "| auto-decoder (Eq. autodecoder) | zeros |" in text and "| encoder + decoder (Eq. 10, today's) | encoder |" in text
+    models = sorted(p.name.split("-")[1:3] for p in (tmp_path / "cache" / "results" / "models").glob("nao-*.pt"))
+    assert models == [["autodecoder", "leaky_relu"], ["encoder", "leaky_relu"], ["encoder", "relu"], ["encoder", "sigmoid"], ["encoder", "tanh"]]
+    again = subprocess.run([sys.executable, "benchmarks/paper.py", "--robots", "nao", "--quick", "--parts", "autodecoder", "--no-write"], cwd=ROOT,
+                           env=env, capture_output=True, text=True, timeout=900)
+    assert again.returncode == 0 and again.stderr.count(": cached (") == 2 and "training nao" not in again.stderr  # resumed from the cache
