@@ -29,16 +29,16 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.model import DECODER_FORMS
 from nlo_lab.settings import check_choice
 
-__all__ = ["FastPaths", "fast_paths", "DECODER_NUMPY_MAX_BATCH", "OBJECTIVE_NUMPY_MAX_FRAMES"]
+__all__ = ["FastPaths", "fast_paths", "DECODER_NUMPY_MAX_BATCH"]
 
 # Measured crossovers on one CPU thread (YuMi, forward + backward):
 # numpy decoder, batch 1 266 vs 473 us (torch node-major), 170: 15.4 vs 2.6 ms (numpy's
 # stacked small matmuls do not batch)
 DECODER_NUMPY_MAX_BATCH = 8
-# numpy terms (hand terms included, far capsule pairs culled) against the torch terms with
-# culling, FK + terms, forward + backward, CPU time: YuMi 1 frame 0.75 vs 1.67 ms, 64: 2.6 vs
-# 3.7 ms, 128: 4.0 vs 4.5 ms, 170: 5.0 vs 5.1 ms; NAO 170: 1.5 vs 1.8 ms
-OBJECTIVE_NUMPY_MAX_FRAMES = 160
+# The objective's numpy terms (hand terms included, far capsule pairs culled) run on the CPU at
+# any batch: against the torch terms with culling, FK + terms, forward + backward, CPU time,
+# YuMi (318 capsule pairs) 1 frame 1.1 vs 2.7 ms, 96: 4.4 vs 6.5, 170: 6.7 vs 9.7, 680: 26 vs 42 ms;
+# NAO 170: 2.2 vs 3.3 ms, 680: 6.7 vs 8.9 ms.
 
 
 @dataclass(frozen=True)
@@ -78,7 +78,7 @@ class FastPaths:
         cpu = torch.device(device).type == "cpu"
         return cls(
             decoder="numpy" if cpu and frames <= DECODER_NUMPY_MAX_BATCH else "node-major",
-            fused_objective=cpu and frames <= OBJECTIVE_NUMPY_MAX_FRAMES,
+            fused_objective=cpu,
             cull_far_pairs=True,
             analytic_fk=True,
             numpy_iteration=cpu and frames <= DECODER_NUMPY_MAX_BATCH,

@@ -11,7 +11,7 @@ import torch
 from nlo_lab.corpus import corpus_clip
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import FastPaths, OptimizeSettings, RetargetConfig, RetargetInputs, fast_paths, optimize_joints, optimize_latent
-from nlo_lab.inference.fast_paths import DECODER_NUMPY_MAX_BATCH, OBJECTIVE_NUMPY_MAX_FRAMES
+from nlo_lab.inference.fast_paths import DECODER_NUMPY_MAX_BATCH
 from nlo_lab.model import load_pretrained
 
 
@@ -36,12 +36,11 @@ def _raise(*args, **kwargs):
 
 def test_the_choice_by_batch_size():
     assert FastPaths.readable() == FastPaths() == FastPaths("paper", False, False, False, False)
-    one, small, many = (FastPaths.for_frames(n) for n in (1, OBJECTIVE_NUMPY_MAX_FRAMES, OBJECTIVE_NUMPY_MAX_FRAMES + 1))
+    one, many = FastPaths.for_frames(1), FastPaths.for_frames(1000)
     assert one == FastPaths("numpy", True, True, True, True)
     edge, above = FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH), FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH + 1)
     assert edge.decoder == "numpy" and edge.numpy_iteration and above.decoder == "node-major" and not above.numpy_iteration
-    assert small.decoder == "node-major" and small.fused_objective
-    assert many == FastPaths("node-major", False, True, True, False)
+    assert many == FastPaths("node-major", True, True, True, False)  # the numpy terms at any batch on the CPU
     assert FastPaths.for_frames(1, "meta") == FastPaths("node-major", False, True, True, False)  # numpy forms: the CPU only
     assert fast_paths(True, 1) == one and fast_paths(False, 1) == FastPaths() and fast_paths(many, 1) is many
     assert one.objective_options() == {"fused": True, "cull": True, "analytic_fk": True}

@@ -103,3 +103,30 @@ def test_numpy_hand_terms_equal_the_term_functions_with_masks_and_pinches(robot,
         assert float(hand[:, :2].min()) > 0
     else:
         assert float(hand.abs().max()) == 0
+
+
+def test_the_numpy_culling_bound_never_leaves_out_a_near_pair():
+    """maybe_near keeps every pair of segments closer than the clearance (random segments, some
+    crossing at their midpoints, parallel, touching, of any length), and leaves out far ones."""
+    import numpy as np
+
+    from nlo_lab.objective.numpy_backend import maybe_near
+    from nlo_lab.robot.collision import segment_closest_points
+
+    rng = np.random.default_rng(0)
+    B, C = 400, 6
+    centre = rng.normal(scale=0.15, size=(B, C, 1, 3))
+    half = rng.normal(size=(B, C, 1, 3)) * rng.uniform(0, 0.3, size=(B, C, 1, 1))
+    caps = np.concatenate([centre - half, centre + half], 2)
+    caps[:50, 1] = caps[:50, 0][:, ::-1]  # capsule 1 = capsule 0 reversed: the same midpoint, crossing
+    caps[50:100, 2] = caps[50:100, 0] + [0.0, 0.05, 0.0]  # parallel copies 5 cm apart
+    pairs = np.array([(i, j) for i in range(C) for j in range(i + 1, C)])
+    clearance = rng.uniform(0.0, 0.1, size=len(pairs))
+    ends = np.concatenate([caps[:, pairs[:, 0]], caps[:, pairs[:, 1]]], 2).reshape(-1, 4, 3)  # (B P, 4, 3)
+    dist = segment_closest_points(ends.transpose(1, 2, 0).copy())[3]
+    kept = np.zeros(len(dist), dtype=bool)
+    kept[maybe_near(caps.astype(np.float32), pairs, clearance)] = True
+    close = dist < np.tile(clearance, B)
+    assert close.sum() > 100 and (~close).sum() > 100
+    assert kept[close].all(), "a pair within the clearance was left out"
+    assert (~kept[~close]).mean() > 0.5  # and it does cull
