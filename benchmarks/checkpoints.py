@@ -38,9 +38,7 @@ def main(argv=None) -> int:
         " training time is that run's wall time on its machine (`assets/checkpoints/README.md`: the command, the machine,"
         " three runs in parallel on 2 cores).", "", *rows, "",
     ])
-    print(body)
-    if not args.no_write:
-        print(f"wrote section checkpoints of {results_doc.update_section('checkpoints', body)}")
+    results_doc.publish({"checkpoints": body}, not args.no_write)
     return 0
 
 

@@ -164,7 +164,7 @@ def table2(robot, demos, args, use_cache):
 def report_table2(robot, args, rows, demos, png, notes) -> str:
     acts = list(rows)
     best = min(acts, key=lambda a: rows[a]["optim"].mean)
-    out = [f"## Table II on {robot.name}: message activations", "", results_doc.stamp(), *[f"- {n}" for n in notes], ""]
+    out = results_doc.heading(f"## Table II on {robot.name}: message activations", notes)
     out += [
         f"One encoder-decoder per activation (the message activation `g` of every graph layer, encoder and decoder;"
         f" `nlo-lab train --activation NAME`), each trained in this run (or taken from the cache of an earlier run of the"
@@ -216,7 +216,7 @@ def autodecoder(robot, demos, args, use_cache, encoder_model=None):
 
 
 def report_autodecoder(robot, args, rows, demos, notes) -> str:
-    out = [f"## Auto-decoder against encoder training on {robot.name}", "", results_doc.stamp(), *[f"- {n}" for n in notes], ""]
+    out = results_doc.heading(f"## Auto-decoder against encoder training on {robot.name}", notes)
     out += [
         "Two trainings of the same graph decoder for the same **"
         f"{args.steps} optimiser steps** (batch 64, seed 0, Adam lr 1e-3, LeakyReLU): the paper's final method, encoder and"
@@ -281,7 +281,7 @@ def run_departures(robot, demos, args, use_cache, ours=None):
 
 
 def report_departures(robot, args, rows, demos, notes) -> str:
-    out = [f"## Departures from the paper, measured on {robot.name}", "", results_doc.stamp(), *[f"- {n}" for n in notes], ""]
+    out = results_doc.heading(f"## Departures from the paper, measured on {robot.name}", notes)
     out += [
         f"Each row changes one of our settings back to the paper's (or to another value where the paper states none) and"
         f" trains an encoder-decoder (Eq. 10) for **{args.steps} optimiser steps** (unless the row says otherwise; seed 0,"
@@ -364,10 +364,7 @@ def main(argv=None) -> int:
             ours = (rows["leaky_relu"]["model"], rows["leaky_relu"]["info"]) if rows else None
             dep_rows = run_departures(robot, demos, args, not args.no_cache, ours)
             sections[f"departures:{name}"] = report_departures(robot, args, dep_rows, demos, [*notes, f"run time {time.perf_counter() - t0:.0f} s"])
-    for name, text in sections.items():
-        print(text)
-        if not args.no_write:
-            print(f"wrote section {name} of {results_doc.update_section(name, text)}")
+    results_doc.publish(sections, not args.no_write)
     return 0
 
 

@@ -242,13 +242,9 @@ def _yes(ok: bool) -> str:
     return "yes" if ok else "**no**"
 
 
-def _head(title: str, notes: list[str]) -> list[str]:
-    return [title, "", results_doc.stamp(), *[f"- {n}" for n in notes], ""]
-
-
 def report_table1(robot, args, notes, ev, png, mode) -> str:
     m = "latent_encoder"
-    out = _head(f"## Table I on {robot.name}, {mode} mode", notes)
+    out = results_doc.heading(f"## Table I on {robot.name}, {mode} mode", notes)
     out += [
         f"Mode: {MODE_TEXT[mode]}. {len(ev.sequences)} test sequences.",
         "",
@@ -287,7 +283,7 @@ def report_table1(robot, args, notes, ev, png, mode) -> str:
 def report_init(robot, args, notes, abl) -> str:
     rows, curves, loss_png, fr_png, n = abl
     budgets = list(next(iter(rows.values())))
-    out = _head(f"## Initialisation ablation on {robot.name} (first {n} test sequences)", notes)
+    out = results_doc.heading(f"## Initialisation ablation on {robot.name} (first {n} test sequences)", notes)
     out += [
         "Mean Fréchet distance [m] (and summed wall time [s]) after each budget of Adam steps on the paper's objective"
         " (no smoothness term); every budget is a separate run with no early stop. The random starts are the paper's"
@@ -325,7 +321,7 @@ def report_table3(robot, args, notes, t3) -> str:
     results, trained, png, n_train, n = t3
     names = [v[0] for v in VARIANTS]
     seqs = list(next(iter(results.values()))["Init"])
-    out = _head(f"## Table III on {robot.name}: architecture and objective (first {n} test sequences)", notes)
+    out = results_doc.heading(f"## Table III on {robot.name}: architecture and objective (first {n} test sequences)", notes)
     out += [
         f"All four variants trained in this run on the same {n_train} training frames (every 4th frame of the train"
         f" split), for the same {args.train_steps} optimiser steps of batch 64 each (seed 0); supervised variants fit the"
@@ -407,10 +403,7 @@ def main(argv=None) -> int:
             print(f"{nm:>8}: Init {np.mean([v[0] for v in per['Init'].values()]):.4f}  Optim {np.mean([v[0] for v in per['Optim'].values()]):.4f}")
         note = f"run time {time.perf_counter() - t0:.0f} s (labels cached after the first run)"
         sections[f"table3:{robot.name}"] = report_table3(robot, args, [*notes, note], (results, trained, png, n_train, len(sub)))
-    for name, text in sections.items():
-        print(text)
-        if not args.no_write:
-            print(f"wrote section {name} of {results_doc.update_section(name, text)}")
+    results_doc.publish(sections, not args.no_write)
     if not args.no_write and sections:
         results_doc.remove_section(f"quality:{robot.name}")  # the one section of the benchmark before the split
     return 0

@@ -157,6 +157,19 @@ def _update(path: Path, name: str, body: str) -> None:
     tmp.replace(path)
 
 
+def publish(sections: dict[str, str], write: bool = True) -> None:
+    """Print each section; unless ``write`` is False (a benchmark's ``--no-write``), put it into the results file."""
+    for name, body in sections.items():
+        print(body)
+        if write:
+            print(f"wrote section {name} of {update_section(name, body)}")
+
+
+def heading(title: str, notes: list[str] = ()) -> list[str]:
+    """A section's first lines: its title, the stamp, then ``notes`` as a list."""
+    return [title, "", stamp(), *[f"- {n}" for n in notes], ""]
+
+
 def remove_section(name: str, path: Path | None = None) -> bool:
     """Delete the section ``name`` (a section a benchmark no longer writes); True if it was there."""
     path = path or results_path()

@@ -106,6 +106,16 @@ def robots() -> dict[str, Robot]:
     return {name: load_robot(name) for name in ("yumi", "nao", "pepper")}
 
 
+@pytest.fixture(scope="module")
+def one_torch_thread():
+    """One torch thread for a module (``pytestmark = pytest.mark.usefixtures("one_torch_thread")``), as the command
+    line trains and retargets: two threads spin against each other on a busy 2-core machine (nlo_lab.threads)."""
+    from nlo_lab.threads import single_thread
+
+    with single_thread(1):
+        yield
+
+
 def _example_robot_data() -> Path | None:
     """The robots folder of the example-robot-data wheel (the test extra), or None."""
     from importlib import metadata

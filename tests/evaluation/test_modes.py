@@ -12,13 +12,8 @@ from nlo_lab.inference import OptimizeSettings, RetargetInputs, optimize_latent,
 from nlo_lab.metrics import velocity_violations
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import LossWeights
-from nlo_lab.threads import single_thread
 
-
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    with single_thread(1):
-        yield
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 @pytest.fixture(scope="module")

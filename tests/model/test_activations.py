@@ -13,7 +13,6 @@ import torch
 from nlo_lab.corpus import sign_corpus
 from nlo_lab.errors import CheckpointError, SettingsError
 from nlo_lab.model import ACTIVATIONS, DEFAULT_ACTIVATION, GraphLayer, checkpoint_path, load_checkpoint, load_pretrained, save_checkpoint
-from nlo_lab.threads import single_thread
 from nlo_lab.training import TrainSettings, demos_inputs, new_model, train_model
 
 REFERENCE = {  # written out here, independently of nlo_lab.model.layers
@@ -23,12 +22,7 @@ REFERENCE = {  # written out here, independently of nlo_lab.model.layers
     "leaky_relu": lambda x: torch.where(x > 0, x, 0.2 * x),
 }
 
-
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """One torch thread, as the command line trains (two spin against each other on a busy 2-core machine)."""
-    with single_thread(1):
-        yield
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 @pytest.fixture(scope="module")

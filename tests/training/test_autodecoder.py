@@ -12,15 +12,9 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.inference import OptimizeSettings, RetargetConfig, optimize_latent
 from nlo_lab.model import load_checkpoint, save_checkpoint
 from nlo_lab.objective import LossWeights, objective
-from nlo_lab.threads import single_thread
 from nlo_lab.training import LatentCodes, TrainSettings, autodecoder_loss, demos_inputs, new_model, train_model
 
-
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """One torch thread, as the command line trains (two spin against each other on a busy 2-core machine)."""
-    with single_thread(1):
-        yield
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 @pytest.fixture(scope="module")
