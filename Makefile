@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test test-fast lab bench bench-venv bench-hands results clean browser lint wheel-check export-js docs
+.PHONY: setup demo test test-fast lab bench bench-venv bench-hands results clean browser lint wheel-check export-js docs fuzz
 
 setup: $(STAMP)
 
@@ -30,6 +30,12 @@ test: setup browser export-js lint wheel-check
 # 2 cores (CONTRIBUTING.md, "Tests"). `make test` runs everything.
 test-fast: setup
 	NLO_LAB_TEST_MODE=1 $(PY) -m pytest -q -p no:cacheprovider tests -m "not slow and not browser"
+
+# Mutation fuzzing of every reader, grown from tests/fuzz/corpus (tests/fuzz/README.md): FUZZ_SECONDS of
+# mutated files (default 600), each read under the memory ceiling (3 GiB of address space) in at most 60 s,
+# then every corpus file through nlo-lab under prlimit --as. A 30-second run is part of make test.
+fuzz: setup
+	NLO_LAB_TEST_MODE=1 nice -n 10 $(PY) tests/fuzz/fuzz.py --seconds $(or $(FUZZ_SECONDS),600) --cli
 
 # ruff: the rules and exclusions are in pyproject.toml.
 lint: setup

@@ -52,13 +52,14 @@ class NloLabError(Exception):
         field: the offending field (``"right/wrist"``, an archive member, a dataset), when it applies.
 
     The message ends with where, in parentheses: ``"NaN or inf (file x.npz, frame 7, field arm_positions)"``;
-    :attr:`path`, :attr:`frame` and :attr:`field` keep the parts.
+    :attr:`path`, :attr:`frame` and :attr:`field` keep the parts. The message is one line: what came
+    from a file (a group name, a point name, a file name) is escaped (:func:`escape`).
     """
 
     def __init__(self, message: str = "", *, path: str | os.PathLike | None = None, frame: int | None = None,
                  field: str | None = None):
         where = [f"{label} {value}" for label, value in (("file", path), ("frame", frame), ("field", field)) if value is not None]
-        super().__init__(f"{message} ({', '.join(where)})" if where else message)
+        super().__init__(escape(f"{message} ({', '.join(where)})" if where else message))
         self.path = None if path is None else str(path)
         self.frame = frame
         self.field = field

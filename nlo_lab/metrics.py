@@ -27,10 +27,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from nlo_lab.errors import SettingsError, SettingsTypeError
+from nlo_lab.errors import SettingsError
 from nlo_lab.human import map_to_robot
 from nlo_lab.human.demonstration import SIDES
 from nlo_lab.robot import check_angles
+from nlo_lab.settings import check_array, check_positive
 
 if TYPE_CHECKING:  # pragma: no cover
     from nlo_lab.human import Demonstration
@@ -58,7 +59,7 @@ _BAND = 64  # anti-diagonals whose distances frechet_distance computes in one nu
 
 def _curve(x: Any, name: str) -> np.ndarray:
     """A ``(n, d)`` float64 point sequence, finite, n >= 1."""
-    a = np.asarray(x, dtype=np.float64)
+    a = check_array(name, x)
     if a.ndim == 1:
         a = a[:, None]
     if a.ndim != 2 or a.shape[0] == 0:
@@ -172,18 +173,13 @@ def frechet_distance(P: Any, Q: Any) -> float:
 
 
 def _derivative_error(a: Any, b: Any, fps: float, order: int, name: str) -> float:
-    x = np.asarray(a, dtype=np.float64)
-    y = np.asarray(b, dtype=np.float64)
+    x = check_array(f"{name}: a", a)
+    y = check_array(f"{name}: b", b)
     if x.shape != y.shape:
         raise SettingsError(f"{name}: a and b must have the same shape, got {x.shape} and {y.shape}")
     if x.ndim < 2:
         raise SettingsError(f"{name}: expected (T, ..., d) trajectories, got shape {x.shape}")
-    try:
-        rate = float(fps)
-    except (TypeError, ValueError):
-        raise SettingsTypeError(f"{name}: fps must be a number, got {fps!r}") from None
-    if not math.isfinite(rate) or rate <= 0:
-        raise SettingsError(f"{name}: fps must be > 0, got {fps!r}")
+    rate = check_positive(f"{name}: fps", fps)
     if x.shape[0] <= order:
         raise SettingsError(f"{name}: needs more than {order} frames, got {x.shape[0]}")
     dx = np.diff(x, n=order, axis=0) * rate**order  # (T - order, ..., d)
@@ -332,10 +328,10 @@ def _limits(robot) -> np.ndarray:
 
 def _times(angles: np.ndarray, times: Any, fps: float | None) -> np.ndarray:
     if times is None:
-        if fps is None or not fps > 0:
+        if fps is None:
             raise SettingsError("give the trajectory's times or its fps (> 0)")
-        return np.arange(angles.shape[0]) / float(fps)
-    t = np.asarray(times, dtype=np.float64)
+        return np.arange(angles.shape[0]) / check_positive("fps", fps)
+    t = check_array("times", times)
     if t.shape != (angles.shape[0],) or not np.isfinite(t).all() or (np.diff(t) <= 0).any():
         raise SettingsError(f"times must be ({angles.shape[0]},) finite and strictly increasing")
     return t
@@ -396,5 +392,7 @@ def max_joint_speed_ratio(robot, angles: Any, times: Any = None, fps: float | No
 
 def max_joint_step(angles: Any) -> float:
     """Largest change of any joint between consecutive samples [rad] (0 for one frame)."""
-    q = np.asarray(angles, dtype=np.float64)
-    return float(np.abs(np.diff(q, axis=0)).max()) if len(q) > 1 else 0.0
+    q = check_array("angles", angles)
+    if q.ndim != 2 or not np.isfinite(q).all():
+        raise SettingsError(f"angles must be (T, n) finite joint angles, got shape {q.shape}")
+    return float(np.abs(np.diff(q, axis=0)).max()) if len(q) > 1 and q.shape[1] else 0.0

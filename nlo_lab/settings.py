@@ -47,6 +47,7 @@ __all__ = [
     "check_choice",
     "check_type",
     "check_bool",
+    "check_array",
     "validate_fields",
     "arg_type",
 ]
@@ -128,8 +129,8 @@ def _number(name: str, value: Any) -> float:
 def check_choice(name: str, value: Any, choices: Collection) -> Any:
     """One of ``choices``; the message lists them."""
     try:
-        known = value in choices
-    except TypeError:  # an unhashable value
+        known = isinstance(value, (str, int, float)) and value in choices
+    except (TypeError, ValueError):  # an unhashable value, an array
         known = False
     if not known:
         raise SettingsError(f"unknown {name} {_show(value)}; expected one of {tuple(choices)}")
@@ -144,6 +145,25 @@ def check_type(name: str, value: Any, types: type | tuple[type, ...], what: str 
             what = " or ".join(names)
         raise SettingsTypeError(f"{name} must be {what}, got {type(value).__name__}")
     return value
+
+
+def check_array(name: str, value: Any) -> np.ndarray:
+    """``value`` as a float64 array: an array, tensor, list or number of real numbers (NaN and inf pass: the caller's rule names them).
+
+    Raises:
+        SettingsTypeError: text, objects, complex numbers, ragged lists: anything that is no array of real numbers.
+    """
+    if hasattr(value, "detach") and hasattr(value, "cpu"):  # a torch tensor
+        value = value.detach().cpu().numpy()
+    if isinstance(value, (str, bytes)) or value is None:
+        raise SettingsTypeError(f"{name} must be an array of numbers, got {_show(value)}")
+    try:
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "biuf":
+            raise TypeError(raw.dtype)
+        return raw.astype(np.float64, copy=False)
+    except (TypeError, ValueError):
+        raise SettingsTypeError(f"{name} must be an array of real numbers, got {_show(value)}") from None
 
 
 def check_bool(name: str, value: Any) -> bool:

@@ -20,6 +20,8 @@ session fixture that returns a function or a class, so a test asks for it by nam
 - ``lab_browser``: JupyterLab driven in Debian's Chromium (``tools/lab_browser.py``, shared with
   ``benchmarks/viewer.py``). A test marked ``browser`` is skipped, with the reason, where that
   browser or playwright is missing.
+- ``tests/fuzz`` is importable (``import targets``, ``import make_corpus``): the fuzz corpus's
+  builders, its special files (FIFO, /dev/zero, ...) and the memory budget, for any test.
 
 Markers (pyproject.toml, ``--strict-markers``): ``browser`` drives Chromium, ``slow`` is one of the
 long tests; ``make test-fast`` runs neither. A test module may still define a fixture of the same
@@ -30,6 +32,7 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
@@ -46,6 +49,7 @@ from nlo_lab.robot import Robot, load_robot
 
 ROOT = Path(__file__).resolve().parents[1]  # the checkout
 SHARED = ROOT.parent / "shared"  # beside the checkout (and in CI), never in a user's clone
+sys.path.insert(0, str(ROOT / "tests" / "fuzz"))  # test modules are imported by path: name the helpers' folder
 SHARED_POSE = SHARED / "data" / "pose"  # the real MediaPipe recordings
 
 

@@ -44,7 +44,7 @@ import h5py
 import numpy as np
 
 from nlo_lab.errors import DemonstrationError
-from nlo_lab.files import format_size, open_input
+from nlo_lab.files import as_path, format_size, open_input
 from nlo_lab.human.demonstration import FPS_RANGE, MAX_FRAMES, Demonstration
 from nlo_lab.human.transforms import body_frame_from_shoulders, check_arm_lengths, quat_to_matrix, wrist_frame_from_hand
 
@@ -247,12 +247,12 @@ def load_h5_sequences(path) -> list[Demonstration]:
             (named by group/dataset), NaN or inf (with the frame), fps <= 0,
             an arm of zero length.
     """
-    return _read_groups(Path(path), first_only=False)
+    return _read_groups(as_path(path), first_only=False)
 
 
 def load_h5_first(path) -> Demonstration:
     """The first sequence (sorted group names) of an HDF5 file in the authors' layout."""
-    return _read_groups(Path(path), first_only=True)[0]
+    return _read_groups(as_path(path), first_only=True)[0]
 
 
 def _read_groups(path: Path, first_only: bool) -> list[Demonstration]:

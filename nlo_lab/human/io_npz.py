@@ -44,7 +44,7 @@ def save_npz(demo: Demonstration, path) -> Path:
     Raises:
         DemonstrationError: wrong suffix, meta not JSON-serialisable, or the write failed.
     """
-    path = Path(path)
+    path = as_path(path)
     if path.suffix.lower() != ".npz":
         raise DemonstrationError("a demonstration archive must end in .npz", path=path)
     demo.validate(path=path)

@@ -70,11 +70,11 @@ Conversion (documented choices):
 from __future__ import annotations
 
 import warnings
-from pathlib import Path
 
 import numpy as np
 
 from nlo_lab.errors import DemonstrationError
+from nlo_lab.files import as_path
 from nlo_lab.human import conditioning as cond
 from nlo_lab.human import proportions
 from nlo_lab.human.demonstration import ARM_JOINTS, SIDES, Demonstration
@@ -137,7 +137,7 @@ def load_pose(path, condition: bool = True) -> Demonstration:
             component, a required landmark (shoulders, elbows, wrists) missing in every
             frame, NaN or inf in an observed landmark, an arm of zero length.
     """
-    path = Path(path)
+    path = as_path(path)
     pose, data, mask, conf, fps = read_pose_file(path)
     T = data.shape[0]
     if T == 0:

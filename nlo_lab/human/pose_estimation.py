@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from nlo_lab.errors import DemonstrationError
+from nlo_lab.files import as_path
 from nlo_lab.human.video_frames import VideoFrames, native_output_silenced, open_video, video_extra
 from nlo_lab.threads import check_threads, env_threads
 
@@ -191,7 +192,7 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
     """
     from concurrent.futures import ThreadPoolExecutor
 
-    path = Path(path)
+    path = as_path(path)
     info = open_video(path)
     workers = min(pose_workers(threads, info.frames), _workers_in_memory(info))
     load_holistic = video_extra(path, "pose_format.utils.holistic").load_holistic
@@ -263,7 +264,7 @@ def segment_bounds(path) -> list[tuple[int, int | None]]:
     Raises:
         DemonstrationError: missing, empty, not a video, or a video no decoder opens.
     """
-    frames = open_video(Path(path)).frames
+    frames = open_video(as_path(path)).frames
     starts = list(range(0, max(frames, 1), SEGMENT_FRAMES))
     return [(a, a + SEGMENT_FRAMES) for a in starts[:-1]] + [(starts[-1], None)]
 
@@ -278,7 +279,7 @@ def estimate_segment(path, first: int = 0, end: int | None = None) -> SegmentPos
         DemonstrationError: the video is missing, not a video, cannot seek to ``first``, or
             decodes fewer frames there than its header announces.
     """
-    path = Path(path)
+    path = as_path(path)
     info = open_video(path)
     load_holistic = video_extra(path, "pose_format.utils.holistic").load_holistic
     frames = VideoFrames(path, info, max_side=MAX_ESTIMATION_SIDE, first=first, count=None if end is None else end - first)
@@ -300,7 +301,7 @@ def join_segments(path, segments: list[SegmentPose]) -> VideoPose:
     Raises:
         DemonstrationError: the ranges do not follow each other, or no person is found in any frame.
     """
-    path = Path(path)
+    path = as_path(path)
     expected = 0
     for segment in segments:
         if segment.first != expected:

@@ -107,9 +107,14 @@ def fill_gaps(values: np.ndarray, valid: np.ndarray, max_gap: int) -> tuple[np.n
 
 
 def check_arm_lengths(demo: Demonstration, path=None, min_length: float = 1e-6) -> None:
-    """Raise :class:`DemonstrationError` if a valid frame has an upper arm or forearm shorter than ``min_length`` [m]."""
+    """Raise :class:`DemonstrationError` if an arm is never fully observed (shoulder, elbow and wrist in one
+    frame: retargeting scales by its lengths), or a valid frame has an upper arm or forearm shorter than
+    ``min_length`` [m]. The readers' last check."""
     for s, side in enumerate(SIDES):
         p, m = demo.arm_positions[:, s], demo.arm_mask[:, s]
+        if not m.all(axis=1).any():
+            raise DemonstrationError(f"the {side} arm is never fully observed (shoulder, elbow and wrist in one frame)",
+                                     path=path, field=f"{side}/arm")
         for (a, b), seg in (((0, 1), "upper_arm"), ((1, 2), "forearm")):
             ok = m[:, a] & m[:, b]
             length = np.linalg.norm(p[:, b] - p[:, a], axis=-1)

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from nlo_lab.errors import DemonstrationError
-from nlo_lab.files import format_size, open_input
+from nlo_lab.files import as_path, format_size, open_input
 from nlo_lab.human.demonstration import MAX_FRAMES
 
 __all__ = [
@@ -104,7 +104,7 @@ def video_info(path) -> dict:
     Raises:
         DemonstrationError: missing, empty, not a video, or a video no decoder opens.
     """
-    info = open_video(Path(path))
+    info = open_video(as_path(path))
     return {"fps": info.fps, "width": info.width, "height": info.height, "frames": info.frames}
 
 
@@ -206,7 +206,7 @@ def read_video_frames(path, max_side: int | None = 360) -> np.ndarray:
             files; frames that would take more than :data:`MAX_SHOWN_BYTES` (checked from the container's
             announcement before decoding, and again while decoding).
     """
-    path = Path(path)
+    path = as_path(path)
     info = open_video(path)
     scale = min(1.0, max_side / max(info.width, info.height)) if max_side else 1.0
     frame_bytes = max(1, round(info.width * scale)) * max(1, round(info.height * scale)) * 3

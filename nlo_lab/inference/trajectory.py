@@ -67,6 +67,8 @@ class RobotTrajectory:
     def __post_init__(self) -> None:
         if not isinstance(self.robot, str) or not self.robot:
             raise TrajectoryError(f"robot must be a non-empty name, got {self.robot!r}")
+        if isinstance(self.joint_names, (str, bytes)) or not isinstance(self.joint_names, (list, tuple, np.ndarray)):
+            raise TrajectoryError(f"joint_names must be a list of names, got {type(self.joint_names).__name__}")
         names = tuple(self.joint_names)
         if not all(isinstance(n, str) and n for n in names):
             raise TrajectoryError(f"joint_names must be non-empty strings, got {list(names)!r}")

@@ -17,7 +17,7 @@ from typing import Any
 import torch
 
 from nlo_lab.errors import CheckpointError, NloLabError
-from nlo_lab.files import format_size, open_input
+from nlo_lab.files import as_path, format_size, open_input
 from nlo_lab.human.skeleton import skeleton_graph
 from nlo_lab.model.layers import DEFAULT_ACTIVATION
 from nlo_lab.model.retarget_model import RetargetModel, build_model
@@ -77,7 +77,7 @@ def save_checkpoint(model: RetargetModel, path, robot=None, **info: Any) -> Path
         robot: the robot (its joint names are recorded); optional.
         **info: extra JSON-like entries.
     """
-    path = Path(path)
+    path = as_path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     state = {k: v.detach().to("cpu", torch.float32 if v.is_floating_point() else None) for k, v in model.state_dict().items()}
     train_info = dict(getattr(model, "train_info", {}))
@@ -111,7 +111,7 @@ def load_checkpoint(path, robot) -> RetargetModel:
         CheckpointError: missing or corrupt file, another format version, or a
             checkpoint made for another robot (the message names both).
     """
-    path = Path(path)
+    path = as_path(path)
     robot = _resolve_robot(robot)
     ckpt = load_torch_file(path)
     if not isinstance(ckpt, dict) or "format_version" not in ckpt or "robot" not in ckpt:

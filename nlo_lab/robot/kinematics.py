@@ -31,7 +31,7 @@ from collections.abc import Sequence
 import numpy as np
 import torch
 
-from nlo_lab.errors import RobotDescriptionError
+from nlo_lab.errors import RobotDescriptionError, SettingsError, SettingsTypeError
 from nlo_lab.robot.point_gradient import MapPoints
 from nlo_lab.robot.urdf import JointInfo, URDFModel
 
@@ -222,8 +222,12 @@ class KinematicTree:
     def _flat_angles(self, q: torch.Tensor) -> torch.Tensor:
         """Validate ``q (..., n)`` and flatten it to ``(B, n)`` floats."""
         n = len(self.actuated)
-        if q.shape[-1] != n:
-            raise ValueError(f"{self.model.name}: expected {n} joint angles in the last dimension, got shape {tuple(q.shape)}")
+        if not isinstance(q, torch.Tensor):
+            raise SettingsTypeError(f"{self.model.name}: joint angles must be a torch.Tensor (..., {n}), got {type(q).__name__}")
+        if q.ndim == 0 or q.shape[-1] != n:
+            raise SettingsError(f"{self.model.name}: expected {n} joint angles in the last dimension, got shape {tuple(q.shape)}")
+        if q.is_complex():
+            raise SettingsTypeError(f"{self.model.name}: joint angles must be real numbers, got {q.dtype}")
         if not torch.is_floating_point(q):
             q = q.to(torch.get_default_dtype())
         return q.reshape(-1, n)
@@ -298,8 +302,7 @@ class KinematicTree:
         Returns:
             ``(..., L, 4, 4)`` ``T_root_link`` for every link in :attr:`link_names` order.
         """
-        lead = q.shape[:-1]
-        q = self._flat_angles(q)  # (B, n)
+        q, lead = self._flat_angles(q), q.shape[:-1]  # (B, n); _flat_angles refuses what is no tensor
         c = self._consts(q.device, q.dtype)
         body = self.body_poses(q)  # (B, 1+M, 4, 4)
         # Links with a constant offset from their body: one batched matmul; the
@@ -318,8 +321,7 @@ class KinematicTree:
         Returns:
             ``(..., k, 4, 4)`` ``T_root_link``.
         """
-        lead = q.shape[:-1]
-        q = self._flat_angles(q)
+        q, lead = self._flat_angles(q), q.shape[:-1]
         c = self._consts(q.device, q.dtype)
         links = links.to(device=q.device)
         body = self.body_poses(q).index_select(1, c["link_body"].index_select(0, links))  # (B, k, 4, 4)

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from nlo_lab.errors import RobotDescriptionError
-from nlo_lab.files import check_input_file
+from nlo_lab.files import as_path, check_input_file
 from nlo_lab.rotations import matrix_to_rpy
 
 __all__ = ["MOVING_TYPES", "SUPPORTED_TYPES", "MAX_URDF_BYTES", "JointInfo", "URDFModel", "load_urdf", "parse_urdf"]
@@ -136,7 +136,7 @@ def load_urdf(path: str | Path):
     """
     import yourdfpy  # imported here: the FK never needs it once the tree is built
 
-    path = Path(path)
+    path = as_path(path)
     check_input_file(path, kind="URDF", max_bytes=MAX_URDF_BYTES, error=RobotDescriptionError)
     logger = logging.getLogger("yourdfpy")
     recorder = _LogRecorder()
@@ -180,7 +180,7 @@ def parse_urdf(path: str | Path) -> URDFModel:
             cycle, an unsupported joint type, a bad number, a mimic joint whose
             source does not exist.
     """
-    path = Path(path)
+    path = as_path(path)
     urdf = load_urdf(path)
     robot = urdf.robot
     links = [link.name for link in robot.links]

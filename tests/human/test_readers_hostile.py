@@ -14,6 +14,7 @@ import zipfile
 import h5py
 import numpy as np
 import pytest
+from make_corpus import authors_arms  # tests/fuzz/make_corpus.py: the authors' layout of a small recording
 
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human import load_demonstration, save_npz
@@ -136,22 +137,11 @@ def test_the_pose_limit_is_stated_in_the_message(tmp_path):
 
 
 # ----------------------------------------------------------------------------- .h5: only the file named
-def _arms(T=10):
-    t = np.arange(T)[:, None]
-    out = {}
-    for s, sign in (("l", 1.0), ("r", -1.0)):
-        sh = np.array([0.0, 0.17 * sign, 1.4]) + 0 * t
-        el = sh + np.array([0.05, 0.05 * sign, -0.25]) + 0.01 * np.sin(t)
-        wr = el + np.array([0.25, 0.0, 0.05]) + 0 * t
-        out.update({f"{s}_up_pos": sh, f"{s}_fr_pos": el, f"{s}_hd_pos": wr})
-    return out
-
-
 def h5_file(path, **special):
     """A one-group file in the authors' layout; ``special`` maps a dataset to how it is stored."""
     with h5py.File(path, "w") as f:
         g = f.create_group("word")
-        for key, value in _arms().items():
+        for key, value in authors_arms(10).items():
             how = special.get(key)
             if how is None:
                 g[key] = value
@@ -204,7 +194,7 @@ def test_h5_virtual_dataset_pointing_at_a_system_file(tmp_path):
     path = tmp_path / "v.h5"
     with h5py.File(path, "w") as f:
         g = f.create_group("word")
-        for key, value in _arms().items():
+        for key, value in authors_arms(10).items():
             g[key] = value
         del g["l_hd_pos"]
         layout = h5py.VirtualLayout(shape=(10, 3), dtype="f8")

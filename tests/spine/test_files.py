@@ -8,16 +8,14 @@ the file and what is wrong with it.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import shutil
-import signal
-import socket
 from pathlib import Path
 
 import numpy as np
 import pytest
+import targets  # tests/fuzz/targets.py: the special files and the deadline
 
 from nlo_lab.errors import CheckpointError, DemonstrationError, NloLabError, RobotDescriptionError, SettingsError, SettingsTypeError
 from nlo_lab.files import InputFileError, as_path, check_input_file, format_size, open_input, read_input_bytes
@@ -28,42 +26,8 @@ from nlo_lab.paths import CHECKPOINTS_DIR, ROBOTS_DIR
 from nlo_lab.robot import load_robot
 
 
-@contextlib.contextmanager
-def deadline(seconds: int = 20):
-    """Fail instead of hanging: a reader that blocks on a FIFO is interrupted by SIGALRM."""
-
-    def expired(signum, frame):
-        raise TimeoutError(f"still blocked after {seconds} s")
-
-    previous = signal.signal(signal.SIGALRM, expired)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-
-
 def make_special(kind: str, path: Path) -> Path:
-    """``path`` as a FIFO, a symlink to /dev/zero, a socket, a folder, a dangling link or a sparse 5 GiB file."""
-    if kind == "fifo":
-        os.mkfifo(path)
-    elif kind == "dev-zero":
-        os.symlink("/dev/zero", path)
-    elif kind == "socket":
-        s = socket.socket(socket.AF_UNIX)
-        s.bind(str(path))
-        s.close()
-    elif kind == "folder":
-        path.mkdir()
-    elif kind == "dangling":
-        os.symlink(path.with_name("gone"), path)
-    elif kind == "sparse":
-        with open(path, "wb") as f:
-            f.truncate(64 << 30)  # 64 GiB that take no disk: more than any format allows
-    elif kind == "empty":
-        path.write_bytes(b"")
-    return path
+    return targets.make_special({"sparse": "sparse-64-gib"}.get(kind, kind), path)
 
 
 KINDS = {
@@ -104,7 +68,7 @@ READERS = {
 def test_every_reader_refuses_what_is_not_a_bounded_regular_file(reader, kind, tmp_path):
     suffix, load, error = READERS[reader]
     path = make_special(kind, tmp_path / f"input{suffix}")
-    with deadline(), pytest.raises(error) as err:
+    with targets.deadline(), pytest.raises(error) as err:
         load(path)
     message = str(err.value)
     assert KINDS[kind] in message and "input" + suffix in message, message
@@ -114,7 +78,7 @@ def test_every_reader_refuses_what_is_not_a_bounded_regular_file(reader, kind, t
 @pytest.mark.parametrize("kind", ["fifo", "dev-zero", "sparse"])
 def test_a_urdf_that_is_not_a_bounded_regular_file(kind, tmp_path):
     spec = _robot_spec_with_urdf(tmp_path, kind)
-    with deadline(), pytest.raises(RobotDescriptionError, match=KINDS[kind].split(" (")[0]) as err:
+    with targets.deadline(), pytest.raises(RobotDescriptionError, match=KINDS[kind].split(" (")[0]) as err:
         load_robot(spec)
     assert "special.urdf" in str(err.value)
 
@@ -134,7 +98,7 @@ def test_a_fifo_swapped_in_after_the_check_does_not_block(tmp_path, monkeypatch)
         return size
 
     monkeypatch.setattr(files, "check_input_file", check_then_swap)
-    with deadline(), pytest.raises(InputFileError, match="FIFO"):
+    with targets.deadline(), pytest.raises(InputFileError, match="FIFO"):
         read_input_bytes(path, kind=".pose", max_bytes=100)
 
 
