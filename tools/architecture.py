@@ -54,6 +54,7 @@ ORDER = SPINE + [
     "nlo_lab.evaluation",
     "nlo_lab.viz",
     "nlo_lab.lab",
+    "nlo_lab.live",
     "nlo_lab.batch",
     "nlo_lab",  # the front door: nlo_lab/__init__.py
     "nlo_lab.cli",
