@@ -37,9 +37,10 @@ test-fast: setup
 fuzz: setup
 	NLO_LAB_TEST_MODE=1 nice -n 10 $(PY) tests/fuzz/fuzz.py --seconds $(or $(FUZZ_SECONDS),600) --cli
 
-# ruff: the rules and exclusions are in pyproject.toml.
+# ruff and mypy: their rules, exclusions and the list of modules mypy still excuses are in pyproject.toml.
 lint: setup
 	$(PY) -m ruff check .
+	$(PY) -m mypy
 
 # Build the sdist and the wheel, install the wheel into a venv outside the checkout
 # (cached in ~/.cache/nlo_lab/wheel-check: torch and friends install once) and use it

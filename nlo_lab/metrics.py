@@ -35,6 +35,7 @@ from nlo_lab.settings import check_array, check_positive
 
 if TYPE_CHECKING:  # pragma: no cover
     from nlo_lab.human import Demonstration
+    from nlo_lab.robot import Robot
 
 __all__ = [
     "frechet_distance",
@@ -241,7 +242,7 @@ def _mapped_human(demo: Demonstration, robot) -> np.ndarray:
     return mapped
 
 
-def tracking_errors(demo: Demonstration, robot, angles: Any) -> dict[str, float]:
+def tracking_errors(demo: Demonstration, robot: Robot, angles: Any) -> dict[str, float]:
     """Tracking error of a robot trajectory against a human demonstration.
 
     Args:
@@ -288,7 +289,7 @@ def tracking_errors(demo: Demonstration, robot, angles: Any) -> dict[str, float]
     }
 
 
-def self_collision_frames(robot, angles: Any) -> int:
+def self_collision_frames(robot: Robot, angles: Any) -> int:
     """Number of frames where any checked capsule pair penetrates (distance < 0).
 
     Args:
@@ -306,7 +307,7 @@ def self_collision_frames(robot, angles: Any) -> int:
     return int((d < 0).any(dim=-1).sum().item())
 
 
-def limit_violations(robot, angles: Any, tol: float = 1e-6) -> int:
+def limit_violations(robot: Robot, angles: Any, tol: float = 1e-6) -> int:
     """Number of (frame, joint) entries outside the joint limits by more than ``tol``.
 
     Args:
@@ -365,7 +366,7 @@ def speed_ratios(angles: Any, times: Any, limits: Any) -> np.ndarray:
     return joint_speeds(q, times) / v
 
 
-def joint_speed_ratios(robot, angles: Any, times: Any = None, fps: float | None = None) -> np.ndarray:
+def joint_speed_ratios(robot: Robot, angles: Any, times: Any = None, fps: float | None = None) -> np.ndarray:
     """``(T-1, n)`` finite-difference joint speed over the robot's velocity limit.
 
     Args:
@@ -378,13 +379,13 @@ def joint_speed_ratios(robot, angles: Any, times: Any = None, fps: float | None 
     return speed_ratios(q, _times(q, times, fps), _limits(robot))
 
 
-def velocity_violations(robot, angles: Any, times: Any = None, fps: float | None = None) -> int:
+def velocity_violations(robot: Robot, angles: Any, times: Any = None, fps: float | None = None) -> int:
     """Number of (frame pair, joint) entries faster than the joint's velocity limit
     (finite differences on ``times``, or on frames ``1/fps`` apart)."""
     return int((joint_speed_ratios(robot, angles, times, fps) > 1.0).sum())
 
 
-def max_joint_speed_ratio(robot, angles: Any, times: Any = None, fps: float | None = None) -> float:
+def max_joint_speed_ratio(robot: Robot, angles: Any, times: Any = None, fps: float | None = None) -> float:
     """Largest joint speed over its limit (1 = at the limit; 0 for a single frame)."""
     r = joint_speed_ratios(robot, angles, times, fps)
     return float(r.max()) if r.size else 0.0

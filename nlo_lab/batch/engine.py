@@ -23,6 +23,7 @@ import secrets
 import shutil
 import socket
 from pathlib import Path
+from typing import TYPE_CHECKING
 from urllib.parse import urlsplit
 
 import nlo_lab
@@ -34,6 +35,9 @@ from nlo_lab.batch.progress import Progress
 from nlo_lab.batch.settings import BatchSettings
 from nlo_lab.batch.table import COLUMNS, ResultsTable, failed_row
 from nlo_lab.errors import NloLabError, escape
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["SchedulerError", "CONNECT_TIMEOUT", "available_cores", "retarget_many", "to_frame"]
 
@@ -234,7 +238,7 @@ def to_frame(rows: list[dict]):
     return pandas.DataFrame(rows, columns=list(COLUMNS))
 
 
-def retarget_many(inputs, robot, out, client=None, *, init: str = "encoder", iterations: int = 100, seed: int = 0,
+def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "encoder", iterations: int = 100, seed: int = 0,
                   weights=None, viewer: bool = False, workers: int | None = None, scheduler: str | None = None,
                   resume: bool = True, retry_failed: bool = False, progress: bool = False, on_row=None):
     """Retarget every input to ``robot`` on a dask.distributed cluster; the results table.
@@ -275,7 +279,7 @@ def retarget_many(inputs, robot, out, client=None, *, init: str = "encoder", ite
         raise SchedulerError("give a client or a scheduler address, not both")
     if workers is not None and (scheduler or client is not None):
         raise SchedulerError("workers sizes the local cluster; with a scheduler or a client, the cluster's own workers run")
-    settings = BatchSettings(robot, init, iterations, seed, weights, viewer)
+    settings = BatchSettings(robot, init, iterations, seed, weights, viewer)  # type: ignore[arg-type]  # a Robot is kept as its spec path
     out = Path(out).expanduser()
     items = find_inputs(inputs, out)
     with run_lock(out):

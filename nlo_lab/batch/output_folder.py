@@ -12,8 +12,12 @@ import json
 import math
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from nlo_lab.atomic_files import atomic_write_bytes, output_set
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["OUTPUT_FILES", "SUMMARY_FILE", "VIEWER_FILE", "finite_or_null", "write_output_folder", "read_summary"]
 
@@ -27,7 +31,7 @@ def finite_or_null(summary: dict) -> dict:
     return {k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in summary.items()}
 
 
-def write_output_folder(out_dir, result, demo, robot, *, viewer: bool = True, summary: dict | None = None,
+def write_output_folder(out_dir, result, demo, robot: Robot, *, viewer: bool = True, summary: dict | None = None,
                         stale: tuple[str, ...] = (), before_swap: Callable[[], None] | None = None) -> Path:
     """Write a retargeting's files into ``out_dir``, all or nothing.
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+from typing import NoReturn
 
 from nlo_lab.errors import NloLabError, SettingsError
 from nlo_lab.settings import arg_type, check_int, check_positive
@@ -51,7 +52,7 @@ class Parser(argparse.ArgumentParser):
     Subparsers (and their own subparsers) are of this class too.
     """
 
-    def error(self, message: str):  # type: ignore[override]
+    def error(self, message: str) -> NoReturn:
         raise UsageError(f"{self.prog}: {message}")
 
 

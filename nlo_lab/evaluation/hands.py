@@ -23,6 +23,7 @@ Over a set of hand-frames (:meth:`HandScores.summary`): the three angles average
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -30,6 +31,9 @@ import torch
 from nlo_lab.errors import SettingsError
 from nlo_lab.human.demonstration import FINGERS, Demonstration
 from nlo_lab.objective import TERMS, LossWeights, Objective, point_plan, targets_from_demonstration
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = [
     "HandScores", "hand_scores", "hand_frames_mask", "angle_deg", "MEASURES",
@@ -103,7 +107,7 @@ def _robot_hand(robot, q: np.ndarray) -> dict[str, np.ndarray]:
             "length": plan.hand_length.numpy()}
 
 
-def hand_scores(robot, q, demo: Demonstration) -> HandScores:
+def hand_scores(robot: Robot, q, demo: Demonstration) -> HandScores:
     """Score the robot's hands at ``q (T, n)`` [rad] against the demonstration's (T frames).
 
     Raises:
@@ -143,7 +147,7 @@ def hand_scores(robot, q, demo: Demonstration) -> HandScores:
     )
 
 
-def finger_chains(robot, side: str) -> dict[str, list[str]]:
+def finger_chains(robot: Robot, side: str) -> dict[str, list[str]]:
     """Per finger of ``side``, the links from the wrist link to the fingertip link (the URDF chain)."""
     arm = robot.arm(side)
     out = {}
@@ -159,7 +163,7 @@ def finger_chains(robot, side: str) -> dict[str, list[str]]:
     return out
 
 
-def hand_joint_indices(robot, side: str) -> list[int]:
+def hand_joint_indices(robot: Robot, side: str) -> list[int]:
     """Indices (into ``robot.joint_names``) of the actuated joints that move the fingers of ``side``."""
     names = set()
     for chain in finger_chains(robot, side).values():
@@ -170,7 +174,7 @@ def hand_joint_indices(robot, side: str) -> list[int]:
     return sorted(robot.joint_names.index(n) for n in names if n in robot.joint_names)
 
 
-def robot_hand_points(robot, q, side: str) -> dict[str, np.ndarray]:
+def robot_hand_points(robot: Robot, q, side: str) -> dict[str, np.ndarray]:
     """Per finger the chain's link origins ``(T, k, 3)`` [m] in the aligned wrist frame, for ``q (T, n)``."""
     q = torch.as_tensor(np.array(q, dtype=np.float64))
     rb = robot.to(dtype=torch.float64)
@@ -186,7 +190,7 @@ def robot_hand_points(robot, q, side: str) -> dict[str, np.ndarray]:
     return out
 
 
-def best_hand_angles(robot, q, demo: Demonstration, weights=None, steps: int = 200, lr: float = 0.05) -> np.ndarray:
+def best_hand_angles(robot: Robot, q, demo: Demonstration, weights=None, steps: int = 200, lr: float = 0.05) -> np.ndarray:
     """The hands' joints alone optimised on the hand terms (``tip``, ``thumb``, ``pinch`` of ``weights``),
     the arms kept at ``q (T, n)``: the closest this hand comes to each handshape (Adam in joint space,
     clamped to the limits). Returns ``(T, n)`` [rad]."""

@@ -34,6 +34,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -53,6 +54,10 @@ from nlo_lab.settings import (
     validate_fields,
 )
 from nlo_lab.training import SupervisedNet, SupervisedSettings, supervised_network
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.model import RetargetModel
+    from nlo_lab.robot import Robot
 
 __all__ = [
     "METHODS",
@@ -175,7 +180,7 @@ def _latent(name: str, robot, demo, settings: BaselineSettings, model, init: str
     return MethodResult(name, angles, time.perf_counter() - start, list(r.history), r.iterations, times)
 
 
-def latent_encoder(robot, demo, settings: BaselineSettings | None = None, *, model=None, **_) -> MethodResult:
+def latent_encoder(robot: Robot, demo, settings: BaselineSettings | None = None, *, model: RetargetModel | None = None, **_) -> MethodResult:
     """The method: encoder initialisation, then ``settings.iterations`` latent steps.
 
     Args:
@@ -188,19 +193,19 @@ def latent_encoder(robot, demo, settings: BaselineSettings | None = None, *, mod
     return _latent("latent_encoder", robot, demo, s, model, "encoder", s.iterations)
 
 
-def encoder_only(robot, demo, settings: BaselineSettings | None = None, *, model=None, **_) -> MethodResult:
+def encoder_only(robot: Robot, demo, settings: BaselineSettings | None = None, *, model: RetargetModel | None = None, **_) -> MethodResult:
     """The encoder's latent decoded, no optimisation (the paper's 'Init'). Args as :func:`latent_encoder`."""
     s = settings or BaselineSettings()
     return _latent("encoder_only", robot, demo, s, model, "encoder", 0)
 
 
-def latent_random(robot, demo, settings: BaselineSettings | None = None, *, model=None, **_) -> MethodResult:
+def latent_random(robot: Robot, demo, settings: BaselineSettings | None = None, *, model: RetargetModel | None = None, **_) -> MethodResult:
     """Latent optimisation from ``N(0, settings.random_sigma²)``. Args as :func:`latent_encoder`."""
     s = settings or BaselineSettings()
     return _latent("latent_random", robot, demo, s, model, "random", s.iterations)
 
 
-def joint_space(robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResult:
+def joint_space(robot: Robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResult:
     """Adam on the angles from the robot's neutral pose (``JointOptimizeSettings`` default), the mode's objective, clamped to the limits."""
     s = settings or BaselineSettings()
     start = time.perf_counter()
@@ -211,14 +216,14 @@ def joint_space(robot, demo, settings: BaselineSettings | None = None, **_) -> M
 
 
 # ---------------------------------------------------------------------- inverse kinematics
-def wrist_positions(robot, q: torch.Tensor) -> torch.Tensor:
+def wrist_positions(robot: Robot, q: torch.Tensor) -> torch.Tensor:
     """``q (B, n)`` -> ``(B, 2, 3)`` wrist link positions (left, right) in the robot frame [m]."""
     poses = robot.forward_kinematics(q)
     return torch.stack([poses[robot.arm(side).wrist][..., :3, 3] for side in ("left", "right")], dim=-2)
 
 
 def ik_wrists(
-    robot,
+    robot: Robot,
     wrists: torch.Tensor,
     mask: torch.Tensor | None = None,
     *,
@@ -277,7 +282,7 @@ def ik_wrists(
     return q.detach(), steps
 
 
-def ik(robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResult:
+def ik(robot: Robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResult:
     """Inverse kinematics of the wrists only: the human wrists mapped into the robot
     frame (:func:`nlo_lab.human.map_to_robot`), damped least squares with clamping
     (:func:`ik_wrists`), every frame from the neutral pose."""
@@ -289,7 +294,7 @@ def ik(robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResu
     return MethodResult("ik", _numpy(q), time.perf_counter() - start, [], steps)
 
 
-def nn_supervised(robot, demo, settings: BaselineSettings | None = None, *, network: SupervisedNet | None = None, **_) -> MethodResult:
+def nn_supervised(robot: Robot, demo, settings: BaselineSettings | None = None, *, network: SupervisedNet | None = None, **_) -> MethodResult:
     """The paper's 'NN': one forward pass of :func:`supervised_network` per frame.
 
     Args:
@@ -316,7 +321,7 @@ _FUNCTIONS: dict[str, Callable[..., MethodResult]] = {
 }
 
 
-def run_method(name: str, robot, demo, settings: BaselineSettings | None = None, *, model=None, network=None) -> MethodResult:
+def run_method(name: str, robot: Robot, demo, settings: BaselineSettings | None = None, *, model: RetargetModel | None = None, network=None) -> MethodResult:
     """Run the method ``name`` (one of :data:`METHODS`) on ``demo``.
 
     Raises:
@@ -327,7 +332,7 @@ def run_method(name: str, robot, demo, settings: BaselineSettings | None = None,
     return _FUNCTIONS[name](robot, demo, settings, model=model, network=network)
 
 
-def mean_objective(robot, demo, angles, weights: LossWeights | None = None) -> float:
+def mean_objective(robot: Robot, demo, angles, weights: LossWeights | None = None) -> float:
     """Mean over frames of ``L(D, K(q))`` (no latent term) of ``angles (T, n)``."""
     targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)
     q = torch.as_tensor(np.asarray(angles), dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)

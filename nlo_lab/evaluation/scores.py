@@ -31,6 +31,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -42,6 +43,10 @@ from nlo_lab.inference import retime_times
 from nlo_lab.metrics import limit_violations, max_joint_speed_ratio, self_collision_frames, tracking_errors, velocity_violations
 from nlo_lab.model import load_pretrained
 from nlo_lab.training import supervised_network
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.model import RetargetModel
+    from nlo_lab.robot import Robot
 
 __all__ = ["SequenceScore", "Evaluation", "check_methods", "evaluate", "evaluate_split"]
 
@@ -127,12 +132,12 @@ def check_methods(methods: Sequence[str]) -> list[str]:
 
 
 def evaluate(
-    robot,
+    robot: Robot,
     demos: Sequence,
     settings: BaselineSettings | None = None,
     *,
     methods: Sequence[str] = METHODS,
-    model=None,
+    model: RetargetModel | None = None,
     network=None,
     progress: bool = True,
 ) -> Evaluation:
@@ -196,7 +201,7 @@ def evaluate(
     return Evaluation(robot.name, names, scores, info)
 
 
-def evaluate_split(robot, split: str = "test", *, limit: int | None = None, corpus_seed: int = 0, **kwargs) -> Evaluation:
+def evaluate_split(robot: Robot, split: str = "test", *, limit: int | None = None, corpus_seed: int = 0, **kwargs) -> Evaluation:
     """:func:`evaluate` on the synthetic corpus split (the first ``limit`` sequences)."""
     demos = sign_corpus(split, seed=corpus_seed)
     if limit is not None:

@@ -16,11 +16,15 @@ import contextlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
 from nlo_lab.objective import LossWeights, Targets, smoothness_loss
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["OptimizeResult", "Adam", "descend", "frozen", "smoothness_term", "join_results"]
 
@@ -92,7 +96,7 @@ def frozen(module: torch.nn.Module):
         module.train(was_training)
 
 
-def smoothness_term(robot, targets: Targets, weights: LossWeights, anchor: torch.Tensor | None = None):
+def smoothness_term(robot: Robot, targets: Targets, weights: LossWeights, anchor: torch.Tensor | None = None):
     """``q (T, n) -> (T,)`` the weighted smoothness term, or None when it does not apply.
 
     ``anchor (n,)``: fixed angles of the frame just before ``targets`` (the previous

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import torch
 
@@ -14,11 +15,14 @@ from nlo_lab.inference.fast_paths import FastPaths, fast_paths
 from nlo_lab.inference.settings import JointOptimizeSettings
 from nlo_lab.objective import TERMS, LossWeights, Objective, Targets
 
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
+
 __all__ = ["optimize_joints"]
 
 
 def optimize_joints(
-    robot,
+    robot: Robot,
     targets: Targets,
     settings: JointOptimizeSettings | None = None,
     *,

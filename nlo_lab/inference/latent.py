@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -38,6 +39,10 @@ from nlo_lab.inference.settings import PAPER_LR, SMOOTH_LR, OptimizeSettings
 from nlo_lab.model import EncoderInput
 from nlo_lab.objective import TERMS, LossWeights, Objective, Targets, step_cost
 
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.model import RetargetModel
+    from nlo_lab.robot import Robot
+
 __all__ = ["initial_latent", "sequence_start", "optimize_latent", "optimize_stream"]
 
 
@@ -45,7 +50,7 @@ def _model_dtype(model: torch.nn.Module) -> torch.dtype:
     return next(model.parameters()).dtype
 
 
-def initial_latent(model, inputs, settings: OptimizeSettings) -> torch.Tensor:
+def initial_latent(model: RetargetModel, inputs, settings: OptimizeSettings) -> torch.Tensor:
     """The start latent ``z0 (T, N_r, k)`` for ``settings.init``.
 
     Args:
@@ -80,7 +85,7 @@ def initial_latent(model, inputs, settings: OptimizeSettings) -> torch.Tensor:
 
 
 @torch.no_grad()
-def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: LossWeights | None = None,
+def sequence_start(model: RetargetModel, robot: Robot, targets: Targets, z0: torch.Tensor, weights: LossWeights | None = None,
                    window: int = 2, collision_form: str = "hinge", anchor: torch.Tensor | None = None,
                    fast: bool | FastPaths = False) -> torch.Tensor:
     """Warm start along the sequence: per frame, its own start latent or a neighbour's.
@@ -137,8 +142,8 @@ def sequence_start(model, robot, targets: Targets, z0: torch.Tensor, weights: Lo
 
 
 def optimize_latent(
-    model,
-    robot,
+    model: RetargetModel,
+    robot: Robot,
     targets: Targets,
     settings: OptimizeSettings | None = None,
     *,
@@ -210,7 +215,7 @@ def optimize_latent(
     return OptimizeResult(q, z, history, dict(zip(TERMS, terms.unbind(1), strict=True)), loss, steps, time.perf_counter() - start, init)
 
 
-def optimize_stream(model, robot, targets: Targets, settings: OptimizeSettings | None = None, *, weights: LossWeights | None = None,
+def optimize_stream(model: RetargetModel, robot: Robot, targets: Targets, settings: OptimizeSettings | None = None, *, weights: LossWeights | None = None,
                     z0: torch.Tensor | None = None, callback: Callable[[int, float], None] | None = None,
                     encoder_input: EncoderInput | None = None, fast: bool | FastPaths = False) -> OptimizeResult:
     """Frame by frame, as a live stream: with ``settings.warm_start`` frame t starts

@@ -17,10 +17,16 @@ then each backward in reverse order. The tests hold it equal to the readable tor
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from nlo_lab.objective import Objective
 from nlo_lab.robot.point_gradient import NumpyPointMap
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.model import RetargetModel
+    from nlo_lab.robot import Robot
 
 __all__ = ["NumpyLatentLoss"]
 
@@ -39,7 +45,7 @@ class NumpyLatentLoss:
         self._g_terms: dict[int, np.ndarray] = {}  # batch -> d sum(loss) / d terms: each row the weights
 
     @classmethod
-    def build(cls, model, robot, objective: Objective, latent_weight: float) -> NumpyLatentLoss | None:
+    def build(cls, model: RetargetModel, robot: Robot, objective: Objective, latent_weight: float) -> NumpyLatentLoss | None:
         """The numpy loss of ``model``'s frozen decoder and ``objective`` (built with ``fused=True``), or None
         when the decoder has no numpy form (weights not frozen, off the CPU, another kind) or the
         objective has terms its numpy form does not compute."""

@@ -17,7 +17,7 @@ import sys
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -44,6 +44,9 @@ from nlo_lab.objective import LossWeights, Targets, targets_from_demonstration
 from nlo_lab.robot import Robot
 from nlo_lab.settings import COUNT_RANGE, check_bool, check_int, check_type
 from nlo_lab.threads import single_thread
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.model import RetargetModel
 
 __all__ = ["CHUNK_FRAMES", "RetargetConfig", "Retargeter", "RetargetInputs", "RetargetResult", "retarget", "summary"]
 
@@ -169,7 +172,7 @@ class Retargeter:
     its current latent), :meth:`fast_paths` (which evaluations run at a batch size).
     """
 
-    def __init__(self, config: RetargetConfig, model, settings: OptimizeSettings, weights: LossWeights):
+    def __init__(self, config: RetargetConfig, model: RetargetModel, settings: OptimizeSettings, weights: LossWeights):
         self.config, self.robot, self.model = config, config.robot, model
         self.settings, self.weights = settings, weights
 
@@ -266,7 +269,7 @@ def retarget(
     *,
     settings: OptimizeSettings | None = None,
     weights: LossWeights | None = None,
-    model=None,
+    model: RetargetModel | None = None,
     progress: bool = False,
     chunk_frames: int | None = CHUNK_FRAMES,
     retime: bool = True,

@@ -19,6 +19,7 @@ import random
 import threading
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -29,6 +30,9 @@ from nlo_lab.paths import RECORDINGS_DIR
 from nlo_lab.robot import load_robot
 from nlo_lab.threads import default_threads
 from nlo_lab.viz.tracks import LOOP
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = [
     "TEST_ENV",
@@ -98,7 +102,7 @@ def _failed(widget, exc: Exception):
     return widget
 
 
-def show_view(robot, angles=None, demo=None, *, layout: str = "side", height: int = 400):
+def show_view(robot: Robot | str, angles=None, demo=None, *, layout: str = "side", height: int = 400):
     """An animated 3-D view of ``robot`` (and the human ``demo`` beside it) to display: a new scene.
 
     The view is a widget (:class:`nlo_lab.viz.SceneWidget`, meshcat's viewer in the notebook
@@ -134,7 +138,7 @@ def show_view(robot, angles=None, demo=None, *, layout: str = "side", height: in
     return widget
 
 
-def show_robot(robot, q=None, *, height: int = 400):
+def show_robot(robot: Robot | str, q=None, *, height: int = 400):
     """One pose of ``robot`` (``(n,)`` [rad], neutral if None) as a new scene; see :func:`show_view`."""
     # lazy: anywidget and ipywidgets: only when a view is drawn in a kernel
     from nlo_lab.viz import SceneWidget
@@ -172,7 +176,7 @@ def show_human(demo, *, height: int = 400):
 
 
 # ------------------------------------------------------------------ small things
-def joint_table(robot):
+def joint_table(robot: Robot):
     """An HTML table of the robot's actuated joints and limits ([rad] and [deg])."""
     # lazy: a kernel's display: only in a notebook
     from IPython.display import HTML

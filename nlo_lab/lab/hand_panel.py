@@ -9,7 +9,7 @@ headlessly: set ``panel.controls[name].value`` and read ``panel.q``, ``panel.mea
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -22,6 +22,10 @@ from nlo_lab.model import load_pretrained
 from nlo_lab.objective import HAND_TERMS, LossWeights, point_plan, targets_from_demonstration
 from nlo_lab.viz import RobotScene, frame_points, style_viewer
 from nlo_lab.viz.tracks import translation
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.model import RetargetModel
+    from nlo_lab.robot import Robot
 
 __all__ = ["HandPanel", "HAND_SLIDERS"]
 
@@ -48,7 +52,7 @@ class HandPanel:
         error: the last callback error shown in the panel ("" when the last update worked).
     """
 
-    def __init__(self, demo, robot, model=None, weights: LossWeights | None = None, frame: int = 0, side: str = "right",
+    def __init__(self, demo, robot: Robot, model: RetargetModel | None = None, weights: LossWeights | None = None, frame: int = 0, side: str = "right",
                  iterations: int = 60, view: Any = "auto", height: int = 380):
         # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W

@@ -8,7 +8,7 @@ sliders when the notebook is too narrow for both side by side.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -16,6 +16,9 @@ import torch
 from nlo_lab.errors import SettingsError
 from nlo_lab.lab.views import View, guarded
 from nlo_lab.viz import RobotScene, frame_points, style_viewer
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["JointPanel"]
 
@@ -38,7 +41,7 @@ class JointPanel:
         error: the last callback error shown in the panel ("" when the last update worked).
     """
 
-    def __init__(self, robot, q=None, link: str | None = None, view: Any = "auto", height: int = 360):
+    def __init__(self, robot: Robot, q=None, link: str | None = None, view: Any = "auto", height: int = 360):
         # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -40,6 +40,9 @@ from nlo_lab.robot import load_robot
 from nlo_lab.threads import single_thread
 from nlo_lab.viz import RetargetScene
 from nlo_lab.viz.tracks import set_key_times, tick_ms
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.model import RetargetModel
 
 __all__ = ["RetargetPanel"]
 
@@ -86,7 +89,7 @@ class RetargetPanel:
         demo,
         robot: Any = "yumi",
         *,
-        model=None,
+        model: RetargetModel | None = None,
         model_loader: Callable[[Any], Any] | None = None,
         weights: LossWeights | None = None,
         init: str = "encoder",

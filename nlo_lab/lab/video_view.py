@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,6 +24,9 @@ from nlo_lab.errors import DemonstrationError, SettingsError
 from nlo_lab.human.io_video import VIDEO_SUFFIXES
 from nlo_lab.lab.views import View
 from nlo_lab.viz import RetargetScene
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["VideoView", "jpeg_bytes", "save_upload"]
 
@@ -85,7 +88,7 @@ class VideoView:
         widget: the whole view (displayed as the cell's value).
     """
 
-    def __init__(self, frames: np.ndarray, robot, angles, demo, *, fps: float | None = None,
+    def __init__(self, frames: np.ndarray, robot: Robot, angles, demo, *, fps: float | None = None,
                  view: Any = "auto", height: int = 360):
         # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W

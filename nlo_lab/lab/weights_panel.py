@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import html
 import io
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import torch
 
@@ -22,6 +22,9 @@ from nlo_lab.inference import JointOptimizeSettings, optimize_joints
 from nlo_lab.lab.views import View, guarded
 from nlo_lab.objective import TERMS, LossWeights, objective
 from nlo_lab.viz import RetargetScene, plot_loss_terms
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["WeightsPanel"]
 
@@ -46,7 +49,7 @@ class WeightsPanel:
         error: the last callback error shown in the panel ("" when the last update worked).
     """
 
-    def __init__(self, robot, targets, demo=None, *, weights=None, iterations: int = 100, view: Any = "auto",
+    def __init__(self, robot: Robot, targets, demo=None, *, weights=None, iterations: int = 100, view: Any = "auto",
                  height: int = 360):
         # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import torch
 
@@ -22,7 +22,10 @@ from nlo_lab.human.skeleton import skeleton_graph
 from nlo_lab.model.layers import DEFAULT_ACTIVATION
 from nlo_lab.model.retarget_model import RetargetModel, build_model
 from nlo_lab.paths import BUNDLED_ROBOTS, CHECKPOINTS_DIR, is_bundled, is_editable_checkout, repair_hint
-from nlo_lab.robot import load_robot
+from nlo_lab.robot import as_robot
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["CHECKPOINT_FORMAT_VERSION", "MAX_CHECKPOINT_BYTES", "save_checkpoint", "load_checkpoint", "load_torch_file",
            "checkpoint_path", "load_pretrained"]
@@ -61,14 +64,8 @@ def load_torch_file(path, *, kind: str = "checkpoint", max_bytes: int = MAX_CHEC
             raise error(f"cannot be read (corrupt or not a {kind}): {type(exc).__name__}", path=path) from None
 
 
-def _resolve_robot(robot):
-    """A ``Robot`` as given, or loaded by name."""
-    if isinstance(robot, str):
-        return load_robot(robot)
-    return robot
 
-
-def save_checkpoint(model: RetargetModel, path, robot=None, **info: Any) -> Path:
+def save_checkpoint(model: RetargetModel, path, robot: Robot | None = None, **info: Any) -> Path:
     """Write ``model`` (float32) with its robot name, format version and settings.
 
     Args:
@@ -104,7 +101,7 @@ def save_checkpoint(model: RetargetModel, path, robot=None, **info: Any) -> Path
     return path
 
 
-def load_checkpoint(path, robot) -> RetargetModel:
+def load_checkpoint(path, robot: Robot | str) -> RetargetModel:
     """Load a checkpoint for ``robot`` (a ``Robot`` or a name).
 
     Raises:
@@ -112,7 +109,7 @@ def load_checkpoint(path, robot) -> RetargetModel:
             checkpoint made for another robot (the message names both).
     """
     path = as_path(path)
-    robot = _resolve_robot(robot)
+    robot = as_robot(robot)
     ckpt = load_torch_file(path)
     if not isinstance(ckpt, dict) or "format_version" not in ckpt or "robot" not in ckpt:
         raise CheckpointError(f"checkpoint {path} is not an nlo_lab checkpoint (no format_version/robot)")
@@ -153,13 +150,13 @@ def checkpoint_path(name: str) -> Path:
     return CHECKPOINTS_DIR / f"{name}.pt"
 
 
-def load_pretrained(robot) -> RetargetModel:
+def load_pretrained(robot: Robot | str) -> RetargetModel:
     """The shipped checkpoint of ``robot`` (a ``Robot`` or a name).
 
     Raises:
         CheckpointError: no shipped checkpoint for this robot (or a bad one).
     """
-    robot = _resolve_robot(robot)
+    robot = as_robot(robot)
     path = checkpoint_path(robot.name)
     if not path.is_file() and not (robot.name in BUNDLED_ROBOTS and is_bundled(path)):
         raise CheckpointError(f"no trained checkpoint for robot {robot.name!r} ({path}); run `nlo-lab train --robot {robot.name}`")

@@ -50,6 +50,10 @@ class GraphDecoder(nn.Module):
             default only; with another one the decoder runs in torch.
     """
 
+    lower: torch.Tensor  # a buffer (typed here: nn.Module's __getattr__ says Tensor | Module)
+    upper: torch.Tensor
+    rest_pre: torch.Tensor
+
     def __init__(
         self,
         robot_graph: Graph,
@@ -181,6 +185,10 @@ class GraphDecoder(nn.Module):
 
 class MLPDecoder(nn.Module):
     """Plain fully connected decoder (ablation): ``z ⊕ lower ⊕ upper`` -> tanh -> remap."""
+
+    lower: torch.Tensor  # a buffer (typed here: nn.Module's __getattr__ says Tensor | Module)
+    upper: torch.Tensor
+    rest_pre: torch.Tensor
 
     def __init__(
         self,

@@ -232,6 +232,10 @@ class GraphBuffers(nn.Module):
         node_type: ``(N,)`` long.
     """
 
+    edge_index: torch.Tensor  # a buffer (typed here: nn.Module's __getattr__ says Tensor | Module)
+    edge_attr: torch.Tensor
+    node_type: torch.Tensor
+
     def __init__(self, graph: Graph):
         super().__init__()
         self.node_names = tuple(graph.node_names)

@@ -28,6 +28,9 @@ class RetargetModel(nn.Module):
         config: hyperparameters needed to rebuild the model (:func:`build_model`).
     """
 
+    latent_mean: torch.Tensor  # a buffer (typed here: nn.Module's __getattr__ says Tensor | Module)
+    latent_std: torch.Tensor
+
     def __init__(self, encoder: nn.Module, decoder: nn.Module, robot_name: str, config: dict[str, Any]):
         super().__init__()
         self.encoder, self.decoder = encoder, decoder

@@ -23,11 +23,15 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
 from nlo_lab.human.demonstration import FINGERS, SIDES
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["RobotPoints", "PointPlan", "point_plan", "robot_points"]
 
@@ -74,7 +78,7 @@ class PointPlan:
         pair_radii, margins: ``(P,)`` summed capsule radii and d_min of each pair [m].
     """
 
-    def __init__(self, robot, dtype: torch.dtype, device=None):
+    def __init__(self, robot: Robot, dtype: torch.dtype, device=None):
         self.robot = robot
         arms = [robot.arm(s) for s in SIDES]
         entries: list[tuple[str, tuple[float, ...]]] = []
@@ -183,7 +187,7 @@ class PointPlan:
 _PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # robot -> {(dtype, device): PointPlan}
 
 
-def point_plan(robot, dtype: torch.dtype, device=None) -> PointPlan:
+def point_plan(robot: Robot, dtype: torch.dtype, device=None) -> PointPlan:
     """The :class:`PointPlan` of ``robot`` in ``dtype`` on ``device``, built once (about 8 ms, mostly the
     spec's wrist alignments) and kept as long as the robot object lives."""
     plans = _PLANS.setdefault(robot, {})
@@ -193,7 +197,7 @@ def point_plan(robot, dtype: torch.dtype, device=None) -> PointPlan:
     return plans[key]
 
 
-def robot_points(robot, poses: dict) -> dict[str, torch.Tensor]:
+def robot_points(robot: Robot, poses: dict) -> dict[str, torch.Tensor]:
     """The robot's :class:`RobotPoints` from FK poses (``robot.forward_kinematics(q)``), as a dict.
 
     Returns:

@@ -8,6 +8,8 @@ smoothness term are added where ``z`` and the whole sequence live: optimisation 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import torch
 
 from nlo_lab.errors import SettingsError
@@ -28,6 +30,9 @@ from nlo_lab.objective.terms import (
 )
 from nlo_lab.objective.weights import COLLISION_FORMS, TERMS, LossWeights
 from nlo_lab.settings import check_choice
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["Objective", "objective"]
 
@@ -62,7 +67,7 @@ class Objective:
         SettingsError: ``fused`` with targets off the CPU.
     """
 
-    def __init__(self, robot, targets: Targets, weights: LossWeights | None = None, collision_form: str = "hinge",
+    def __init__(self, robot: Robot, targets: Targets, weights: LossWeights | None = None, collision_form: str = "hinge",
                  fused: bool = False, cull: bool = False, analytic_fk: bool = False):
         check_choice("collision form", collision_form, COLLISION_FORMS)
         weights = weights or LossWeights()
@@ -127,7 +132,7 @@ class Objective:
         ], dim=1)  # fmt: skip
 
 
-def objective(robot, q: torch.Tensor, targets: Targets, weights: LossWeights | None = None, *,
+def objective(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossWeights | None = None, *,
               poses: dict | None = None, collision_form: str = "hinge",
               fused: bool = False, cull: bool = False, analytic_fk: bool = False) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
     """The weighted objective ``L(D, K(q))`` per sample (without the latent term).

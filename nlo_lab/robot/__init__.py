@@ -24,7 +24,7 @@ from nlo_lab.robot.collision import capsule_distance, closest_parameters, segmen
 from nlo_lab.robot.geometry import Shape, link_shapes, shape_mesh
 from nlo_lab.robot.geometry_collision import GeometryCollision
 from nlo_lab.robot.kinematics import KinematicTree
-from nlo_lab.robot.robot import Robot, check_angles, load_robot
+from nlo_lab.robot.robot import Robot, as_robot, check_angles, load_robot
 from nlo_lab.robot.spec import ArmSpec, CapsuleSpec, RobotSpec, known_robots, load_spec
 from nlo_lab.robot.structure_graph import structure_graph
 from nlo_lab.robot.urdf import JointInfo, URDFModel, load_urdf, parse_urdf
@@ -32,6 +32,7 @@ from nlo_lab.robot.urdf import JointInfo, URDFModel, load_urdf, parse_urdf
 __all__ = [
     "Robot",
     "load_robot",
+    "as_robot",
     "check_angles",
     "ArmSpec",
     "CapsuleSpec",

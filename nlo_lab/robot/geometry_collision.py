@@ -23,11 +23,15 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
 from nlo_lab.robot.geometry import link_shapes, shape_mesh
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot.robot import Robot
 
 __all__ = ["DEPTH_TOLERANCE", "Polytope", "polytope", "overlap_depth", "GeometryCollision"]
 
@@ -112,7 +116,7 @@ class GeometryCollision:
         skipped: ``[(link, reason)]`` elements left out (a mesh file missing or unreadable).
     """
 
-    def __init__(self, robot, role: str = "collision"):
+    def __init__(self, robot: Robot, role: str = "collision"):
         self.robot = robot
         self.pieces: list[Polytope] = []
         self.skipped: list[tuple[str, str]] = []

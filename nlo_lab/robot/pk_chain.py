@@ -19,7 +19,12 @@ FK does internally.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import torch
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot.robot import Robot
 
 __all__ = ["PKChain"]
 
@@ -32,7 +37,7 @@ class PKChain:
         dtype: the chain's dtype (default: the robot's).
     """
 
-    def __init__(self, robot, dtype: torch.dtype | None = None):
+    def __init__(self, robot: Robot, dtype: torch.dtype | None = None):
         import pytorch_kinematics as pk  # the reference: imported only where it is used
 
         self.robot = robot

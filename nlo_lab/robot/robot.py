@@ -25,7 +25,7 @@ from nlo_lab.robot.spec import ArmSpec, RobotSpec, load_spec
 from nlo_lab.robot.structure_graph import structure_graph
 from nlo_lab.robot.urdf import URDFModel, parse_urdf
 
-__all__ = ["Robot", "load_robot", "check_angles"]
+__all__ = ["Robot", "load_robot", "as_robot", "check_angles"]
 
 
 def check_angles(q, n_joints: int, robot: str = "robot", joint_names: Sequence[str] | None = None) -> np.ndarray:
@@ -340,3 +340,8 @@ def load_robot(name_or_path: str | Path) -> Robot:
         if is_bundled(spec.urdf):  # a damaged install, not the user's file
             raise RobotDescriptionError(f"{exc}; {repair_hint(spec.urdf)}") from None
         raise
+
+
+def as_robot(robot: Robot | str | Path) -> Robot:
+    """``robot`` itself, or the robot :func:`load_robot` loads by that name or spec path."""
+    return robot if isinstance(robot, Robot) else load_robot(robot)

@@ -206,7 +206,7 @@ def _vec3(v, what: str, path: Path) -> tuple[float, float, float]:
         raise RobotDescriptionError(f"{path}: {what} must be 3 numbers, got {v!r}") from None
     if len(out) != 3:
         raise RobotDescriptionError(f"{path}: {what} must be 3 numbers, got {v!r}")
-    return out  # type: ignore[return-value]
+    return out
 
 
 def load_spec(name_or_path: str | Path) -> RobotSpec:

@@ -10,6 +10,7 @@ load) or a wall-clock time.
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import torch
 
@@ -19,6 +20,9 @@ from nlo_lab.model import DEFAULT_ACTIVATION
 from nlo_lab.settings import EPOCHS_RANGE, SECONDS_RANGE
 from nlo_lab.training.supervised import train_supervised_model
 from nlo_lab.training.train import TrainSettings, new_model, train_model
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["VARIANTS", "train_variant"]
 
@@ -30,7 +34,7 @@ VARIANTS = {  # Table III of the paper: name -> (model kind, training objective)
 }
 
 
-def train_variant(robot, name: str, data: RetargetInputs, labels: torch.Tensor | None, seconds: float | None = None, *,
+def train_variant(robot: Robot, name: str, data: RetargetInputs, labels: torch.Tensor | None, seconds: float | None = None, *,
                   val_data: RetargetInputs | None = None, seed: int = 0, steps: int | None = None, activation: str = DEFAULT_ACTIVATION):
     """Train one Table III variant for a budget of optimiser steps or of wall-clock time.
 

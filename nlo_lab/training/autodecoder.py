@@ -24,12 +24,17 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import torch
 from torch import nn
 
 from nlo_lab.inference import FastPaths, OptimizeSettings, fast_paths, optimize_latent
 from nlo_lab.objective import LossWeights, latent_loss, objective
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.model import RetargetModel
+    from nlo_lab.robot import Robot
 
 __all__ = ["LatentCodes", "autodecoder_loss", "validate_autodecoder"]
 
@@ -69,7 +74,7 @@ class LatentCodes(nn.Module):
         return self.table.weight.detach().clone().view(-1, *self.latent_shape)
 
 
-def autodecoder_loss(model, robot, codes: LatentCodes, idx: torch.Tensor, targets, weights: LossWeights, form: str,
+def autodecoder_loss(model: RetargetModel, robot: Robot, codes: LatentCodes, idx: torch.Tensor, targets, weights: LossWeights, form: str,
                      fast: bool | FastPaths = True) -> torch.Tensor:
     """Per-motion Eq. ``autodecoder``: ``L(D_i, K(f_psi(z_i))) + weights.latent * ||z_i||²`` -> ``(B,)``.
 
@@ -90,7 +95,7 @@ def autodecoder_loss(model, robot, codes: LatentCodes, idx: torch.Tensor, target
     return total + weights.latent * latent_loss(z)
 
 
-def validate_autodecoder(model, robot, data, start: torch.Tensor, weights: LossWeights, form: str, iterations: int,
+def validate_autodecoder(model: RetargetModel, robot: Robot, data, start: torch.Tensor, weights: LossWeights, form: str, iterations: int,
                          fast: bool | FastPaths = True) -> float:
     """Mean objective (with the prior term) on ``data`` after latent optimisation with the decoder frozen.
 

@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -42,6 +43,10 @@ from nlo_lab.settings import (
     check_type,
 )
 from nlo_lab.training.data import corpus_inputs
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.model import RetargetModel
+    from nlo_lab.robot import Robot
 
 __all__ = [
     "SupervisedSettings",
@@ -98,6 +103,9 @@ class SupervisedNet(nn.Module):
     ``[-1, 1]`` and mapped back, so the angles never leave the limits.
     """
 
+    q_mid: torch.Tensor  # a buffer (typed here: nn.Module's __getattr__ says Tensor | Module)
+    q_half: torch.Tensor
+
     def __init__(self, in_features: int, lower: torch.Tensor, upper: torch.Tensor, hidden: tuple[int, ...] = (256, 256)):
         super().__init__()
         dims = (in_features, *hidden, lower.shape[0])
@@ -120,7 +128,7 @@ class SupervisedNet(nn.Module):
         return self.q_mid + self.q_half * self.normalized(x).clamp(-1.0, 1.0)
 
 
-def supervised_labels(robot, targets: Targets, iterations: int, *, progress: bool = False) -> torch.Tensor:
+def supervised_labels(robot: Robot, targets: Targets, iterations: int, *, progress: bool = False) -> torch.Tensor:
     """The supervised 'ground truth': joint-space optimisation results ``(N, n)`` for every frame of ``targets``.
 
     Each frame on its own, with the paper's objective (no smoothness term): the frames are
@@ -170,7 +178,7 @@ def _fit(module: nn.Module, predict: Callable, x: tuple, u: torch.Tensor, epochs
     return history
 
 
-def train_supervised_net(robot, features: torch.Tensor, labels: torch.Tensor, settings: SupervisedSettings | None = None) -> SupervisedNet:
+def train_supervised_net(robot: Robot, features: torch.Tensor, labels: torch.Tensor, settings: SupervisedSettings | None = None) -> SupervisedNet:
     """Train a :class:`SupervisedNet` on ``features (N, N_h, F)`` -> ``labels (N, n)`` [rad].
 
     Deterministic from ``settings.seed`` (weights and batch order).
@@ -187,7 +195,7 @@ def train_supervised_net(robot, features: torch.Tensor, labels: torch.Tensor, se
     return net
 
 
-def train_supervised_model(model, inputs: EncoderInput | RetargetInputs, labels: torch.Tensor, *, epochs: int, batch_size: int = 64, lr: float = 1e-3,
+def train_supervised_model(model: RetargetModel, inputs: EncoderInput | RetargetInputs, labels: torch.Tensor, *, epochs: int, batch_size: int = 64, lr: float = 1e-3,
                            seed: int = 0, max_seconds: float | None = None, max_steps: int | None = None) -> list[float]:
     """Train a :class:`~nlo_lab.model.RetargetModel` (encoder + decoder) supervised on
     ``labels (N, n)`` (paper Eq. ``L_sup``: squared error of the angles, here
@@ -240,7 +248,7 @@ def _cache_key(robot, settings: SupervisedSettings, data: RetargetInputs) -> str
 _NETWORKS: dict[str, SupervisedNet] = {}
 
 
-def supervised_dataset(robot, settings: SupervisedSettings | None = None, *, use_cache: bool = True, progress: bool = False) -> tuple[RetargetInputs, torch.Tensor, float]:
+def supervised_dataset(robot: Robot, settings: SupervisedSettings | None = None, *, use_cache: bool = True, progress: bool = False) -> tuple[RetargetInputs, torch.Tensor, float]:
     """Training frames (every ``frame_stride``-th of the train split) and their
     joint-space optimisation labels ``(N, n)`` [rad], float32.
 
@@ -273,7 +281,7 @@ def supervised_dataset(robot, settings: SupervisedSettings | None = None, *, use
     return data, labels, seconds
 
 
-def supervised_network(robot, settings: SupervisedSettings | None = None, *, use_cache: bool = True, progress: bool = False) -> SupervisedNet:
+def supervised_network(robot: Robot, settings: SupervisedSettings | None = None, *, use_cache: bool = True, progress: bool = False) -> SupervisedNet:
     """The ``nn_supervised`` network of ``robot``: labels by joint-space optimisation
     over the training split (every ``frame_stride``-th frame), then supervised training.
 

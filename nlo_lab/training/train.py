@@ -26,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import torch
 from tqdm.auto import tqdm
@@ -36,7 +37,7 @@ from nlo_lab.human.skeleton import NODE_FEATURES
 from nlo_lab.inference import FastPaths, RetargetInputs, fast_paths
 from nlo_lab.model import ACTIVATIONS, DEFAULT_ACTIVATION, MODEL_KINDS, EncoderInput, RetargetModel, build_model
 from nlo_lab.objective import COLLISION_FORMS, LossWeights, latent_loss, objective
-from nlo_lab.robot import load_robot
+from nlo_lab.robot import as_robot
 from nlo_lab.settings import (
     BATCH_RANGE,
     COUNT_RANGE,
@@ -53,6 +54,9 @@ from nlo_lab.settings import (
 )
 from nlo_lab.training.autodecoder import LatentCodes, autodecoder_loss, validate_autodecoder
 from nlo_lab.training.data import demos_inputs, train_validation_split
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
 
 __all__ = ["TRAIN_MODES", "TrainSettings", "TrainResult", "new_model", "train_model", "latent_statistics"]
 
@@ -153,13 +157,8 @@ class TrainResult:
     codes: torch.Tensor | None = None
 
 
-def _resolve_robot(robot):
-    if isinstance(robot, str):
-        return load_robot(robot)
-    return robot
 
-
-def new_model(robot, settings: TrainSettings | None = None, in_features: int | None = None) -> RetargetModel:
+def new_model(robot: Robot, settings: TrainSettings | None = None, in_features: int | None = None) -> RetargetModel:
     """An untrained model for ``robot`` on the human skeleton graph."""
     settings = settings or TrainSettings()
     human = skeleton_graph()
@@ -208,7 +207,7 @@ def latent_statistics(model: RetargetModel, data: EncoderInput | RetargetInputs,
 
 
 def train_model(
-    robot,
+    robot: Robot | str,
     settings: TrainSettings | None = None,
     *,
     weights: LossWeights | None = None,
@@ -235,7 +234,7 @@ def train_model(
     """
     settings = settings or TrainSettings()
     weights = weights or LossWeights()
-    robot = _resolve_robot(robot)
+    robot = as_robot(robot)
     dtype = torch.float32
     robot = robot.to(dtype=dtype)
     if train_data is None or val_data is None:

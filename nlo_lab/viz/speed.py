@@ -3,22 +3,26 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nlo_lab.metrics import joint_speed_ratios
 
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
+
 __all__ = ["fastest_joints", "plot_joint_speeds"]
 
 
-def fastest_joints(robot, trajectory, k: int = 3) -> list[int]:
+def fastest_joints(robot: Robot, trajectory, k: int = 3) -> list[int]:
     """Indices of the ``k`` joints with the largest speed over their limit in ``trajectory``
     (frames 1/fps apart, i.e. before retiming)."""
     ratios = joint_speed_ratios(robot, trajectory.angles, fps=trajectory.fps)  # (T-1, n)
     return [int(j) for j in np.argsort(-ratios.max(axis=0))[:k]]
 
 
-def plot_joint_speeds(robot, trajectories: Mapping[str, object], joints: Sequence[int] | None = None, figsize=(9, 4.5)):
+def plot_joint_speeds(robot: Robot, trajectories: Mapping[str, object], joints: Sequence[int] | None = None, figsize=(9, 4.5)):
     """Angle (top row) and speed (bottom row) of a few joints, each trajectory on its own time base.
 
     The bottom row shows the joint's published velocity limit as dashed lines at ``±v_max``:
