@@ -6,9 +6,9 @@
     demo = corpus_clip("hospital_03")        # one sequence, a Demonstration
     test = sign_corpus("test")               # the 25 test sequences (two scenarios)
 
-Modules, along the data's path: :mod:`~nlo_lab.corpus.body` (dimensions, joints, ranges),
+Modules, along the data's path: :mod:`~nlo_lab.corpus.body` (dimensions, joints, ranges, the
+signed distances to torso, neck and head),
 :mod:`~nlo_lab.corpus.arm_kinematics` (arm and hand FK, analytic arm IK),
-:mod:`~nlo_lab.corpus.body_distance` (signed distances to torso, neck, head),
 :mod:`~nlo_lab.corpus.signs` (handshapes, locations, movements, held-out combinations),
 :mod:`~nlo_lab.corpus.sign_motion` (one sign on one signer's body),
 :mod:`~nlo_lab.corpus.generate` (one sentence, checked until plausible) and
@@ -25,9 +25,12 @@ from nlo_lab.corpus.body import (
                                  FINGER_RANGES,
                                  FINGER_SEGMENTS,
                                  BodyParams,  # fmt: skip
+                                 body_gradient,
+                                 body_signed_distance,
+                                 head_signed_distance,
                                  random_body,
+                                 torso_signed_distance,
 )
-from nlo_lab.corpus.body_distance import body_gradient, body_signed_distance, head_signed_distance, torso_signed_distance
 from nlo_lab.corpus.corpus import (
                                  N_SIGNERS,
                                  SCENARIOS,
@@ -78,7 +81,6 @@ __all__ = [
     "BODY_RANGES", "BASE_INDEX", "FINGER_SEGMENTS",
     # arm_kinematics
     "ArmPose", "arm_fk", "arm_ik", "hand_frame", "knuckle_centre", "wrist_position", "rot_x", "rot_y", "rot_z",
-    # body_distance
     "torso_signed_distance", "head_signed_distance", "body_signed_distance", "body_gradient",
     # signs
     "HANDSHAPES", "LOCATIONS", "CONTACT_LOCATIONS", "PALMS", "MOVEMENTS", "PATTERNS", "HELD_OUT_PAIRS", "Sign",

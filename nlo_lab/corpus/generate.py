@@ -18,8 +18,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from nlo_lab.corpus.arm_kinematics import arm_fk, wrist_position
-from nlo_lab.corpus.body import ARM_RANGES, FINGER_RANGES, BodyParams
-from nlo_lab.corpus.body_distance import body_signed_distance, torso_signed_distance
+from nlo_lab.corpus.body import ARM_RANGES, FINGER_RANGES, BodyParams, body_signed_distance, torso_signed_distance
 from nlo_lab.corpus.sign_motion import Signer, sign_segment
 from nlo_lab.corpus.signs import RELAXED, Sign, minimum_jerk
 from nlo_lab.human.demonstration import Demonstration

@@ -16,8 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nlo_lab.corpus.arm_kinematics import arm_fk, arm_ik, knuckle_centre
-from nlo_lab.corpus.body import ARM_RANGES, FINGER_RANGES, BodyParams
-from nlo_lab.corpus.body_distance import body_gradient, body_signed_distance, torso_signed_distance
+from nlo_lab.corpus.body import ARM_RANGES, FINGER_RANGES, BodyParams, body_gradient, body_signed_distance, torso_signed_distance
 from nlo_lab.corpus.signs import PALMS, RELAXED, Sign, handshape, location_point, minimum_jerk, movement_path
 
 __all__ = ["Signer", "PUSH_CLEARANCE", "PATH_ACCEL", "sign_duration_floor", "sign_segment"]

@@ -5,14 +5,14 @@
 * :class:`SceneWidget`: the live view in a notebook, meshcat's viewer inside a widget that talks over the
   notebook's own connection (no server, no port);
 * :func:`export_html` / :func:`static_html`: self-contained animated pages for files (work offline);
-* plots: :func:`plot_convergence`, :func:`plot_joint_trajectories`, :func:`plot_loss_terms`;
+* plots: :func:`plot_convergence`, :func:`plot_joint_trajectories`, :func:`plot_loss_terms`, :func:`plot_joint_speeds`;
   handshapes: :func:`handshape_gallery`, :func:`draw_hand_pair` (human landmarks beside the robot hand).
 """
 
 from nlo_lab.viz.camera import CameraView, frame_points
 from nlo_lab.viz.export import export_html, recording_visualizer, static_html
 from nlo_lab.viz.hands import HUMAN_FINGERS, draw_hand_pair, handshape_gallery
-from nlo_lab.viz.plots import plot_convergence, plot_joint_trajectories, plot_loss_terms
+from nlo_lab.viz.plots import fastest_joints, plot_convergence, plot_joint_speeds, plot_joint_trajectories, plot_loss_terms
 from nlo_lab.viz.scene import (
     GROUP_COLOURS,
     HUMAN_COLOURS,
@@ -47,6 +47,8 @@ __all__ = [
     "plot_convergence",
     "plot_joint_trajectories",
     "plot_loss_terms",
+    "plot_joint_speeds",
+    "fastest_joints",
 ]
 
 

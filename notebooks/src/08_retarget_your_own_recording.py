@@ -108,7 +108,7 @@ for name in budget(("yumi", "nao", "pepper"), ("nao",)):
 
 # %%
 from nlo_lab.objective import LossWeights
-from nlo_lab.viz.speed import plot_joint_speeds
+from nlo_lab.viz import plot_joint_speeds
 
 ITERS = budget(100, 10)
 rough = retarget(demo, robot, weights=LossWeights(smooth=0), settings=OptimizeSettings(iterations=ITERS))
