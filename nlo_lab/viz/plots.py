@@ -141,7 +141,7 @@ def fastest_joints(robot: Robot, trajectory, k: int = 3) -> list[int]:
     return [int(j) for j in np.argsort(-ratios.max(axis=0))[:k]]
 
 
-def plot_joint_speeds(robot: Robot, trajectories: Mapping[str, object], joints: Sequence[int] | None = None, figsize=(9, 4.5)):
+def plot_joint_speeds(robot: Robot, trajectories: Mapping[str, Any], joints: Sequence[int] | None = None, figsize=(9, 4.5)):
     """Angle (top row) and speed (bottom row) of a few joints, each trajectory on its own time base.
 
     The bottom row shows the joint's published velocity limit as dashed lines at ``±v_max``:
