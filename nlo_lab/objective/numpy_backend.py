@@ -145,8 +145,9 @@ class HandTerms:
         g_axes = np.matmul(self.side_sum, g_A.reshape(g.shape[0], self.items, 9)).reshape(g.shape[0], 6, 3)
         pinch = 2.0 * g[:, 2:3] * self.pinch_weight * over / (root * self.length[self.pairs, 0])  # (B, J)
         g_d[:, self.pairs] += pinch[..., None] * d[:, self.pairs]
-        np.add.at(gP, (slice(None), self.plus), g_d)  # onto both ends of every vector (a point may end several)
-        np.subtract.at(gP, (slice(None), self.minus), g_d)
+        # onto both ends of every vector (a point may end several); numpy takes a tuple index, its stubs do not
+        np.add.at(gP, (slice(None), self.plus), g_d)  # type: ignore[arg-type]
+        np.subtract.at(gP, (slice(None), self.minus), g_d)  # type: ignore[arg-type]
         gP[:, self.axes] += g_axes
 
 
