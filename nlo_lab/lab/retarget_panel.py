@@ -100,6 +100,7 @@ class RetargetPanel:
         height: int = 360,
         max_curves: int = 5,
     ):
+        # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W
 
         if init not in INITS:

@@ -42,11 +42,13 @@ import anywidget
 import ipywidgets
 import numpy as np
 import traitlets
+from tqdm.auto import tqdm
 
 from nlo_lab.errors import NloLabError, SettingsError
 from nlo_lab.live.frame_message import FrameMessageError, decode_frame_message, encode_frame
 from nlo_lab.live.recording import LiveRecording
 from nlo_lab.live.retargeter import TIMINGS, LiveFrame, LiveRetargeter
+from nlo_lab.settings import check_bool, check_int, check_range
 
 __all__ = ["CameraView", "WINDOW_SECONDS", "SPLIT", "FRAME_SIZE", "JPEG_QUALITY"]
 
@@ -96,7 +98,7 @@ class CameraView(anywidget.AnyWidget):
 
     def __init__(self, robot="yumi", *, height: int = 360, frame_size: int = FRAME_SIZE, jpeg_quality: float = JPEG_QUALITY,
                  mirror: bool = True, **options):
-        from nlo_lab.settings import check_bool, check_int, check_range
+        # lazy: meshcat's scene classes: only when the view is built
         from nlo_lab.viz import RobotScene, SceneWidget, frame_points, style_viewer
 
         check_int("height", height, 120, 2000)
@@ -216,8 +218,6 @@ class CameraView(anywidget.AnyWidget):
         images, times = _video_frames(source, frames)
         bar = None
         if progress:
-            from tqdm.auto import tqdm
-
             bar = tqdm(total=len(images), desc="live stream", unit="frame", leave=False)
         processed = dropped = 0
         start = time.perf_counter()
@@ -301,6 +301,7 @@ def _video_frames(source, limit: int | None) -> tuple[np.ndarray, np.ndarray]:
         if images.ndim != 4 or images.shape[-1] != 3 or images.dtype != np.uint8 or times.shape != images.shape[:1]:
             raise SettingsError("source must be a video file or (frames (T, H, W, 3) uint8, times (T,))")
     else:
+        # lazy: opencv (the video extra): only for a video file
         from nlo_lab.human.video_frames import read_video_frames, video_info
 
         info = video_info(source)

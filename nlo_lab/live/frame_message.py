@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import io
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,8 +56,7 @@ def decode_frame_message(content, buffers) -> FrameMessage:
             over :data:`MAX_FRAME_BYTES`, bytes that are not a JPEG or do not decode, an image larger than
             :data:`~nlo_lab.live.retargeter.MAX_IMAGE_SIDE` a side (checked from its header, before decoding).
     """
-    import warnings
-
+    # lazy: Pillow: only where frames are encoded or decoded
     from PIL import Image, UnidentifiedImageError
 
     if not isinstance(content, dict):
@@ -98,6 +98,7 @@ def decode_frame_message(content, buffers) -> FrameMessage:
 
 def shrink(image: np.ndarray, longest: int) -> np.ndarray:
     """``image`` scaled so that its longer side is at most ``longest`` pixels (as the page does before sending)."""
+    # lazy: Pillow: only where frames are encoded or decoded
     from PIL import Image
 
     h, w = image.shape[:2]
@@ -110,6 +111,7 @@ def shrink(image: np.ndarray, longest: int) -> np.ndarray:
 
 def encode_frame(image: np.ndarray, longest: int, quality: float) -> bytes:
     """The JPEG the page would send of an RGB ``image``: shrunk to ``longest`` pixels, at ``quality`` (0..1)."""
+    # lazy: Pillow: only where frames are encoded or decoded
     from PIL import Image
 
     buffer = io.BytesIO()

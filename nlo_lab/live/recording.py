@@ -12,13 +12,16 @@ landmarks, to replay it through :class:`~nlo_lab.live.LiveRetargeter` (``step_la
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from nlo_lab.errors import SettingsError
+from nlo_lab.atomic_files import atomic_write_bytes
+from nlo_lab.errors import DemonstrationError, SettingsError
 from nlo_lab.human.demonstration import FPS_RANGE
+from nlo_lab.human.pose_file import read_pose_file
 from nlo_lab.inference import RobotTrajectory
 from nlo_lab.live.holistic import COMPONENTS, FACE_POINTS, FrameLandmarks
 
@@ -71,6 +74,7 @@ class LiveRecording:
 
     def pose(self):
         """The landmarks as a pose-format ``Pose`` (Holistic's components; the first frame's image size)."""
+        # lazy: pose-format: only when a recording is saved
         from pose_format import Pose
         from pose_format.numpy import NumPyPoseBody
         from pose_format.pose_header import PoseHeader, PoseHeaderDimensions
@@ -93,8 +97,6 @@ class LiveRecording:
 
     def pose_bytes(self) -> bytes:
         """The ``.pose`` file's contents."""
-        import io
-
         buffer = io.BytesIO()
         self.pose().write(buffer)
         return buffer.getvalue()
@@ -104,8 +106,6 @@ class LiveRecording:
 
         Each file is written atomically (a reader never sees half of one). Returns ``{"pose", "trajectory", "csv"}``.
         """
-        from nlo_lab.atomic_files import atomic_write_bytes
-
         if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
             raise SettingsError(f"name must be a plain file name without a folder, got {name!r}")
         folder = Path(folder)
@@ -133,9 +133,6 @@ def landmarks_from_pose(path) -> tuple[list[FrameLandmarks], np.ndarray]:
     Raises:
         DemonstrationError: an unreadable file, or one without Holistic's body, world and hand components.
     """
-    from nlo_lab.errors import DemonstrationError
-    from nlo_lab.human.pose_file import read_pose_file
-
     path = Path(path)
     pose, data, mask, conf, fps = read_pose_file(path)
     comps = pose.header.components
