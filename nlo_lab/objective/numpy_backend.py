@@ -241,7 +241,7 @@ class PointTerms:
             torch.as_tensor(np.array(rows), dtype=plan.vectors.dtype).numpy(), np.array(finger), np.array(term),
             goal.cpu().numpy(), mask.cpu().numpy(), plan.pair_points.cpu().numpy(), plan.pair_radii.cpu().numpy(),
             plan.margins.cpu().numpy(), form, HandTerms.build(plan, targets, tip_mask, pair_mask, pinch_floor),
-            np.arange(*plan.rows["capsule_ends"].indices(K)), plan.robot.pair_capsules,
+            plan.capsule_end_rows.cpu().numpy(), plan.robot.pair_capsules,
         )
 
     def forward(self, P: np.ndarray):

@@ -66,8 +66,10 @@ class PointPlan:
     Attributes:
         links: ``k`` link names; ``link_vectors``: ``(k, 4)`` homogeneous vectors in them
             (points ``w = 1`` [m], directions ``w = 0``).
-        rows: ``{role: slice}`` of each :class:`RobotPoints` field's vectors (capsule ends:
-            one pair of end points per capsule; ``pair_points`` picks them per pair).
+        rows: ``{role: slice}`` of each :class:`RobotPoints` field's vectors (capsule ends: the
+            capsules' distinct end points, mapped once though thinned copies of a capsule share
+            them; ``capsule_end_rows`` and ``pair_points`` pick them per capsule and per pair).
+        capsule_end_rows: ``(2C,)`` long, the vectors p0, p1 of each capsule (spec order).
         pair_points: ``(4P,)`` long, the vectors a0, a1, b0, b1 of each collision pair.
         arm_length, fore_length: ``(2,)`` the robot's zero-pose upper + fore arm and forearm [m].
         finger_side, finger_index: ``(K,)`` long, the side and the finger (thumb..pinky) of each robot finger.
@@ -99,15 +101,18 @@ class PointPlan:
                    for f, name in enumerate(FINGERS) if name in arm.fingers]  # (side, finger, base link, tip link)
         group("finger_base", [(base, origin) for *_, base, _ in fingers])
         group("finger_tip", [(tip, origin) for *_, tip in fingers])
-        capsules = robot.spec.capsules
-        group("capsule_ends", [(cap.link, (*map(float, end), 1.0)) for cap in capsules for end in (cap.p0, cap.p1)])
+        capsule_ends = [(cap.link, (*map(float, end), 1.0)) for cap in robot.spec.capsules for end in (cap.p0, cap.p1)]
+        distinct = list(dict.fromkeys(capsule_ends))  # YuMi: 232 ends, 124 distinct (fewer points to map)
+        group("capsule_ends", distinct)
 
         self.links = [link for link, _ in entries]
         self.link_vectors = np.array([v for _, v in entries], dtype=np.float64).reshape(-1, 4)
         body, vectors = robot.point_map(self.links, self.link_vectors)
         self.body = torch.as_tensor(body, dtype=torch.long, device=device)  # (k,)
         self.vectors = torch.as_tensor(vectors, dtype=dtype, device=device)  # (k, 4) in body frames
-        ends = self.rows["capsule_ends"].start + 2 * robot.pair_capsules[:, :, None] + np.arange(2)  # (P, 2, 2)
+        end_rows = self.rows["capsule_ends"].start + np.array([distinct.index(e) for e in capsule_ends], dtype=np.int64)
+        self.capsule_end_rows = torch.as_tensor(end_rows, dtype=torch.long, device=device)  # (2C,)
+        ends = end_rows.reshape(-1, 2)[robot.pair_capsules]  # (P, 2, 2): a0, a1 / b0, b1
         self.pair_points = torch.as_tensor(ends.reshape(-1), dtype=torch.long, device=device)  # (4P,)
         lengths = [robot.zero_pose_lengths(s) for s in SIDES]
         self.arm_length = torch.tensor([float(u) + float(f) for u, f in lengths], dtype=dtype, device=device)
