@@ -67,8 +67,7 @@ def build_corpus(folder: Path, n: int) -> list[Path]:
 def plain_loop(corpus: Path, out: Path, robot: str, iters: int) -> None:
     """The baseline, run as its own process: one model, one input after the other, the same files written."""
     from nlo_lab.batch import BatchSettings, find_inputs, write_output_folder
-    from nlo_lab.human import load_demonstration
-    from nlo_lab.human.io_video import load_video
+    from nlo_lab.human import load_demonstration, load_video
 
     retargeter = BatchSettings(robot, iterations=iters).build()
     for item in find_inputs([corpus], out):

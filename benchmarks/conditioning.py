@@ -30,7 +30,7 @@ SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "pose"
 
 def real_noise() -> float | None:
     """Median over the real recordings' arm points of the per-coordinate noise σ [m] (from second differences)."""
-    from nlo_lab.human.io_pose import load_pose
+    from nlo_lab.human.readers.pose import load_pose
 
     if not SHARED.is_dir():
         print(f"note: {SHARED} is absent: noise level assumed 0.01 m", file=sys.stderr)

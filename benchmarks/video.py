@@ -2,7 +2,7 @@
 
     python benchmarks/video.py [--robot yumi] [--repeats 3] [--workers 1,2] [--no-cli] [--no-write]
 
-1. Pose estimation (``nlo_lab.human.io_video.estimate_pose``: decoding, Holistic
+1. Pose estimation (``nlo_lab.human.estimate_pose``: decoding, Holistic
    with the bundled model, pose-format's container) for each number of workers, the
    runs interleaved (1, 2, 1, 2, ...) so that a shared machine's load falls on both alike:
    frames per second, the CPU time over the wall time (the cores the estimation actually
@@ -30,7 +30,7 @@ import warnings
 
 from results_doc import ROOT, stamp, update_section
 
-from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration, video_info
+from nlo_lab.human import estimate_pose, pose_to_demonstration, video_info
 from nlo_lab.inference import OptimizeSettings, retarget
 from nlo_lab.model import load_pretrained
 from nlo_lab.robot import load_robot

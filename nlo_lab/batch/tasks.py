@@ -117,9 +117,9 @@ def warm_up(settings: BatchSettings) -> str | NloLabError:
 
 
 def video_segments(path: str) -> list[tuple[int, int | None]] | Failure:
-    """The frame ranges of a video's pose estimation, one task each (:func:`nlo_lab.human.pose_estimation.segment_bounds`)."""
+    """The frame ranges of a video's pose estimation, one task each (:func:`nlo_lab.human.readers.video.segment_bounds`)."""
     # lazy: mediapipe (the video extra): only for videos
-    from nlo_lab.human.pose_estimation import segment_bounds
+    from nlo_lab.human.readers import segment_bounds
 
     try:
         return segment_bounds(path)
@@ -128,9 +128,9 @@ def video_segments(path: str) -> list[tuple[int, int | None]] | Failure:
 
 
 def video_segment(path: str, first: int, end: int | None):
-    """MediaPipe Holistic on frames ``[first, end)`` of a video (:func:`nlo_lab.human.pose_estimation.estimate_segment`)."""
+    """MediaPipe Holistic on frames ``[first, end)`` of a video (:func:`nlo_lab.human.readers.video.estimate_segment`)."""
     # lazy: mediapipe (the video extra): only for videos
-    from nlo_lab.human.pose_estimation import estimate_segment
+    from nlo_lab.human.readers import estimate_segment
 
     try:
         return estimate_segment(path, first, end)
@@ -146,8 +146,8 @@ def _read(job: Job, segments) -> tuple:
 
         return load_demonstration(job.item.path), None
     # lazy: mediapipe (the video extra): only for videos
-    from nlo_lab.human.io_video import pose_to_demonstration
-    from nlo_lab.human.pose_estimation import join_segments
+    from nlo_lab.human import pose_to_demonstration
+    from nlo_lab.human.readers import join_segments
 
     video = join_segments(job.item.path, segments or [])
     return pose_to_demonstration(video), video.seconds

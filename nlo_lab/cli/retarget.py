@@ -62,7 +62,7 @@ def _load_input(text: str):
 
 
 def _is_video(text: str) -> bool:
-    from nlo_lab.human.io_video import VIDEO_SUFFIXES
+    from nlo_lab.human import VIDEO_SUFFIXES
 
     return not text.startswith("demo:") and Path(text).suffix.lower() in VIDEO_SUFFIXES
 
@@ -85,7 +85,7 @@ def _check_save_pose(args) -> Path | None:
 
 def _load_video(args, progress: bool):
     """A video's demonstration and its landmarks (warnings go to the one channel of :func:`nlo_lab.cli.main`)."""
-    from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration
+    from nlo_lab.human import estimate_pose, pose_to_demonstration
 
     video = estimate_pose(args.input, threads=args.threads, progress=progress)
     return pose_to_demonstration(video), video

@@ -3,7 +3,7 @@
 MediaPipe Holistic on a video gives each frame on its own: points jitter by a
 centimetre or more, a forearm can halve in length for one frame, a wrist can jump
 0.6 m in depth and back, a hand orientation can flip. The reader
-(:mod:`nlo_lab.human.io_pose`) runs these steps, each a small function here:
+(:mod:`nlo_lab.human.readers.pose`) runs these steps, each a small function here:
 
 1. :func:`spike_frames`: a point far from the median of its neighbours (a Hampel
    filter on the 3-D position) is an outlier of that frame.

@@ -21,7 +21,7 @@ import numpy as np
 
 from nlo_lab.atomic_files import atomic_write_bytes
 from nlo_lab.errors import DemonstrationError, SettingsError
-from nlo_lab.human.io_video import VIDEO_SUFFIXES
+from nlo_lab.human import VIDEO_SUFFIXES
 from nlo_lab.lab.views import View
 from nlo_lab.viz import RetargetScene
 
@@ -73,7 +73,7 @@ class VideoView:
 
     Args:
         frames: ``(T, H, W, 3)`` RGB ``uint8`` video frames
-            (:func:`nlo_lab.human.io_video.read_video_frames`).
+            (:func:`nlo_lab.human.read_video_frames`).
         robot: a loaded ``nlo_lab.robot.Robot``.
         angles: ``(T, n)`` the robot's joint angles [rad].
         demo: the ``Demonstration`` read from the video (``T`` frames), drawn beside the robot.

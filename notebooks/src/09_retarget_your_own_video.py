@@ -49,7 +49,7 @@ print(path.name)
 # filled, long ones masked. A hand that is never seen gives a warning and masked fingers.
 
 # %%
-from nlo_lab.human.io_video import estimate_pose, pose_to_demonstration, read_video_frames
+from nlo_lab.human import estimate_pose, pose_to_demonstration, read_video_frames
 
 video = estimate_pose(path, progress=True)
 demo = pose_to_demonstration(video)

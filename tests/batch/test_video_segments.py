@@ -10,8 +10,8 @@ pytest.importorskip("mediapipe", reason="the video extra (mediapipe) is not inst
 pytest.importorskip("cv2", reason="the video extra (opencv) is not installed")
 
 from nlo_lab.errors import DemonstrationError  # noqa: E402
-from nlo_lab.human.io_video import estimate_pose  # noqa: E402
-from nlo_lab.human.pose_estimation import SEGMENT_FRAMES, estimate_segment, join_segments, segment_bounds  # noqa: E402
+from nlo_lab.human import estimate_pose  # noqa: E402
+from nlo_lab.human.readers.video import SEGMENT_FRAMES, estimate_segment, join_segments, segment_bounds  # noqa: E402
 from nlo_lab.paths import RECORDINGS_DIR  # noqa: E402
 
 SAMPLE = RECORDINGS_DIR / "signer_webcam_58f.mp4"

@@ -9,7 +9,7 @@ pose_format = pytest.importorskip("pose_format")
 
 from nlo_lab.errors import DemonstrationError  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
-from nlo_lab.human.io_pose import MAX_GAP_SECONDS, load_pose  # noqa: E402
+from nlo_lab.human.readers.pose import MAX_GAP_SECONDS, load_pose  # noqa: E402
 
 
 def test_world_file_reads_back_the_truth(tmp_path, pose_files):
@@ -202,7 +202,7 @@ def test_real_missing_left_hand_is_masked_not_zero(shared_pose):
 
 def test_pose_files_and_videos_share_one_first_check(tmp_path):
     """Missing, folder, empty: the same one-line messages for a .pose file and a video (human.file_head)."""
-    from nlo_lab.human.video_frames import check_video_file
+    from nlo_lab.human.readers.video import check_video_file
 
     (tmp_path / "d.pose").mkdir()
     (tmp_path / "d.mp4").mkdir()

@@ -18,7 +18,7 @@ from make_corpus import authors_arms  # tests/fuzz/make_corpus.py: the authors' 
 
 from nlo_lab.errors import DemonstrationError
 from nlo_lab.human import load_demonstration, save_npz
-from nlo_lab.human.pose_file import MAX_POSE_BYTES
+from nlo_lab.human.readers.pose import MAX_POSE_BYTES
 from nlo_lab.paths import RECORDINGS_DIR
 
 SAMPLE = RECORDINGS_DIR / "holistic_both_hands_47f.pose"  # pose-format v0.2, 586 points (XYZC), 47 frames at 25 fps
@@ -255,7 +255,7 @@ def test_npz_npy_header_of_gigabytes_is_refused_before_it_is_read(tmp_path):
 
 def test_npz_members_inflating_beyond_the_total_are_refused(tmp_path, monkeypatch):
     """Each member within its own limit, together more than the stated total: refused before the last is inflated."""
-    import nlo_lab.human.io_npz as io_npz
+    import nlo_lab.human.readers.npz as io_npz
 
     path = _demo_npz(tmp_path / "d.npz")
     monkeypatch.setattr(io_npz, "MAX_NPZ_INFLATED", 100_000)  # the sample's arrays: about 60 kB for the first four
@@ -307,7 +307,7 @@ def _avi(path, w=128, h=96, frames=5):
 
 def test_a_video_announcing_8192_by_8192_is_refused_before_decoding(tmp_path, monkeypatch):
     """The issue's case (over 6 GiB): refused from the container's announcement, no frame decoded."""
-    from nlo_lab.human import video_frames
+    from nlo_lab.human.readers import video as video_frames
 
     path = _avi(tmp_path / "huge.avi", 8192, 8192, frames=1)
     decoded = []
@@ -328,7 +328,7 @@ def test_a_video_announcing_a_million_frames_is_refused(tmp_path):
 
 
 def test_a_frame_of_another_size_than_announced_is_an_error(tmp_path):
-    from nlo_lab.human.video_frames import VideoFrames, VideoInfo
+    from nlo_lab.human.readers.video import VideoFrames, VideoInfo
 
     path = _avi(tmp_path / "v.avi", 128, 96)
     frames = VideoFrames(path, VideoInfo(10.0, 64, 48, 5))
@@ -338,7 +338,7 @@ def test_a_frame_of_another_size_than_announced_is_an_error(tmp_path):
 
 
 def test_shown_frames_are_bounded(tmp_path, monkeypatch):
-    from nlo_lab.human import video_frames
+    from nlo_lab.human.readers import video as video_frames
 
     path = _avi(tmp_path / "v.avi", 128, 96, frames=5)
     assert video_frames.read_video_frames(path, max_side=None).shape == (5, 96, 128, 3)
@@ -348,8 +348,7 @@ def test_shown_frames_are_bounded(tmp_path, monkeypatch):
 
 
 def test_estimation_frames_and_workers_fit_in_memory():
-    from nlo_lab.human.pose_estimation import IN_FLIGHT_BYTES, MAX_ESTIMATION_SIDE, SEGMENT_FRAMES, _workers_in_memory
-    from nlo_lab.human.video_frames import VideoInfo
+    from nlo_lab.human.readers.video import IN_FLIGHT_BYTES, MAX_ESTIMATION_SIDE, SEGMENT_FRAMES, VideoInfo, _workers_in_memory
 
     for w, h in ((640, 480), (1920, 1080), (3840, 2160), (7680, 4320)):
         workers = _workers_in_memory(VideoInfo(30.0, w, h, 100))

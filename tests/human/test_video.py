@@ -22,7 +22,7 @@ cv2 = pytest.importorskip("cv2", reason="the video extra (opencv) is not install
 from nlo_lab.cli import main  # noqa: E402
 from nlo_lab.errors import DemonstrationError, SettingsError  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
-from nlo_lab.human.io_video import (  # noqa: E402
+from nlo_lab.human.readers.video import (  # noqa: E402
     VIDEO_SUFFIXES,
     VideoWarning,
     estimate_pose,
@@ -143,7 +143,7 @@ def test_every_container_reads(tmp_path, suffix):
 
 
 def test_pose_workers_never_more_than_asked_available_or_useful(monkeypatch):
-    from nlo_lab.human import pose_estimation
+    from nlo_lab.human.readers import video as pose_estimation
 
     monkeypatch.delenv("NLO_LAB_THREADS", raising=False)
     cores = len(os.sched_getaffinity(0))
@@ -168,7 +168,7 @@ def test_pose_workers_never_more_than_asked_available_or_useful(monkeypatch):
 
 def test_the_result_does_not_depend_on_the_number_of_workers(sample, monkeypatch):
     """Two workers (forced, even on one core) give the one-worker landmarks and demonstration, frame by frame."""
-    from nlo_lab.human import pose_estimation
+    from nlo_lab.human.readers import video as pose_estimation
 
     demo1, pose_file, _ = sample
     monkeypatch.setattr(pose_estimation, "_available_cores", lambda: 4)

@@ -35,7 +35,7 @@ RECORDINGS = ["holistic_both_hands_47f.pose", "holistic_world_97f.pose", "mediap
 
 
 def _load_quiet(path, **kw):
-    from nlo_lab.human.io_pose import load_pose
+    from nlo_lab.human import load_pose
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
