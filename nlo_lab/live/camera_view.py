@@ -302,7 +302,7 @@ def _video_frames(source, limit: int | None) -> tuple[np.ndarray, np.ndarray]:
             raise SettingsError("source must be a video file or (frames (T, H, W, 3) uint8, times (T,))")
     else:
         # lazy: opencv (the video extra): only for a video file
-        from nlo_lab.human.video_frames import read_video_frames, video_info
+        from nlo_lab.human import read_video_frames, video_info
 
         info = video_info(source)
         images = read_video_frames(source, max_side=FRAME_SIZE * 2)

@@ -1,6 +1,6 @@
 """The ``.pose`` reader's geometry for a live stream: one frame of landmarks in, one frame of a demonstration out.
 
-:func:`nlo_lab.human.io_pose.load_pose` reads a whole recording: several of its steps look at
+:func:`nlo_lab.human.readers.pose.load_pose` reads a whole recording: several of its steps look at
 the frames after the one they make (the Savitzky-Golay smoothing, the outlier tests that compare a
 frame with both neighbours, the gap interpolation) or at the whole clip (the body's up direction,
 the world scale, the metres per pixel, the hand's scale are medians or means over every frame). A
@@ -40,8 +40,15 @@ import numpy as np
 from nlo_lab.human import ARM_JOINTS, SIDES, Demonstration
 from nlo_lab.human.conditioning import JUMP_RATIO, SPIKE_HALF_WINDOW, orthonormalize
 from nlo_lab.human.demonstration import FPS_RANGE
-from nlo_lab.human.io_pose import HAND_FINGER_POINTS, HAND_PER_FOREARM, MAX_GAP_SECONDS, MIN_CONFIDENCE, ROTATION_JUMP
-from nlo_lab.human.pose_landmarks import HIP_MIN_CONFIDENCE, NOMINAL_SHOULDER_WIDTH
+from nlo_lab.human.readers.pose import (
+    HAND_FINGER_POINTS,
+    HAND_PER_FOREARM,
+    HIP_MIN_CONFIDENCE,
+    MAX_GAP_SECONDS,
+    MIN_CONFIDENCE,
+    NOMINAL_SHOULDER_WIDTH,
+    ROTATION_JUMP,
+)
 from nlo_lab.human.transforms import body_frame_from_shoulders, wrist_frame_from_hand
 from nlo_lab.live.holistic import FrameLandmarks
 from nlo_lab.live.one_euro import OneEuroFilter

@@ -1,15 +1,15 @@
 """MediaPipe Holistic on a live stream: one instance in video (tracking) mode, one frame at a time.
 
 The offline reader runs Holistic through pose-format on whole videos
-(:mod:`nlo_lab.human.pose_estimation`); a camera gives one frame at a time, so this module
-calls mediapipe directly, with the same model (:data:`~nlo_lab.human.pose_estimation.MODEL_COMPLEXITY`,
+(:mod:`nlo_lab.human.readers.video`); a camera gives one frame at a time, so this module
+calls mediapipe directly, with the same model (:data:`~nlo_lab.human.readers.video.MODEL_COMPLEXITY`,
 the pose model the mediapipe wheel carries: nothing is downloaded) and the same settings
 (``static_image_mode=False``: after the first detection MediaPipe tracks the person from frame
 to frame and smooths its landmarks). Its native log lines ("INFO: Created TensorFlow Lite
 XNNPACK delegate", absl's warnings) are silenced while it starts and runs.
 
 :class:`FrameLandmarks` holds one frame's landmarks in pose-format's conventions (the ones
-:mod:`nlo_lab.human.io_pose` reads): image landmarks as ``(x * width, y * height, z)``, the world
+:mod:`nlo_lab.human.readers.pose` reads): image landmarks as ``(x * width, y * height, z)``, the world
 landmarks in metres, each hand's 21 points, the face mesh; :meth:`FrameLandmarks.pose_arrays`
 lays them out as a ``.pose`` file's frame (:mod:`nlo_lab.live.recording`).
 """
@@ -22,8 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nlo_lab.errors import InstallationError
-from nlo_lab.human.pose_estimation import MODEL_COMPLEXITY
-from nlo_lab.human.video_frames import native_output_silenced
+from nlo_lab.human.readers.video import MODEL_COMPLEXITY, native_output_silenced
 
 __all__ = ["BODY_POINTS", "FACE_POINTS", "HAND_POINTS", "COMPONENTS", "FrameLandmarks", "HolisticTracker", "mediapipe_module"]
 

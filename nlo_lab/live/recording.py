@@ -21,7 +21,7 @@ import numpy as np
 from nlo_lab.atomic_files import atomic_write_bytes
 from nlo_lab.errors import DemonstrationError, SettingsError
 from nlo_lab.human.demonstration import FPS_RANGE
-from nlo_lab.human.pose_file import read_pose_file
+from nlo_lab.human.readers.pose import read_pose_file
 from nlo_lab.inference import RobotTrajectory
 from nlo_lab.live.holistic import COMPONENTS, FACE_POINTS, FrameLandmarks
 
@@ -128,7 +128,7 @@ def _component_slices(names: list[str], sizes: list[int]) -> dict[str, slice]:
 def landmarks_from_pose(path) -> tuple[list[FrameLandmarks], np.ndarray]:
     """The frames of a Holistic ``.pose`` file as :class:`FrameLandmarks` and their times ``(T,)`` [s] (frame / fps).
 
-    The file is read by the ``.pose`` reader's bounded reader (:func:`nlo_lab.human.pose_file.read_pose_file`).
+    The file is read by the ``.pose`` reader's bounded reader (:func:`nlo_lab.human.readers.pose.read_pose_file`).
 
     Raises:
         DemonstrationError: an unreadable file, or one without Holistic's body, world and hand components.

@@ -97,7 +97,7 @@ def test_mediapipe_on_the_sample_video_and_a_frame_with_nobody():
     pytest.importorskip("mediapipe", reason="the video extra (mediapipe) is not installed")
     from pathlib import Path
 
-    from nlo_lab.human.video_frames import read_video_frames
+    from nlo_lab.human import read_video_frames
     from nlo_lab.live import LiveRetargeter
 
     video = Path(__file__).resolve().parents[2] / "assets" / "recordings" / "signer_webcam_58f.mp4"
