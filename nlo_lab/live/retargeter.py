@@ -19,6 +19,7 @@ for a frame now and then), then eases to its rest pose (``robot.neutral_q``, tim
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -28,7 +29,7 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.human import Demonstration
-from nlo_lab.inference import OptimizeSettings, RetargetConfig
+from nlo_lab.inference import OptimizeSettings, RetargetConfig, RetargetInputs
 from nlo_lab.live.causal_reader import CausalReader, FilterSettings
 from nlo_lab.live.holistic import FrameLandmarks, HolisticTracker
 from nlo_lab.live.motion_limits import MotionLimits, ease_toward
@@ -243,9 +244,25 @@ class LiveRetargeter:
                          latency_ms=1000 * (time.perf_counter() - start), timings=timings, landmarks=landmarks,
                          demonstration=demo, target=target, loss=loss, limited=limited)
 
+    def _inputs(self, demo: Demonstration) -> RetargetInputs:
+        """The pipeline's inputs of the one frame, with the demonstrator's lengths of the recent past.
+
+        Offline, the objective scales the human to the robot by the recording's median arm, forearm and hand
+        lengths; one frame's own lengths would rescale every frame by MediaPipe's noise (a forearm pointing at the
+        camera measures half its length), so the reader's running medians take their place.
+        """
+        inputs = self._pipeline.inputs(demo)
+        targets = inputs.targets
+        lengths = {}
+        for name, value in self.reader.body_lengths().items():
+            own = getattr(targets, name)
+            recent = torch.as_tensor(value, dtype=own.dtype, device=own.device).reshape(1, 2)
+            lengths[name] = torch.where(torch.isfinite(recent) & (recent > 0), recent, own)
+        return RetargetInputs(dataclasses.replace(targets, **lengths), inputs.encoder)
+
     def _optimize(self, demo: Demonstration) -> tuple[np.ndarray | None, float | None]:
         """The frame's optimised angles and loss (None, None when the loss is not finite: the frame is skipped)."""
-        inputs = self._pipeline.inputs(demo)
+        inputs = self._inputs(demo)
         result = self._pipeline.optimize_frame(inputs, 0, z0=self._z)
         q = result.q[0].detach().cpu().double().numpy()
         loss = float(result.loss[0])
