@@ -70,6 +70,7 @@ STEPS: tuple[Step, ...] = (
     Step("hands", "benchmarks/hands.py", "", "--no-video", needs="video", minutes=4),  # dex-retargeting: make bench-venv
     Step("long:yumi", "benchmarks/long_recording.py", "--robot yumi", "--robot yumi --frames 200 400", minutes=4),
     Step("video", "benchmarks/video.py", "", "--repeats 1 --no-cli --workers 1", needs="video", minutes=5),
+    Step("live", "benchmarks/live.py", "", "--passes 1", needs="video", minutes=2),
     Step("batch", "benchmarks/batch.py", "", "--inputs 10 --iters 10", needs="video", minutes=6),
     Step("headroom:nao", "benchmarks/headroom.py", "--robot nao", "--robot nao --limit 2 --steps 20", minutes=3),
     Step("headroom:pepper", "benchmarks/headroom.py", "--robot pepper", "--robot pepper --limit 2 --steps 20", minutes=3),

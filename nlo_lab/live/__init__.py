@@ -7,6 +7,8 @@
 * :mod:`~nlo_lab.live.retargeter`: :class:`LiveRetargeter` (``.step(image, t)`` -> :class:`LiveFrame`).
 * :mod:`~nlo_lab.live.frame_message`: a camera frame from the page (JPEG over the comm), checked and decoded.
 * :mod:`~nlo_lab.live.camera_view`: :class:`CameraView`, the browser's camera driving the robot (anywidget).
+* :mod:`~nlo_lab.live.controls`: :class:`LiveControls`, sliders (loss weights, iterations, filter) acting on the running stream.
+* :mod:`~nlo_lab.live.plots`: :func:`plot_latency`, where each frame's latency went.
 * :mod:`~nlo_lab.live.recording`: :class:`LiveRecording` (a session as a ``.pose`` file and a trajectory), :func:`landmarks_from_pose`.
 
 mediapipe (the ``video`` extra) is imported when the first frame is processed.
@@ -14,10 +16,12 @@ mediapipe (the ``video`` extra) is imported when the first frame is processed.
 
 from nlo_lab.live.camera_view import FRAME_SIZE, JPEG_QUALITY, SPLIT, WINDOW_SECONDS, CameraView
 from nlo_lab.live.causal_reader import HISTORY_SECONDS, POSE_INDEX, SPIKE_SPEED, UP_SECONDS, CausalReader, FilterSettings
+from nlo_lab.live.controls import WEIGHT_SLIDERS, LiveControls
 from nlo_lab.live.frame_message import MAX_FRAME_BYTES, FrameMessage, FrameMessageError, decode_frame_message, encode_frame
 from nlo_lab.live.holistic import FrameLandmarks, HolisticTracker
 from nlo_lab.live.motion_limits import MotionLimits, ease_toward
 from nlo_lab.live.one_euro import OneEuroFilter
+from nlo_lab.live.plots import plot_latency
 from nlo_lab.live.recording import LiveRecording, landmarks_from_pose
 from nlo_lab.live.retargeter import TIMINGS, LiveFrame, LiveRetargeter
 
@@ -29,5 +33,6 @@ __all__ = [
     "LiveFrame", "LiveRetargeter", "TIMINGS",
     "LiveRecording", "landmarks_from_pose",
     "FrameMessage", "FrameMessageError", "decode_frame_message", "encode_frame", "MAX_FRAME_BYTES",
+    "LiveControls", "WEIGHT_SLIDERS", "plot_latency",
     "CameraView", "FRAME_SIZE", "JPEG_QUALITY", "SPLIT", "WINDOW_SECONDS",
 ]

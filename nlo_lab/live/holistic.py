@@ -107,10 +107,14 @@ class HolisticTracker:
 
     def __init__(self, smooth_landmarks: bool = True, min_detection_confidence: float = 0.5, min_tracking_confidence: float = 0.5):
         mp = mediapipe_module()
-        with native_output_silenced():  # absl's "WARNING: All log messages before absl::InitializeLog() ..."
+        # absl's "WARNING: All log messages before absl::InitializeLog() ...", and TensorFlow Lite's "INFO: Created
+        # TensorFlow Lite XNNPACK delegate for CPU." that MediaPipe's graph threads print while they load the models:
+        # the graph is started and run once on a blank frame in one silenced block, so no line escapes between two.
+        with native_output_silenced():
             self._holistic = mp.solutions.holistic.Holistic(
                 static_image_mode=False, model_complexity=MODEL_COMPLEXITY, smooth_landmarks=smooth_landmarks,
                 min_detection_confidence=min_detection_confidence, min_tracking_confidence=min_tracking_confidence)
+            self._holistic.process(np.full((256, 256, 3), 255, np.uint8))
 
     def process(self, image: np.ndarray) -> FrameLandmarks:
         """The landmarks of one ``(H, W, 3)`` RGB ``uint8`` frame (the next of the stream)."""

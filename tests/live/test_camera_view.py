@@ -141,3 +141,34 @@ def test_bad_settings(make_live, recorded):
                            ({"iterations": 5}, "this one is given")):
         with pytest.raises(SettingsError, match=needle):
             CameraView(live, **kwargs)
+
+
+def test_the_sliders_act_on_the_running_stream(view):
+    from nlo_lab.live import LiveControls
+
+    controls = LiveControls(view.retargeter)
+    _frame(view, 1, 1.0)
+    controls.sliders["ee"].value = controls.sliders["ee"].min  # the left end: the term off
+    controls.sliders["tip"].value = 10.0
+    controls.sliders["iterations"].value = 7
+    controls.sliders["min_cutoff"].value = 5.0
+    controls.sliders["beta"].value = 3.0
+    live = view.retargeter
+    assert (live.weights.ee, live.weights.tip, live.iterations) == (0.0, 10.0, 7)
+    assert (live.filter.min_cutoff, live.filter.beta) == (5.0, 3.0)
+    _frame(view, 2, 1.04)
+    assert view.frames_processed == 2 and view.error == ""
+
+
+def test_the_latency_plot_draws_the_split(view):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from nlo_lab.live import plot_latency
+
+    for i in range(1, 6):
+        _frame(view, i, i / 25)
+    fig = plot_latency(view.history)
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert {"decode", "mediapipe", "filter", "optimization", "view"} <= set(labels)
+    assert len(fig.axes[0].patches) == 5 * 5
