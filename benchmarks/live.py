@@ -29,8 +29,7 @@ import warnings
 import numpy as np
 from results_doc import ROOT, heading, publish
 
-from nlo_lab.human.io_video import load_video, video_info
-from nlo_lab.human.video_frames import read_video_frames
+from nlo_lab.human import load_video, read_video_frames, video_info
 from nlo_lab.inference import retarget
 from nlo_lab.live import FRAME_SIZE, JPEG_QUALITY, SPLIT, CameraView
 from nlo_lab.metrics import limit_violations, velocity_violations

@@ -48,6 +48,14 @@ import numpy as np
 from nlo_lab.human import ARM_JOINTS, SIDES, Demonstration
 from nlo_lab.human.conditioning import orthonormalize
 from nlo_lab.human.demonstration import FPS_RANGE
+from nlo_lab.human.readers.pose import (
+    HAND_FINGER_POINTS,
+    HAND_PER_FOREARM,
+    HIP_MIN_CONFIDENCE,
+    MAX_GAP_SECONDS,
+    MIN_CONFIDENCE,
+    NOMINAL_SHOULDER_WIDTH,
+)
 from nlo_lab.human.transforms import body_frame_from_shoulders, wrist_frame_from_hand
 from nlo_lab.live.holistic import FrameLandmarks
 from nlo_lab.live.one_euro import OneEuroFilter

@@ -113,7 +113,7 @@ controls
 import matplotlib.pyplot as plt
 import numpy as np
 
-from nlo_lab.human.video_frames import read_video_frames
+from nlo_lab.human import read_video_frames
 from nlo_lab.live import CausalReader, FilterSettings, HolisticTracker
 
 images = read_video_frames(recording_path("signer_webcam_58f.mp4"), max_side=480)[: budget(58, 20)]
@@ -165,7 +165,7 @@ print({kind: path.name for kind, path in session.files.items()}, f"{len(session)
 from nlo_lab.human import load_demonstration
 from nlo_lab.inference import RobotTrajectory
 from nlo_lab.metrics import limit_violations, velocity_violations
-from nlo_lab.viz.speed import plot_joint_speeds
+from nlo_lab.viz import plot_joint_speeds
 
 robot = view.retargeter.robot
 demo = load_demonstration(session.files["pose"])
