@@ -5,8 +5,10 @@
 // last one is dropped (counted, never queued); the next frame is taken when the kernel's answer ("done") comes.
 
 // What a test or a benchmark reads from the page (all views of this page together).
+// traits: the widget's figures as the page has them (synced from the kernel), of the view updated last.
 const STATS = (globalThis.__nloLabLive ??= {
-  views: 0, captured: 0, sent: 0, answered: 0, dropped: 0, inFlight: 0, maxInFlight: 0, roundTripMs: [], messages: [], errors: [],
+  views: 0, captured: 0, sent: 0, answered: 0, dropped: 0, found: 0, inFlight: 0, maxInFlight: 0, roundTripMs: [], messages: [],
+  errors: [], traits: {},
 });
 const keep = (list, value) => { list.push(value); if (list.length > 500) list.splice(0, 250); };
 const ACTIVE = (globalThis.__nloLabLiveActive ??= new Map());  // model id -> stop() of the view whose camera runs
@@ -74,7 +76,7 @@ function render({ model, el }) {
   el.append(root);
 
   const grab = document.createElement("canvas");  // the downscaled frame that is encoded
-  let stream = null, running = false, inFlight = false, seq = 0, sentAt = 0, lastAnswer = null, pollTimer = null, frameHandle = null;
+  let stream = null, running = false, inFlight = false, seq = 0, sentAt = 0, pollTimer = null, frameHandle = null;
 
   const size = () => {
     const h = model.get("height");
@@ -100,6 +102,8 @@ function render({ model, el }) {
     if (model.get("frames_processed") > 0) parts.push(model.get("found") ? "person seen" : "nobody seen");
     if (model.get("recording")) parts.push("recording");
     status.textContent = parts.join(" · ");
+    STATS.traits = Object.fromEntries(["frames_received", "frames_processed", "frames_rejected", "fps", "latency_ms", "found", "error",
+      "camera", "recording"].map((k) => [k, model.get(k)]));
   };
   for (const name of ["frames_processed", "fps", "latency_ms", "found", "recording"]) model.on(`change:${name}`, showStatus);
   const showError = () => { if (model.get("error")) say(model.get("error")); };
@@ -161,14 +165,14 @@ function render({ model, el }) {
   }
 
   function onAnswer(msg) {
-    if (!msg || msg.type !== "done") return;
+    if (!msg || msg.type !== "done" || msg.seq !== seq) return;  // another view's frame, or the kernel's own (play_video)
     if (inFlight) {
       inFlight = false;
       STATS.inFlight -= 1;
       STATS.answered += 1;
       keep(STATS.roundTripMs, performance.now() - sentAt);
     }
-    lastAnswer = msg;
+    if (msg.found) STATS.found += 1;
     drawPoints(msg.points);
     if (msg.error) { keep(STATS.messages, msg.error); say(msg.error); }
     else if (note.textContent === model.get("error")) say("");

@@ -153,8 +153,9 @@ class CameraView(anywidget.AnyWidget):
         self._page_t, self._stream_t, self._stream_wall = page_t, t, now
         return t
 
-    def _receive(self, content, buffers) -> None:
-        """One frame message: decoded, retargeted, the robot moved; always answered (the page waits for it)."""
+    def _receive(self, content, buffers, answer_page: bool = True) -> None:
+        """One frame message: decoded, retargeted, the robot moved; always answered (the page waits for it) unless
+        ``answer_page`` is False (the kernel's own frames: :meth:`play_video`)."""
         arrived = time.perf_counter()
         received = self.frames_received + 1
         answer: dict = {"type": "done", "seq": content.get("seq") if isinstance(content, dict) else None}
@@ -179,7 +180,8 @@ class CameraView(anywidget.AnyWidget):
         finally:
             if self.frames_received < received:  # an unexpected fault: counted, and the page is answered all the same
                 self.set_trait("frames_received", received)
-            self.send(answer)
+            if answer_page:
+                self.send(answer)
 
     def _processed(self, frame: LiveFrame, arrived: float, split: dict[str, float], received: int) -> None:
         now = time.perf_counter()
@@ -233,7 +235,7 @@ class CameraView(anywidget.AnyWidget):
                     continue
                 skipped, i = newest - i, newest
             jpeg = encode_frame(images[i], self.frame_size, self.jpeg_quality)
-            self._receive({"type": "frame", "seq": self.frames_received + 1, "t": float(times[i])}, [jpeg])
+            self._receive({"type": "frame", "seq": self.frames_received + 1, "t": float(times[i])}, [jpeg], answer_page=False)
             processed, dropped = processed + 1, dropped + skipped
             if bar is not None:
                 bar.update(1 + skipped)

@@ -103,7 +103,7 @@ def test_mediapipe_on_the_sample_video_and_a_frame_with_nobody():
     video = Path(__file__).resolve().parents[2] / "assets" / "recordings" / "signer_webcam_58f.mp4"
     images = read_video_frames(video, max_side=480)
     with LiveRetargeter("yumi", iterations=10) as live:
-        out = [live.step(img, i / 30) for i, img in enumerate(images[:12])]
+        out = [live.step(img, i / 30) for i, img in enumerate(images[:24])]
         assert all(f.found for f in out[2:]), [f.found for f in out]
         assert out[-1].timings["mediapipe"] > 0 and set(out[-1].timings) == {"mediapipe", "filter", "optimization"}
         assert out[-1].landmarks.world.shape == (33, 3) and any("right" in f.landmarks.hands for f in out)
