@@ -46,7 +46,7 @@ def _arm_points(robot, q: np.ndarray) -> np.ndarray:
 
     links = [robot.arm(side).wrist for side in ("left", "right")] + [robot.arm(side).elbow for side in ("left", "right")]
     with torch.no_grad():
-        fk = robot.forward_kinematics(torch.as_tensor(q, dtype=robot.lower_limits.dtype))
+        fk = robot.forward_kinematics(torch.as_tensor(np.array(q), dtype=robot.lower_limits.dtype))
     return np.stack([fk[link][:, :3, 3].double().numpy() for link in links], axis=1)
 
 
@@ -54,6 +54,16 @@ def _distance(robot, live_q: np.ndarray, offline_q: np.ndarray) -> tuple[float, 
     """Mean joint-angle difference [rad] and mean wrist/elbow distance [m] of two ``(T, n)`` trajectories."""
     return (float(np.abs(live_q - offline_q).mean()),
             float(np.linalg.norm(_arm_points(robot, live_q) - _arm_points(robot, offline_q), axis=-1).mean()))
+
+
+def _from_human(robot, demo, q: np.ndarray, index: np.ndarray) -> float:
+    """Mean distance [m] of the robot's wrists and elbows from the human's (the offline reader's landmarks of video frames
+    ``index``, mapped to the robot as the metric maps them: ``nlo_lab.human.map_to_robot``)."""
+    from nlo_lab.human import map_to_robot
+
+    human = map_to_robot(demo, robot)[index]  # (F, side, joint, 3)
+    points = np.stack([human[:, 0, 2], human[:, 1, 2], human[:, 0, 1], human[:, 1, 1]], axis=1)
+    return float(np.nanmean(np.linalg.norm(_arm_points(robot, q) - points, axis=-1)))
 
 
 def _stream(robot_name: str, iterations: int, images: np.ndarray, times: np.ndarray, realtime: bool):
@@ -108,6 +118,7 @@ def main() -> None:
     offline = retarget(demo, robot).trajectory.angles  # (T, n), one row per video frame
     index = np.rint((t - t[0]) * fps).astype(int) % T  # the processed frames' video frames (the passes wrap around)
     paced = _distance(robot, q, offline[index])
+    human = {"live": _from_human(robot, demo, q, index), "offline": _from_human(robot, demo, offline[index], index)}
     _, every_rec = _stream(args.robot, args.iterations, images, np.arange(T) / fps, realtime=False)
     every = _distance(robot, np.stack(every_rec.angles), offline)
     every_tail = _distance(robot, np.stack(every_rec.angles)[T // 2:], offline[T // 2:])
@@ -124,6 +135,8 @@ def main() -> None:
     print(f"{processed} of {len(played)} frames processed ({len(played) - processed} dropped), a person in {found}")
     print(f"live (at the camera's pace) vs offline retarget: {paced[0]:.3f} rad mean joint difference, "
           f"{1000 * paced[1]:.1f} mm mean wrist/elbow distance")
+    print(f"from the human (the offline reader's landmarks mapped to the robot), same frames: live {1000 * human['live']:.1f} mm, "
+          f"offline retarget {1000 * human['offline']:.1f} mm")
     print(f"live (every frame, in order) vs offline retarget: {every[0]:.3f} rad, {1000 * every[1]:.1f} mm "
           f"(second half of the clip: {every_tail[0]:.3f} rad, {1000 * every_tail[1]:.1f} mm)")
     body = heading("## Live retargeting", [
@@ -144,6 +157,8 @@ def main() -> None:
         f"- the live trajectory against the offline `retarget` of the same video (its frames at the video's rate): "
         f"**{paced[0]:.3f} rad** mean joint-angle difference, **{1000 * paced[1]:.1f} mm** mean distance of the wrists and "
         f"elbows (forward kinematics), over the frames the stream processed",
+        f"- each from the human (the offline reader's landmarks of the same video frames, mapped to the robot as the metric "
+        f"maps them), wrists and elbows: live **{1000 * human['live']:.1f} mm**, offline `retarget` {1000 * human['offline']:.1f} mm",
         f"- every frame fed in order (no frame dropped: the causal pipeline alone): {every[0]:.3f} rad, "
         f"{1000 * every[1]:.1f} mm; over the clip's second half (the start from the rest pose and the filters' warm-up "
         f"behind): {every_tail[0]:.3f} rad, {1000 * every_tail[1]:.1f} mm",
