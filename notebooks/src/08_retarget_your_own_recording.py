@@ -181,7 +181,7 @@ print(subprocess.run(cmd, capture_output=True, text=True, check=True).stdout)
 # A corpus is hundreds of recordings. `retarget_many` retargets every file of a folder (searched recursively
 # for `.pose .h5 .npz .mp4 .mov .webm .avi`), of a list or of a manifest, on a
 # [dask.distributed](https://distributed.dask.org) cluster: by default a `LocalCluster` of worker processes
-# on this machine, one per core, each loading the model once. On a lab's cluster pass its `client=` (or
+# on this machine, one per core (at most one per input), each loading the model once. On a lab's cluster pass its `client=` (or
 # `scheduler="tcp://HOST:PORT"`). Each input gets its own folder (what `nlo-lab retarget --out` writes, plus
 # `summary.json`) and `results.csv` one row per input: its status, its error if it failed, the quality
 # figures. From a terminal: `nlo-lab batch my_corpus/ --robot nao --out retargeted/`.
@@ -216,7 +216,7 @@ print(first["output"], "->", sorted(p.name for p in (batch_out / first["output"]
 
 # %% [markdown]
 # The results table as pictures: how closely each input is tracked, and where the time goes (the workers'
-# seconds for each input grow with its frames).
+# seconds for each input against its frames).
 
 # %%
 done = [r for r in rows if r["status"] != "failed"]
