@@ -60,6 +60,8 @@ def _open(lab_browser, origin: str, flags: list[str], delay: float, grant: bool 
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(str(e)))
+    page.requests = []
+    page.on("request", lambda r: page.requests.append(r.url))
 
     def serve(route):
         url = route.request.url
@@ -97,6 +99,7 @@ def test_one_frame_in_flight_a_slow_kernel_drops_frames(lab_browser, delay):
         frames = [m for m in out["sent"] if m["type"] == "frame"]
         stats = out["stats"]
         assert out["camera"] == "off" and out["button"] == "Start" and page.errors == []
+        assert {u.split("?")[0] for u in page.requests} <= {"http://localhost:8888/", "http://localhost:8888/camera_view.js"}, page.requests
         assert stats["maxInFlight"] == 1 and stats["inFlight"] == 0 and stats["answered"] == stats["sent"] == len(frames)
         assert all(m["jpeg"] and m["size"] > 500 for m in frames)
         assert max(out["frameSize"]) == 320  # the stated size: the camera's 640x480 shrunk to 320 on its longer side
