@@ -144,7 +144,7 @@ class CameraView(anywidget.AnyWidget):
         wall time that passed in the kernel.
         """
         now = time.perf_counter()
-        if self._stream_t is None:
+        if self._stream_t is None or self._stream_wall is None:
             t = page_t
         elif self._page_t is None or page_t <= self._page_t:
             t = self._stream_t + max(now - self._stream_wall, 1e-3)
@@ -193,7 +193,7 @@ class CameraView(anywidget.AnyWidget):
             self._recent.popleft()
         span = self._recent[-1]["wall"] - self._recent[0]["wall"]
         fps = (len(self._recent) - 1) / span if len(self._recent) > 1 and span > 0 else 0.0
-        if self._recording is not None:
+        if self._recording is not None and frame.landmarks is not None:
             self._recording.add(frame.t, frame.landmarks, frame.angles)
         with self.hold_sync():  # one message for all of them
             self.set_trait("frames_received", received)
@@ -289,7 +289,7 @@ class CameraView(anywidget.AnyWidget):
 def _overlay_points(frame: LiveFrame) -> list[list[float]]:
     """The frame's arm and hand landmarks in image fractions (0..1), for the page to draw over the camera picture."""
     lm = frame.landmarks
-    if lm is None or not lm.found:
+    if lm is None or lm.pose is None:
         return []
     scale = np.array([1.0 / lm.width, 1.0 / lm.height])
     parts = [lm.pose[list(_ARM_POINTS), :2]] + [h[:, :2] for h in (lm.hands or {}).values()]

@@ -125,7 +125,7 @@ class _DecayingMean:
     """The direction of a weighted sum of unit vectors whose weights decay with time constant :data:`UP_SECONDS`
     (the causal stand-in for the offline reader's confidence-weighted mean over the clip)."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.total, self.weight, self.time = np.zeros(3), 0.0, None
 
     def add(self, vec: np.ndarray | None, weight: float, t: float) -> np.ndarray | None:
@@ -135,7 +135,7 @@ class _DecayingMean:
             self.total, self.weight = self.total * decay, self.weight * decay
         self.time = t
         n = float(np.linalg.norm(vec)) if vec is not None else 0.0
-        if weight > 0 and math.isfinite(n) and n > 1e-9:
+        if vec is not None and weight > 0 and math.isfinite(n) and n > 1e-9:
             self.total = self.total + weight * vec / n
             self.weight += weight
         norm = float(np.linalg.norm(self.total))
@@ -180,7 +180,7 @@ class _SpikeTest:
     wrists peaked at 3.5 and 5.1 m/s in the shared recordings, a mis-detection jumps much faster.
     """
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.last: tuple[float, np.ndarray] | None = None
 
     def is_spike(self, x: np.ndarray, t: float) -> bool:
@@ -242,21 +242,21 @@ class CausalReader:
         self._times.append(t)
         if len(self._times) >= 2 and self._times[-1] > self._times[0]:
             self.fps = float(np.clip((len(self._times) - 1) / (self._times[-1] - self._times[0]), *FPS_RANGE))
-        if not lm.found:
+        pose, world, vis = lm.pose, lm.world, lm.pose_visibility
+        if pose is None or world is None or vis is None:
             return self._nobody(t)
-        idx, vis = POSE_INDEX, lm.pose_visibility
-        seen = vis > MIN_CONFIDENCE
+        idx = POSE_INDEX
+        seen = np.asarray(vis > MIN_CONFIDENCE)
         ls_i, rs_i = idx["LEFT_SHOULDER"], idx["RIGHT_SHOULDER"]
         if not (seen[ls_i] and seen[rs_i]):
             return self._nobody(t)
 
         # scales: the world width checked against the plausible range, metres per image pixel (running medians)
-        world = lm.world
         self._world_width.add(t, float(np.linalg.norm(world[ls_i] - world[rs_i])))
         width = self._world_width.median()
         extra = 1.0 if WORLD_SHOULDER_RANGE[0] <= width <= WORLD_SHOULDER_RANGE[1] else NOMINAL_SHOULDER_WIDTH / width
         world = world * extra
-        self._image_width.add(t, float(np.linalg.norm((lm.pose[ls_i] - lm.pose[rs_i])[:2])))
+        self._image_width.add(t, float(np.linalg.norm((pose[ls_i] - pose[rs_i])[:2])))
         self._world_xy.add(t, float(np.linalg.norm((world[ls_i] - world[rs_i])[:2])))
         m_per_px = self._world_xy.median() / self._image_width.median()
 
@@ -280,19 +280,19 @@ class CausalReader:
             return self._nobody(t)
 
         # the body frame: origin between the shoulders, up from the hips, else the face, else the image
-        up = self._up_direction(lm, world, seen, ls, rs, t)
+        up = self._up_direction(vis, world, seen, ls, rs, t)
         origin, R_src_body = body_frame_from_shoulders(ls[None], rs[None], up)
         if not np.isfinite(R_src_body).all():
             return self._nobody(t)
         R_body_src = R_src_body[0].T
         arms = np.full((1, 2, 3, 3), np.nan)
         arm_mask = np.zeros((1, 2, 3), bool)
-        for s, side in enumerate(SIDES):
-            for j, joint in enumerate(ARM_JOINTS):
+        for k, side in enumerate(SIDES):
+            for i, joint in enumerate(ARM_JOINTS):
                 p = points[side, joint]
                 if p is not None:
-                    arms[0, s, j] = R_body_src @ (p - origin[0])
-                    arm_mask[0, s, j] = True
+                    arms[0, k, i] = R_body_src @ (p - origin[0])
+                    arm_mask[0, k, i] = True
         rots = np.full((1, 2, 3, 3), np.nan)
         wrist_mask = np.zeros((1, 2), bool)
         fingers = np.full((1, 2, 5, 2, 3), np.nan)
@@ -324,15 +324,15 @@ class CausalReader:
         fore = np.array([self._forearm[s].median() for s in SIDES])
         return {"arm_length": upper + fore, "fore_length": fore, "hand_length": np.array([self._knuckles[s].median() for s in SIDES])}
 
-    def _nobody(self, t: float) -> None:
-        """Nobody (or no shoulders) at ``t``: every track's gap grows (the held values expire after ``max_gap``)."""
+    def _nobody(self, t: float) -> Demonstration | None:
+        """Nobody (or no shoulders) at ``t``: every track's gap grows (the held values expire after ``max_gap``); None."""
         for track in (*self._arms.values(), *self._hands.values(), *self._rotations.values()):
             track.update(None, t)
         return None
 
-    def _up_direction(self, lm: FrameLandmarks, world: np.ndarray, seen: np.ndarray, ls: np.ndarray, rs: np.ndarray,
+    def _up_direction(self, vis: np.ndarray, world: np.ndarray, seen: np.ndarray, ls: np.ndarray, rs: np.ndarray,
                       t: float) -> np.ndarray:
-        idx, vis = POSE_INDEX, lm.pose_visibility
+        idx = POSE_INDEX
         centre = (ls + rs) / 2
         hip_conf = float(min(vis[idx["LEFT_HIP"]], vis[idx["RIGHT_HIP"]]))
         self._hip_confidence.add(t, hip_conf)
@@ -374,8 +374,5 @@ class CausalReader:
         scale = HAND_PER_FOREARM * fore / length if math.isfinite(fore) and fore > 0 and length > 0 else 1.0
         hand = rel * scale
         R = wrist_frame_from_hand(hand[_HAND_WRIST], hand[_HAND_INDEX], hand[_HAND_PINKY], hand[_HAND_MIDDLE])
-        track = self._rotations[side]
-        if not np.isfinite(R).all():
-            R = None
-        smoothed = track.update(None if R is None else R.reshape(1, 9), t)
+        smoothed = self._rotations[side].update(R.reshape(1, 9) if np.isfinite(R).all() else None, t)
         return hand, (None if smoothed is None else orthonormalize(smoothed.reshape(3, 3)))

@@ -106,7 +106,7 @@ def shrink(image: np.ndarray, longest: int) -> np.ndarray:
     if scale >= 1.0:
         return image
     size = (max(1, round(w * scale)), max(1, round(h * scale)))
-    return np.asarray(Image.fromarray(image).resize(size, Image.BILINEAR))
+    return np.asarray(Image.fromarray(image).resize(size, Image.Resampling.BILINEAR))
 
 
 def encode_frame(image: np.ndarray, longest: int, quality: float) -> bytes:

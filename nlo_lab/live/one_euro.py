@@ -82,25 +82,28 @@ class OneEuroFilter:
         x = np.asarray(x, dtype=np.float64)
         shape = x.shape[:-1]
         valid = np.ones(shape, bool) if valid is None else np.asarray(valid, bool) & np.isfinite(x).all(axis=-1)
-        if self._value is None or self._value.shape != x.shape:
-            self._value = np.full(x.shape, np.nan)
-            self._speed = np.zeros(shape)
-            self._time = np.full(shape, np.nan)
+        value, speed_state, last = self._state(x.shape)
         t = float(t)
-        known = valid & np.isfinite(self._time)
-        dt = np.where(known, t - np.where(known, self._time, t), 1.0)
+        known = valid & np.isfinite(last)
+        dt = np.where(known, t - np.where(known, last, t), 1.0)
         if (dt[known] <= 0).any():
             raise SettingsError(f"the filter's samples must come in time order: t = {t} is not after the last sample")
         fresh = valid & ~known  # first sample (or after a reset): passes as it is
-        self._value[fresh] = x[fresh]
-        self._speed[fresh] = 0.0
+        value[fresh] = x[fresh]
+        speed_state[fresh] = 0.0
         if known.any():
-            prev = self._value[known]
+            prev = value[known]
             raw_speed = np.linalg.norm(x[known] - prev, axis=-1) / dt[known]
             a_d = smoothing_factor(self.d_cutoff, dt[known])
-            speed = self._speed[known] + a_d * (raw_speed - self._speed[known])
+            speed = speed_state[known] + a_d * (raw_speed - speed_state[known])
             a = smoothing_factor(self.min_cutoff + self.beta * speed, dt[known])
-            self._value[known] = prev + a[:, None] * (x[known] - prev)
-            self._speed[known] = speed
-        self._time[valid] = t
-        return np.where(valid[..., None], self._value, np.nan)
+            value[known] = prev + a[:, None] * (x[known] - prev)
+            speed_state[known] = speed
+        last[valid] = t
+        return np.where(valid[..., None], value, np.nan)
+
+    def _state(self, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The last outputs ``shape``, smoothed speeds and sample times (new, empty ones for a new shape)."""
+        if self._value is None or self._speed is None or self._time is None or self._value.shape != shape:
+            self._value, self._speed, self._time = np.full(shape, np.nan), np.zeros(shape[:-1]), np.full(shape[:-1], np.nan)
+        return self._value, self._speed, self._time

@@ -69,7 +69,7 @@ class LiveRecording:
         """The robot's motion, on the camera's time base (``time`` from 0)."""
         self._check()
         t = np.asarray(self.times) - self.times[0]
-        return RobotTrajectory(robot=self.robot, joint_names=list(self.joint_names), angles=np.stack(self.angles),
+        return RobotTrajectory(robot=self.robot, joint_names=tuple(self.joint_names), angles=np.stack(self.angles),
                                fps=self.fps, time=t)
 
     def pose(self):

@@ -253,12 +253,16 @@ class LiveRetargeter:
         """
         inputs = self._pipeline.inputs(demo)
         targets = inputs.targets
-        lengths = {}
-        for name, value in self.reader.body_lengths().items():
+        recent = self.reader.body_lengths()
+
+        def length(name: str) -> torch.Tensor:
             own = getattr(targets, name)
-            recent = torch.as_tensor(value, dtype=own.dtype, device=own.device).reshape(1, 2)
-            lengths[name] = torch.where(torch.isfinite(recent) & (recent > 0), recent, own)
-        return RetargetInputs(dataclasses.replace(targets, **lengths), inputs.encoder)
+            value = torch.as_tensor(recent[name], dtype=own.dtype, device=own.device).reshape(1, 2)
+            return torch.where(torch.isfinite(value) & (value > 0), value, own)
+
+        targets = dataclasses.replace(targets, arm_length=length("arm_length"), fore_length=length("fore_length"),
+                                      hand_length=length("hand_length"))
+        return RetargetInputs(targets, inputs.encoder)
 
     def _optimize(self, demo: Demonstration) -> tuple[np.ndarray | None, float | None]:
         """The frame's optimised angles and loss (None, None when the loss is not finite: the frame is skipped)."""
@@ -266,7 +270,7 @@ class LiveRetargeter:
         result = self._pipeline.optimize_frame(inputs, 0, z0=self._z)
         q = result.q[0].detach().cpu().double().numpy()
         loss = float(result.loss[0])
-        if not (np.isfinite(q).all() and math.isfinite(loss)):
+        if not (np.isfinite(q).all() and math.isfinite(loss)) or result.z is None:
             self._z = None
             return None, None
         self._z = result.z.detach()
