@@ -126,7 +126,8 @@ class _DecayingMean:
     (the causal stand-in for the offline reader's confidence-weighted mean over the clip)."""
 
     def __init__(self) -> None:
-        self.total, self.weight, self.time = np.zeros(3), 0.0, None
+        self.total, self.weight = np.zeros(3), 0.0
+        self.time: float | None = None
 
     def add(self, vec: np.ndarray | None, weight: float, t: float) -> np.ndarray | None:
         """Add ``weight * unit(vec)`` at ``t``; the mean direction so far (None while there is none)."""
