@@ -19,7 +19,7 @@ Variants, each in its own process and alternated round by round (the order rever
 other round), so that all see the same machine: ``fast`` (``RetargetConfig``'s default:
 the fast forms chosen by batch size), ``readable`` (``fast=False``: the paper's decoder, the
 term functions, autograd through FK) and, with ``--against REV``, the package as it was at
-commit REV (``git archive``; its own defaults). Medians over rounds of each process's
+commit REV (``git archive``; its own defaults) on today's robot descriptions and checkpoints. Medians over rounds of each process's
 median; ratios from the same run. Wall time and CPU time (of the process: on a shared
 machine the CPU time is the steadier one) are both reported, with the load average.
 
@@ -238,12 +238,14 @@ def stage_profile(robot, model, demo, frames: int, reps: int = 30) -> dict[str, 
 
 # ------------------------------------------------------------------ the parent: rounds, report
 def _tree_of(rev: str, into: Path) -> Path:
-    """The package and assets as at commit ``rev`` (git archive), unpacked into ``into``."""
+    """The package as at commit ``rev`` (git archive) with today's assets (robot descriptions,
+    checkpoints), unpacked into ``into``: the same problem, solved by that commit's code."""
     archive = into / "tree.tar"
     with open(archive, "wb") as fh:
-        subprocess.run(["git", "-C", str(ROOT), "archive", rev, "nlo_lab", "assets"], stdout=fh, check=True)
+        subprocess.run(["git", "-C", str(ROOT), "archive", rev, "nlo_lab"], stdout=fh, check=True)
     with tarfile.open(archive) as tar:
         tar.extractall(into / "tree", filter="data")
+    (into / "tree" / "assets").symlink_to(ROOT / "assets")
     return into / "tree"
 
 
@@ -320,7 +322,8 @@ def report(args, runs, names, variants, profile_on, load_start, load_end, result
     out.append(
         f"Variants alternated in one run, each in its own process, {args.rounds} rounds: `fast` (the default: the fast forms"
         " chosen by batch size), `readable` (`RetargetConfig(fast=False)`: the paper's decoder, the term functions, autograd"
-        " through FK)" + (f", `{args.against}` (the package as at that commit)" if args.against else "") + ". Whole clip:"
+        " through FK)" + (f", `{args.against}` (the package as at that commit, with today's robot descriptions and"
+                          " checkpoints)" if args.against else "") + ". Whole clip:"
         f" `RetargetResult.seconds` (targets, encoder, 100 iterations without early stop; the figure the targets read) and"
         f" the whole call (with retiming and the summary's metrics), median of {args.repeats} per process; one frame: `Retargeter.optimize_frame`, 30 iterations, median over {args.frames} frames per process."
         " Figures are medians over the rounds; CPU = the process's CPU time (steadier than wall time on a shared machine)."
