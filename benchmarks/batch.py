@@ -21,8 +21,13 @@ target with PASS or FAIL: 2 workers >= 1.6x the throughput of 1; 1 worker within
 loop; the resumed run < 5 % of the first run's time; the kill -9 run with every input ok (and the
 cluster left running); results identical across 1 and 2 workers; everything listening on 127.0.0.1
 only (the sockets of every process, as ``ss -ltnp`` shows them). Rewrites the ``batch`` section of
-docs/RESULTS.md unless ``--no-write``. Timings on a shared machine are provisional: the load average
-and the calibration are printed beside them.
+docs/RESULTS.md unless ``--no-write``.
+
+A timing target is judged only on a quiet machine: when the calibration gives less than the 1.6x
+target, the 2-worker speed-up cannot reach it and is marked NOT JUDGED (with the ratio measured);
+when the 1-minute load average at the start was above :data:`QUIET_LOAD`, the two timing ratios
+are marked PROVISIONAL (other processes shared the cores unevenly between the runs). The other
+targets (resume share, kill -9, identical results, loopback) hold or not whatever the load.
 """
 
 from __future__ import annotations
@@ -48,6 +53,23 @@ from results_doc import ROOT, stamp, update_section
 SHARED_POSE = ROOT.parent / "shared" / "data" / "pose"
 RECORDINGS = ROOT / "assets" / "recordings"
 TARGET_SPEEDUP, TARGET_OVERHEAD, TARGET_RESUME = 1.6, 0.10, 0.05
+QUIET_LOAD = 1.0  # 1-min load average at the start above which the timing ratios are provisional (2 workers need 2 cores)
+COMMAND = "nice -n 10 .venv/bin/python benchmarks/batch.py"  # from the checkout, ../shared/data/pose beside it when present
+
+
+def uptime() -> str:
+    """What ``uptime`` says (its load averages over 1, 5 and 15 minutes), on one line."""
+    try:
+        return " ".join(subprocess.run(["uptime"], capture_output=True, text=True, timeout=10).stdout.split())
+    except (OSError, subprocess.SubprocessError):
+        loads = os.getloadavg()
+        return "load average: " + ", ".join(f"{x:.2f}" for x in loads)
+
+
+def verdict(ok: bool, caveat: str | None = None) -> str:
+    """PASS or FAIL, then why the measurement cannot settle it here (a timing on a busy machine), if it cannot."""
+    mark = "PASS" if ok else "FAIL"
+    return mark if caveat is None else f"{mark}, {caveat}"
 
 
 def sources() -> list[Path]:
@@ -246,7 +268,7 @@ def main() -> None:
     work.mkdir(parents=True, exist_ok=True)
     corpus = work / "corpus"
     files = build_corpus(corpus, args.inputs)
-    load_start = os.getloadavg()[0]
+    load_start, uptime_start = os.getloadavg()[0], uptime()
     print(f"corpus: {len(files)} inputs ({len(files) // len(sources())} copies of {', '.join(s.name for s in sources())}); "
           f"robot {args.robot}, {args.iters} iterations; {os.cpu_count()} cores, niceness {os.nice(0)}, load average {load_start:.1f}")
 
@@ -287,26 +309,35 @@ def main() -> None:
     same_loop, _ = same_results(work / "w1", work / "loop", names)
     sockets = local_sockets | ext["sockets"]
     speedup, overhead, resume_share = w1_s / w2_s, w1_s / loop_s - 1, resume_s / w2_s
+    uptime_end = uptime()
+    busy = None if load_start <= QUIET_LOAD else f"PROVISIONAL (load {load_start:.1f} on {os.cpu_count()} cores at the start)"
+    speed_mark = verdict(speedup >= TARGET_SPEEDUP, busy)
+    if capacity < TARGET_SPEEDUP:  # the machine itself cannot give the target: nothing is judged
+        speed_mark = (f"NOT JUDGED (the machine gave two plain processes only {capacity:.2f}x one's: no 2-worker run can "
+                      f"show {TARGET_SPEEDUP}x here)")
     ext_pass = (ext["exit"] == 0 and ext_ok == len(files) == len(ext["rows"]) and ext["killed_after"] is not None
                 and ext["workers_left"] == 1 and ext["scheduler_alive"] and not leftovers(work / "ext"))
     targets = [
-        (speedup >= TARGET_SPEEDUP, f"2 workers vs 1: {speedup:.2f}x the throughput (target >= {TARGET_SPEEDUP}x; the machine "
-                                    f"gave two plain processes {capacity:.2f}x one's)"),
-        (overhead <= TARGET_OVERHEAD, f"1 worker vs the plain loop: {overhead * 100:+.1f} % time (target within {TARGET_OVERHEAD:.0%}; "
-                                      f"CPU seconds of all processes: {(results[1][2] / results[0][2] - 1) * 100:+.1f} %)"),
-        (resume_share < TARGET_RESUME and resume_proc.returncode == 0 and all(r["status"] == "skipped" for r in resumed),
+        (speed_mark,
+         f"2 workers vs 1: {speedup:.2f}x the throughput (target >= {TARGET_SPEEDUP}x; the machine gave two plain processes "
+         f"{capacity:.2f}x one's, so the workers reached {speedup / capacity:.0%} of what it gave)"),
+        (verdict(overhead <= TARGET_OVERHEAD, busy),
+         f"1 worker vs the plain loop: {overhead * 100:+.1f} % time (target within {TARGET_OVERHEAD:.0%}; "
+         f"CPU seconds of all processes: {(results[1][2] / results[0][2] - 1) * 100:+.1f} %)"),
+        (verdict(resume_share < TARGET_RESUME and resume_proc.returncode == 0 and all(r["status"] == "skipped" for r in resumed)),
          f"resumed run over the finished corpus: {resume_share * 100:.1f} % of the first run's time (target < {TARGET_RESUME:.0%})"),
-        (ext_pass, f"dask scheduler + 2 dask workers, kill -9 of one after {ext['killed_after']} rows: {ext_ok}/{len(files)} ok, "
-                   f"exit {ext['exit']}, the cluster left running ({ext['workers_left']} worker), no half-written folder"),
-        (same and all_ok, f"results identical across 1 and 2 workers ({same_note}; every input ok: {all_ok}); "
-                          f"equal to the plain loop's too: {same_loop}"),
-        (bool(sockets) and all(s.startswith("127.0.0.1:") for s in sockets),
+        (verdict(ext_pass), f"dask scheduler + 2 dask workers, kill -9 of one after {ext['killed_after']} rows: {ext_ok}/{len(files)} "
+                            f"ok, exit {ext['exit']}, the cluster left running ({ext['workers_left']} worker), no half-written folder"),
+        (verdict(same and all_ok), f"results identical across 1 and 2 workers ({same_note}; every input ok: {all_ok}); "
+                                   f"equal to the plain loop's too: {same_loop}"),
+        (verdict(bool(sockets) and all(s.startswith("127.0.0.1:") for s in sockets)),
          f"listening on 127.0.0.1 only: {len(local_sockets)} sockets of the LocalCluster run, {len(ext['sockets'])} of the "
          f"dask scheduler and workers"),
     ]
+    print(f"\nuptime at the start: {uptime_start}\nuptime at the end:   {uptime_end}")
     print("\ntargets")
-    for ok, text in targets:
-        print(f"  {'PASS' if ok else 'FAIL'}  {text}")
+    for mark, text in targets:
+        print(f"  {mark}  {text}")
     print("\nwhat listened (ss -ltnp):")
     for line in local_ss + ext["ss"]:
         print("  " + " ".join(line.split()))
@@ -321,7 +352,11 @@ def main() -> None:
         "## Batch: a corpus on dask.distributed (`nlo-lab batch`)",
         "",
         stamp().rstrip(),
-        "- a load above the core count means the runs shared the machine: the ratios are provisional unless it stayed under 1",
+        f"- run as: `{COMMAND}` (the stamp's command without the `nice`); the coordinator's re-run on a quiet machine is the "
+        "one to quote",
+        f"- `uptime` at the start: {uptime_start}; at the end: {uptime_end}",
+        f"- a load at the start above {QUIET_LOAD:g} means other work shared the cores: the two timing ratios are then marked "
+        "PROVISIONAL, and the 2-worker speed-up NOT JUDGED when the calibration is below its target",
         f"- calibration: the machine gave two CPU-bound processes at once {capacity:.2f}x the throughput of one (2.00 on an "
         "idle 2-core machine): the ceiling of the 2-worker speed-up during this run",
         f"- corpus: {len(files)} inputs, copies of {', '.join(s.name for s in sources())}; robot {args.robot}, {args.iters} iterations",
@@ -332,7 +367,7 @@ def main() -> None:
         f"| nlo-lab batch --workers 2, resumed (all skipped) | {resume_s:.2f} | |",
         f"| dask scheduler + 2 dask workers over loopback, one killed -9 | {ext['seconds']:.1f} | {len(files) / ext['seconds']:.2f} |",
         "",
-        *(f"- **{'PASS' if ok else 'FAIL'}** {text}" for ok, text in targets),
+        *(f"- **{mark}** {text}" for mark, text in targets),
     ]
     print(f"wrote {update_section('batch', chr(10).join(lines))} (section batch)")
 

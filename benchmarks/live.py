@@ -16,13 +16,17 @@ joint-limit and velocity violations of the output on the camera's time base, eac
 live trajectory's distance from the offline ``retarget`` of the same video (joint angles, and the wrists' and
 elbows' positions by forward kinematics), for the frames the stream processed and for every frame fed one after
 the other (the causal pipeline alone, no frame dropped). Writes the ``live`` section of docs/RESULTS.md unless
-``--no-write``. On a busy shared machine the latency is provisional: the stamp gives the load.
+``--no-write``. A timing target (latency, frame rate) is judged only on a quiet machine: when the 1-minute load
+average at the start was above :data:`QUIET_LOAD`, its PASS or FAIL is marked PROVISIONAL (MediaPipe and the
+optimisation shared the cores with other work); ``uptime`` at the start and at the end is printed and written.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
+import subprocess
 import time
 import warnings
 
@@ -38,6 +42,17 @@ from nlo_lab.robot import load_robot
 SAMPLE = ROOT / "assets" / "recordings" / "signer_webcam_58f.mp4"
 TARGETS = {"median latency [ms]": ("<=", 100.0), "p90 latency [ms]": ("<=", 150.0), "processed frames/s": (">=", 8.0),
            "joint-limit violations": ("<=", 0), "velocity violations": ("<=", 0)}
+TIMING = {"median latency [ms]", "p90 latency [ms]", "processed frames/s"}  # depend on the machine's load
+QUIET_LOAD = 1.0  # 1-min load average at the start above which the timing targets are provisional
+COMMAND = "nice -n 10 .venv/bin/python benchmarks/live.py"  # from the checkout
+
+
+def uptime() -> str:
+    """What ``uptime`` says (its load averages over 1, 5 and 15 minutes), on one line."""
+    try:
+        return " ".join(subprocess.run(["uptime"], capture_output=True, text=True, timeout=10).stdout.split())
+    except (OSError, subprocess.SubprocessError):
+        return "load average: " + ", ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 def _arm_points(robot, q: np.ndarray) -> np.ndarray:
@@ -84,6 +99,7 @@ def main() -> None:
     ap.add_argument("--passes", type=int, default=3, help="times the 58-frame video is played in a row")
     ap.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
     args = ap.parse_args()
+    load_start, uptime_start = os.getloadavg()[0], uptime()
     info = video_info(SAMPLE)
     fps = float(info["fps"])
     images = read_video_frames(SAMPLE, max_side=None)
@@ -124,13 +140,17 @@ def main() -> None:
     every_tail = _distance(robot, np.stack(every_rec.angles)[T // 2:], offline[T // 2:])
 
     # ---------------------------------------------------------------- report
+    uptime_end = uptime()
+    busy = load_start > QUIET_LOAD
     lines = []
     for name, (op, goal) in TARGETS.items():
         value = figures[name]
         ok = value <= goal if op == "<=" else value >= goal
         shown = f"{value:.1f}" if isinstance(value, float) else str(value)
-        lines.append(f"| {name} | {shown} | {op} {goal:g} | {'PASS' if ok else 'FAIL'} |")
-        print(f"{name:24s} {shown:>8s}   target {op} {goal:g}   {'PASS' if ok else 'FAIL'}")
+        mark = ("PASS" if ok else "FAIL") + (" (PROVISIONAL: busy machine)" if busy and name in TIMING else "")
+        lines.append(f"| {name} | {shown} | {op} {goal:g} | {mark} |")
+        print(f"{name:24s} {shown:>8s}   target {op} {goal:g}   {mark}")
+    print(f"uptime at the start: {uptime_start}\nuptime at the end:   {uptime_end}")
     print("latency split (medians, ms): " + ", ".join(f"{k} {v:.1f}" for k, v in split.items()))
     print(f"{processed} of {len(played)} frames processed ({len(played) - processed} dropped), a person in {found}")
     print(f"live (at the camera's pace) vs offline retarget: {paced[0]:.3f} rad mean joint difference, "
@@ -145,6 +165,12 @@ def main() -> None:
         f"{FRAME_SIZE} px, JPEG quality {JPEG_QUALITY}; robot {robot.name}, {args.iterations} iterations per frame at most",
         "the kernel's side of `CameraView` (`play_video(realtime=True)`): a frame that comes while the last one is "
         "processed is dropped, as the page drops it; MediaPipe started before the clock runs",
+        f"run as: `{COMMAND}` (the stamp's command without the `nice`); the coordinator's re-run on a quiet machine is the "
+        "one to quote",
+        f"`uptime` at the start: {uptime_start}; at the end: {uptime_end}",
+        f"a load at the start above {QUIET_LOAD:g} ({load_start:.1f} here) means other work shared the cores: the latency "
+        "and frame-rate verdicts are then PROVISIONAL (the limits and distances do not depend on the load)"
+        if busy else f"load at the start {load_start:.1f} (at most {QUIET_LOAD:g}): the timing verdicts stand",
     ]) + [
         "| figure | measured | target | |",
         "|---|---|---|---|",
