@@ -75,14 +75,25 @@ def test_a_short_run_lowers_the_training_and_validation_loss(trained):
 
 
 def test_the_learned_codes_fit_their_frames_better_than_the_mean_code(nao, frames, trained):
+    """Each code holds its own frame: it fits that frame better than the codes' mean and than another frame's code.
+
+    Measured on this 40-step run (one thread, deterministic): own / mean 0.82 (0.77-0.87 over seeds 1-5),
+    own / shuffled 0.61, 87 % of the frames better. It was own / mean 0.70 before NAO's capsules were fitted
+    to its URDF's geometry (430e5cc, 99 pairs instead of 17): the collision term now holds the hands away
+    from targets near the body in this short run (end-effector term 0.54 instead of 0.38), so the codes
+    separate the frames less there; the auto-decoder's numbers are otherwise bit-identical.
+    """
     train, _ = frames
     model = trained.model
     weights = LossWeights(smooth=0.0)
+    other = torch.randperm(len(train), generator=torch.Generator().manual_seed(0))
     with torch.no_grad():
         own, _ = objective(nao, model.decode(trained.codes), train.targets, weights)
         mean, _ = objective(nao, model.decode(trained.codes.mean(0).expand_as(trained.codes)), train.targets, weights)
-    assert float(own.mean()) < float(mean.mean())  # each frame's own code fits it better than the common start
-    assert float((own < mean).float().mean()) > 0.6
+        shuffled, _ = objective(nao, model.decode(trained.codes[other]), train.targets, weights)
+    assert float(own.mean()) < 0.9 * float(mean.mean())  # better than the common start
+    assert float((own < mean).float().mean()) > 0.75
+    assert float(own.mean()) < 0.8 * float(shuffled.mean())  # a code is its frame's, not any frame's
 
 
 def test_a_step_moves_only_the_codes_of_its_batch(nao, frames):
