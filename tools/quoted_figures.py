@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = (ROOT / "README.md", ROOT / "docs" / "PAPER.md")
 RESULTS = ROOT / "docs" / "RESULTS.md"
 
-REFERENCE = re.compile(r"\(docs/RESULTS\.md: ([^)]+)\)")
+REFERENCE = re.compile(r"\(docs/RESULTS\.md:\s+([^)]+)\)")  # the reference may break across lines
 NUMBER = re.compile(r"(?<![\w.])-?\d+\.\d+(?![\w.]*\d)")  # a decimal number, not part of a version or a name
 CODE = re.compile(r"`[^`]*`")
 

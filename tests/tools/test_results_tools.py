@@ -122,10 +122,11 @@ def test_quoted_figures_are_checked_against_the_named_sections(tools, tmp_path):
         "The method reaches 0.058 m, 24.6 % better (docs/RESULTS.md: t:x).\n\n"
         "- a list item quoting 0.0583 m (docs/RESULTS.md: t:x)\n"
         "- `smooth=0.5` in code is not a figure, nor is 1.25 here without a source\n\n"
-        "Unknown section 0.1 (docs/RESULTS.md: t:y).\n"
+        "Unknown section 0.1 (docs/RESULTS.md: t:y).\n\n"
+        "A reference broken across lines still counts: 0.0591 m (docs/RESULTS.md:\nt:x).\n"
     )
     problems = quoted.check(doc, results)
-    assert problems == ["D.md:3: 0.0583 is not shown in t:x", "D.md:6: no section t:y in R.md"], problems
+    assert problems == ["D.md:3: 0.0583 is not shown in t:x", "D.md:6: no section t:y in R.md", "D.md:8: 0.0591 is not shown in t:x"], problems
 
 
 def test_the_readme_and_paper_quote_only_figures_that_results_shows(tools):
