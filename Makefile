@@ -111,7 +111,8 @@ bench-hands: setup bench-venv
 # Every figure the docs quote, from the code as it is: tools/results.py runs each benchmark, which rewrites its
 # sections of docs/RESULTS.md (stamped: commit, machine, load, date). Resumable (a finished step is skipped while
 # the code is unchanged; FORCE=1 reruns). QUICK=1: a short run of every step into build/results-quick/RESULTS.md.
-# ONLY=a,b runs some steps; `python tools/results.py --list` lists them with their time on an idle machine.
+# ONLY=a,b runs some steps; `python tools/results.py --list` lists them with their time on an idle machine;
+# `--check` names the sections of docs/RESULTS.md without a full stamp (a full run ends with it).
 results: setup
 	$(PY) tools/results.py $(if $(QUICK),--quick,) $(if $(FORCE),--force,) $(if $(ONLY),--only $(ONLY),)
 

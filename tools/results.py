@@ -8,11 +8,17 @@ Runs each benchmark of :data:`STEPS` in turn; each rewrites its own sections of
     python tools/results.py --quick         # a short run of every step, written to build/results-quick/RESULTS.md
     python tools/results.py --only paper,quality:yumi --force
     python tools/results.py --list
+    python tools/results.py --check         # which sections of docs/RESULTS.md lack a stamp, and any text outside sections
 
 Resumable: a step that finished is recorded in ``build/results[-quick]/state.json`` with the
 hash of the code it ran (``results_doc.code_hash``); a second run skips it while the code is
 unchanged (``--force`` runs it again). A failed step does not stop the others; the exit status
 is 1 if any failed. Each step's output is shown and kept in ``build/results[-quick]/logs/``.
+
+After a full run the check (``--check``) lists every section that is not stamped with its
+command, commit, machine and date (a section left from before the stamp was complete: run its
+step again) and any text outside the sections (nothing regenerates it: a benchmark should
+print it).
 
 Adding a benchmark is one line in :data:`STEPS`: a name, the script and its arguments, the
 arguments of the quick run (None: not part of the quick run), what it needs, and the minutes
@@ -25,6 +31,7 @@ import argparse
 import hashlib
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -83,6 +90,27 @@ STEPS: tuple[Step, ...] = (
 )
 
 
+STAMP_FIELDS = ("command", "commit", "machine", "date")  # results_doc.stamp()'s lines
+
+
+def check(path: Path) -> list[str]:
+    """One line per section of ``path`` missing a field of the stamp, and per line of text outside the sections."""
+    text = path.read_text()
+    problems = []
+    for m in re.finditer(r"<!-- BEGIN (\S+) -->(.*?)<!-- END \1 -->", text, re.S):
+        missing = [f for f in STAMP_FIELDS if not re.search(rf"^- {f}: \S", m.group(2), re.M)]
+        if missing:
+            problems.append(f"section {m.group(1)}: no {', '.join(missing)} in its stamp (run its step again)")
+    body = text[text.find("<!-- BEGIN "):] if "<!-- BEGIN " in text else ""
+    outside = re.sub(r"<!-- BEGIN (\S+) -->.*?<!-- END \1 -->", "\0", body, flags=re.S)
+    for i, part in enumerate(outside.split("\0")):
+        lines = [ln for ln in part.splitlines() if ln.strip()]
+        if lines:
+            after = re.findall(r"<!-- END (\S+) -->", body)[i - 1] if i else "the header"
+            problems.append(f"{len(lines)} line(s) outside the sections after {after}: {lines[0][:60]!r}... (no step writes them)")
+    return problems
+
+
 def _needs_missing(need: str) -> str | None:
     """Why a step cannot run here (None: it can)."""
     if need == "video":
@@ -122,6 +150,7 @@ def run(argv: list[str] | None = None, steps: tuple[Step, ...] = STEPS) -> int:
     p.add_argument("--skip", default="", help="comma list of steps not to run")
     p.add_argument("--force", action="store_true", help="run steps that already finished with this code")
     p.add_argument("--list", action="store_true", help="list the steps and exit")
+    p.add_argument("--check", action="store_true", help="list the sections of the results file without a full stamp, and text outside them")
     args = p.parse_args(argv)
 
     chosen = [s for s in _select(args.only, steps) if s.name not in {n.strip() for n in args.skip.split(",")}]
@@ -133,6 +162,8 @@ def run(argv: list[str] | None = None, steps: tuple[Step, ...] = STEPS) -> int:
         chosen = [s for s in chosen if s.quick is not None]
     work = ROOT / "build" / ("results-quick" if args.quick else "results")
     out = Path(args.out).resolve() if args.out else (work / "RESULTS.md" if args.quick else results_doc.RESULTS)
+    if args.check:
+        return _report(out)
     env = dict(os.environ)
     env.setdefault("TQDM_MININTERVAL", "10")  # progress bars: a line every 10 s in the logs, not every step
     if out != results_doc.RESULTS:
@@ -184,7 +215,19 @@ def run(argv: list[str] | None = None, steps: tuple[Step, ...] = STEPS) -> int:
         print(f"{head}: done in {seconds:.0f} s", flush=True)
     print(f"results: {len(chosen) - len(failed)} of {len(chosen)} steps done in {time.perf_counter() - start:.0f} s; "
           + (f"failed: {', '.join(failed)}" if failed else f"sections in {out}"), flush=True)
+    if out.is_file() and not args.quick and not args.only:
+        _report(out)
     return 1 if failed else 0
+
+
+def _report(out: Path) -> int:
+    """Print :func:`check`'s findings on ``out``; 1 if there are any."""
+    problems = check(out) if out.is_file() else [f"no results file {out}"]
+    for p in problems:
+        print(f"results check: {p}", flush=True)
+    if not problems:
+        print(f"results check: every section of {out.name} is stamped (command, commit, machine, date)", flush=True)
+    return 1 if problems else 0
 
 
 if __name__ == "__main__":

@@ -151,3 +151,21 @@ def test_a_quick_run_of_the_paper_benchmark_trains_every_configuration_and_write
     again = subprocess.run([sys.executable, "benchmarks/paper.py", "--robots", "nao", "--quick", "--parts", "autodecoder", "--no-write"], cwd=ROOT,
                            env=env, capture_output=True, text=True, timeout=900)
     assert again.returncode == 0 and again.stderr.count(": cached (") == 2 and "training nao" not in again.stderr  # resumed from the cache
+
+
+def test_the_check_names_sections_without_a_full_stamp_and_text_outside_the_sections(tools, tmp_path, capsys):
+    results_doc, results, _ = tools
+    out = tmp_path / "R.md"
+    out.write_text(
+        "# nlo_lab results\n\nThe header.\n\n"
+        f"<!-- BEGIN good -->\n## Good\n\n{results_doc.stamp()}\n| a | 1.0 |\n<!-- END good -->\n\n"
+        "<!-- BEGIN old -->\n## Old\n\n- command: `x`\n- machine: AMD EPYC, 2 cores\n- date: 2026-11-23 16:43 UTC\n<!-- END old -->\n\n"
+        "A note typed by hand: 1.54x.\n"
+    )
+    problems = results.check(out)
+    assert problems == ["section old: no commit in its stamp (run its step again)",
+                        "1 line(s) outside the sections after old: 'A note typed by hand: 1.54x.'... (no step writes them)"], problems
+    assert results.run(["--check", "--out", str(out)]) == 1
+    assert "results check: section old" in capsys.readouterr().out
+    out.write_text(out.read_text().split("<!-- BEGIN old")[0])
+    assert results.check(out) == [] and results.run(["--check", "--out", str(out)]) == 0
