@@ -27,6 +27,7 @@ __all__ = [
     "atomic_write_bytes",
     "current_umask",
     "check_output_place",
+    "check_output_file",
     "output_set",
     "stale_temp_folders",
     "stale_temp_folders_in",
@@ -186,6 +187,43 @@ def check_output_place(target: str | os.PathLike, names: tuple[str, ...]) -> Pat
     if not os.access(writable, os.W_OK | os.X_OK):
         raise OutputError(f"no permission to write in {writable}")
     return target
+
+
+def check_output_file(target: str | os.PathLike, *, what: str = "the output file", suffix: str | None = None,
+                      parents: bool = False) -> Path:
+    """Refuse a file path that cannot take an output (checked before any input is read); returns it.
+
+    Refused: an empty path, one without ``suffix`` (when given), an existing entry that is not a
+    plain file (a folder, a FIFO, a device), a file of another user or made read-only, a path
+    below a file, a missing folder (unless ``parents``: then the nearest existing one), a folder
+    we may not write in. ``what`` names the output in the message (``"--save-pose"``).
+
+    Raises:
+        OutputError: naming the path and the reason.
+    """
+    if not isinstance(target, (str, os.PathLike)) or not os.fspath(target) or "\x00" in os.fspath(target):
+        raise OutputError(f"{what} must be a non-empty file path, got {target!r}")
+    path = Path(target)
+    if suffix is not None and path.suffix.lower() != suffix:
+        raise OutputError(f"{what} {path} must end in {suffix}")
+    if os.path.lexists(path):
+        st = os.stat(path) if path.exists() else os.lstat(path)
+        if not stat.S_ISREG(st.st_mode):
+            raise OutputError(f"{what} {path} exists and is not a plain file")
+        if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+            raise OutputError(f"{what} {path} belongs to another user (uid {st.st_uid}); it is not replaced")
+        if not st.st_mode & stat.S_IWUSR:
+            raise OutputError(f"{what} {path} is read-only (mode {stat.S_IMODE(st.st_mode):o}); it is not replaced")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not parents and not folder.is_dir():
+        raise OutputError(f"{what} {path}: the folder {folder} does not exist")
+    while not os.path.lexists(folder):
+        folder = folder.parent
+    if not folder.is_dir():
+        raise OutputError(f"{what} {path} lies below {folder}, which is not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputError(f"{what} {path}: no permission to write in {folder}")
+    return path
 
 
 def _fsync_dir(path: Path) -> None:

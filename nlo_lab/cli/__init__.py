@@ -9,28 +9,35 @@ each (``nlo-lab: warning: ...``), silenced by ``--quiet``. SIGTERM, SIGHUP and
 SIGINT end the run with exit 128+signal after the clean-up ran: the outputs of
 ``retarget --out`` appear as a whole set or not at all (:func:`nlo_lab.atomic_files.output_set`).
 
-The package: :mod:`~nlo_lab.cli.app` (the registry of commands, :func:`build_parser`, :func:`main`
+The package: :mod:`~nlo_lab.cli.program` (the entry point :func:`main`, which takes the signals of the
+process's first and last instants), :mod:`~nlo_lab.cli.app` (the registry of commands, :func:`build_parser`, the run
 and its error path), :mod:`~nlo_lab.cli.run_guard` (how a run ends: error line, warnings,
 signals), :mod:`~nlo_lab.cli.flags` (ranges, flag types, the parser class), and one module
 per command: :mod:`~nlo_lab.cli.retarget`, :mod:`~nlo_lab.cli.train`, :mod:`~nlo_lab.cli.evaluate`,
 :mod:`~nlo_lab.cli.demo`, :mod:`~nlo_lab.cli.lab`, :mod:`~nlo_lab.cli.batch`.
 """
 
-from nlo_lab.cli.app import COMMANDS, build_parser, main
-from nlo_lab.cli.demo import DEMO_CLIP
-from nlo_lab.cli.flags import (
-    BATCH_RANGE,
-    EPOCHS_RANGE,
-    ITERS_RANGE,
-    LATENT_RANGE,
-    LIMIT_RANGE,
-    MAX_SEED,
-    THREADS_RANGE,
-    WEIGHT_RANGE,
-    UsageError,
-)
-from nlo_lab.cli.retarget import OUTPUT_FILES
+import importlib
+
+from nlo_lab.cli.program import main  # light: the signal handlers come before the parser's imports
 
 # the command line's entry points, then the stated ranges of its numeric flags (docs/ARCHITECTURE.md)
 __all__ = ["main", "build_parser", "COMMANDS", "UsageError", "OUTPUT_FILES", "DEMO_CLIP",
            "MAX_SEED", "ITERS_RANGE", "EPOCHS_RANGE", "LIMIT_RANGE", "THREADS_RANGE", "BATCH_RANGE", "LATENT_RANGE", "WEIGHT_RANGE"]  # fmt: skip
+
+
+def __getattr__(name: str):
+    """The other public names, imported from their module on first use (the entry point must not wait for them)."""
+    homes = {
+        "build_parser": "nlo_lab.cli.app",
+        "COMMANDS": "nlo_lab.cli.app",
+        "DEMO_CLIP": "nlo_lab.cli.demo",
+        "OUTPUT_FILES": "nlo_lab.cli.retarget",
+        **{flag: "nlo_lab.cli.flags" for flag in ("UsageError", "MAX_SEED", "ITERS_RANGE", "EPOCHS_RANGE", "LIMIT_RANGE",
+                                                 "THREADS_RANGE", "BATCH_RANGE", "LATENT_RANGE", "WEIGHT_RANGE")},
+    }
+    if name not in homes:
+        raise AttributeError(f"module 'nlo_lab.cli' has no attribute {name!r}")
+    value = getattr(importlib.import_module(homes[name]), name)
+    globals()[name] = value
+    return value

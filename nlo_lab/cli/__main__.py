@@ -2,6 +2,6 @@
 
 import sys
 
-from nlo_lab.cli.app import main
+from nlo_lab.cli import main  # light: the signal handlers come first
 
 sys.exit(main())

@@ -10,14 +10,21 @@ from __future__ import annotations
 
 import argparse
 import signal
-import sys
 
 from nlo_lab.cli import batch, demo, evaluate, lab, retarget, train
 from nlo_lab.cli.flags import Parser
-from nlo_lab.cli.run_guard import error_line, one_warning_channel, os_error_text, raise_pending_signal, signals_raise
+from nlo_lab.cli.run_guard import (
+    error_line,
+    interrupted_line,
+    one_warning_channel,
+    os_error_text,
+    pending_signal,
+    raise_pending_signal,
+    signals_raise,
+)
 from nlo_lab.errors import Interrupted, NloLabError
 
-__all__ = ["COMMANDS", "build_parser", "main"]
+__all__ = ["COMMANDS", "build_parser", "run"]
 
 # command name -> its module, in the order `nlo-lab --help` lists them
 COMMANDS = {
@@ -39,8 +46,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run ``nlo-lab``; returns the exit status (0 ok, 2 bad input or a fault, 128+N on signal N)."""
+def run(argv: list[str] | None = None) -> int:
+    """Parse ``argv`` and run its command inside the one error path; returns the exit status.
+
+    The entry point is :func:`nlo_lab.cli.program.main` (``nlo_lab.cli.main``), which also
+    takes the signals of the process's first and last instants.
+    """
     with signals_raise():
         try:
             args = build_parser().parse_args(argv)
@@ -54,18 +65,29 @@ def main(argv: list[str] | None = None) -> int:
                 status = COMMANDS[args.command].run(args)
                 raise_pending_signal()
                 return status
-        except NloLabError as exc:
-            return error_line(exc)
-        except FileNotFoundError as exc:
-            return error_line(f"file not found: {exc.filename}")
-        except MemoryError:
-            return error_line("out of memory (the input is too large for this machine; try a shorter recording)")
-        except OSError as exc:  # disk full, permissions, I/O errors: the environment, not a bug
-            return error_line(os_error_text(exc))
-        except Interrupted as exc:
-            name = signal.Signals(exc.signum).name
-            print(f"nlo-lab: interrupted by {name}", file=sys.stderr)
-            return 128 + exc.signum
-        except KeyboardInterrupt:
-            print("nlo-lab: interrupted by SIGINT", file=sys.stderr)
-            return 128 + signal.SIGINT
+        except BaseException as exc:  # noqa: BLE001 - the one error path: each kind below, a bug re-raised
+            return ending(exc)
+
+
+def ending(exc: BaseException) -> int:
+    """The exit status of a run that raised ``exc``, its one line printed; a bug of nlo_lab is raised again (a traceback).
+
+    A signal may surface as another exception: raised inside a C extension's import it becomes an
+    ImportError, and a reader may name what it became. Once a signal came, the run ends as interrupted.
+    """
+    signum = pending_signal()
+    if signum is not None:
+        return interrupted_line(signum)
+    if isinstance(exc, Interrupted):
+        return interrupted_line(exc.signum)
+    if isinstance(exc, KeyboardInterrupt):
+        return interrupted_line(signal.SIGINT)
+    if isinstance(exc, NloLabError):
+        return error_line(exc)
+    if isinstance(exc, FileNotFoundError):
+        return error_line(f"file not found: {exc.filename}")
+    if isinstance(exc, MemoryError):
+        return error_line("out of memory (the input is too large for this machine; try a shorter recording)")
+    if isinstance(exc, OSError):  # disk full, permissions, I/O errors: the environment, not a bug
+        return error_line(os_error_text(exc))
+    raise exc

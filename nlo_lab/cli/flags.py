@@ -12,8 +12,10 @@ import argparse
 import importlib
 from typing import NoReturn
 
+from nlo_lab import settings
 from nlo_lab.errors import NloLabError, SettingsError
 from nlo_lab.settings import arg_type, check_int, check_positive
+from nlo_lab.threads import THREADS_RANGE
 
 __all__ = [
     "MAX_SEED",
@@ -31,18 +33,19 @@ __all__ = [
     "LazyChoices",
 ]
 
-MAX_SEED = 2**32 - 1  # numpy's and torch's generators both take it
 # Stated ranges of the numeric flags: a value outside is refused (exit 2, one line) before any work.
-ITERS_RANGE = (0, 10_000)  # Adam steps; 0 = the start point. The paper's longest budget is 600
-EPOCHS_RANGE = (1, 10_000)  # passes over the training frames (30 by default)
-LIMIT_RANGE = (1, 1_000_000)  # sequences of a split to evaluate
-THREADS_RANGE = (1, 256)  # Holistic instances of the pose estimation, at most; torch threads of train/evaluate
-BATCH_RANGE = (1, 1_000_000)  # training frames per step
-LATENT_RANGE = (1, 64)  # latent size per robot node
-WEIGHT_RANGE = (0.0, 1e6)  # each loss weight: 1000x the largest default; beyond it float32 losses overflow to NaN
+# They are the settings' own (nlo_lab.settings, nlo_lab.threads): a flag and the setting it fills agree.
+MAX_SEED = settings.SEED_RANGE[1]  # numpy's and torch's generators both take it
+ITERS_RANGE = settings.ITERATIONS_RANGE  # Adam steps; 0 = the start point. The paper's longest budget is 600
+EPOCHS_RANGE = settings.EPOCHS_RANGE  # passes over the training frames (30 by default)
+LIMIT_RANGE = settings.COUNT_RANGE  # sequences of a split to evaluate
+BATCH_RANGE = settings.BATCH_RANGE  # training frames per step
+LATENT_RANGE = settings.LATENT_RANGE  # latent size per robot node
+WEIGHT_RANGE = settings.WEIGHT_RANGE  # each loss weight: 1000x the largest default; beyond it float32 losses overflow to NaN
+# THREADS_RANGE (nlo_lab.threads): Holistic instances of the pose estimation at most; torch threads of train/evaluate
 
 
-class UsageError(NloLabError):
+class UsageError(NloLabError, ValueError):
     """A bad flag or argument on the command line."""
 
 

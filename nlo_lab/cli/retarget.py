@@ -68,19 +68,14 @@ def _is_video(text: str) -> bool:
 
 
 def _check_save_pose(args) -> Path | None:
-    """``--save-pose`` is checked before the (slow) pose estimation, written after everything else."""
+    """``--save-pose`` is checked before any input is read, written after everything else."""
+    from nlo_lab.atomic_files import check_output_file
+
     if args.save_pose is None:
         return None
     if not _is_video(args.input):
         raise UsageError("nlo-lab retarget: --save-pose needs a video INPUT (.mp4, .mov, .webm or .avi)")
-    path = Path(args.save_pose)
-    if path.suffix.lower() != ".pose":
-        raise UsageError(f"nlo-lab retarget: --save-pose FILE must end in .pose, got {args.save_pose!r}")
-    if path.is_dir():
-        raise UsageError(f"nlo-lab retarget: --save-pose {args.save_pose!r} is a folder")
-    if not path.resolve().parent.is_dir():
-        raise UsageError(f"nlo-lab retarget: --save-pose: the folder {str(path.parent)!r} does not exist")
-    return path
+    return check_output_file(args.save_pose, what="--save-pose", suffix=".pose")
 
 
 def _load_video(args, progress: bool):
@@ -105,13 +100,13 @@ def run(args) -> int:
     from nlo_lab.objective import LossWeights
     from nlo_lab.robot import load_robot
 
-    if args.out:
-        check_output_place(args.out, OUTPUT_FILES)  # refused before any work starts
+    if args.out is not None:
+        check_output_place(args.out, OUTPUT_FILES)  # refused before any input is read (--out '' too)
+    save_pose = _check_save_pose(args)
     weights = LossWeights.from_string(args.weights) if args.weights else LossWeights()
     _check_weights(weights)
     settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed, latent_sigma=args.sigma)
     robot = load_robot(args.robot)
-    save_pose = _check_save_pose(args)
     progress = not args.quiet and sys.stderr.isatty()
     video = None
     if _is_video(args.input):
@@ -121,7 +116,7 @@ def run(args) -> int:
     result = RetargetConfig(robot, settings, weights, progress=progress).build()(demo)
     if video is not None:
         result.summary["pose_seconds"] = round(video.seconds, 4)
-    if args.out:
+    if args.out is not None:
         # a signal an import swallowed still ends the run, before the swap
         write_output_folder(Path(args.out), result, demo, robot, before_swap=raise_pending_signal)
     if save_pose is not None:
@@ -133,7 +128,7 @@ def run(args) -> int:
     else:
         print(f"retargeted {escape(demo.name or args.input)} ({len(demo)} frames) to {escape(robot.name)}:")
         _print_summary({k: escape(v) if isinstance(v, str) else v for k, v in result.summary.items()})
-        if args.out:
+        if args.out is not None:
             print(f"wrote {escape(args.out)}/trajectory.npz, trajectory.csv, viewer.html")
         if save_pose is not None:
             print(f"wrote {escape(save_pose)}")

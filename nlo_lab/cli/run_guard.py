@@ -1,8 +1,11 @@
 """How a run of ``nlo-lab`` ends: one error line, one warning channel, signals that clean up.
 
-* :func:`signals_raise`: SIGTERM, SIGHUP and SIGINT raise :class:`~nlo_lab.errors.Interrupted`,
-  so ``finally`` blocks (the temporary output folder of ``retarget --out``) run;
-  :func:`raise_pending_signal` re-raises one that some library's ``except BaseException`` swallowed.
+* The entry point, :func:`nlo_lab.cli.program.main`, installs these handlers before any heavy
+  import and ends the process when the run ends (signals at any instant).
+* :func:`signals_raise`: SIGTERM, SIGHUP and SIGINT raise :class:`~nlo_lab.errors.Interrupted`
+  (once: a second signal during the clean-up is recorded, not raised), so ``finally`` blocks
+  (the temporary output folder of ``retarget --out``) run; :func:`raise_pending_signal`
+  re-raises one that some library's ``except BaseException`` swallowed.
 * :func:`one_warning_channel`: the run's warnings, ours and the libraries', as one line each.
 * :func:`error_line`: the one line on stderr and exit status 2; :func:`os_error_text` names an
   ``OSError``'s reason and file.
@@ -18,15 +21,42 @@ import warnings
 
 from nlo_lab.errors import Interrupted, escape
 
-__all__ = ["signals_raise", "raise_pending_signal", "one_warning_channel", "error_line", "os_error_text"]
+__all__ = ["signals_raise", "raise_pending_signal", "one_warning_channel", "error_line", "os_error_text",
+           "interrupted_line", "pending_signal", "on_signal", "clear", "TERMINATING"]
 
-_TERMINATING = ("SIGTERM", "SIGHUP", "SIGINT")
+TERMINATING = ("SIGTERM", "SIGHUP", "SIGINT")
 _pending: list[int] = []  # signals received, even those some library's `except BaseException` swallowed
+_said: list[str] = []  # the lines this run printed on stderr: an interrupted run adds its line only to none
 
 
-def _on_signal(signum, frame):
+def on_signal(signum, frame):
+    """The handler of a run: record the signal; raise :class:`Interrupted` for the first one."""
     _pending.append(signum)
-    raise Interrupted(signum)
+    if len(_pending) == 1:  # a second signal while the first one's clean-up runs is recorded, not raised
+        raise Interrupted(signum)
+
+
+def clear() -> None:
+    """Forget the signals and lines of an earlier run (a new run in this process)."""
+    _pending.clear()
+    _said.clear()
+
+
+def _say(line: str) -> None:
+    _said.append(line)
+    print(line, file=sys.stderr)
+
+
+def interrupted_line(signum: int) -> int:
+    """The line of an interrupted run (unless the run already said something); returns 128 + ``signum``."""
+    if not _said:
+        _say(f"nlo-lab: interrupted by {signal.Signals(signum).name}")
+    return 128 + signum
+
+
+def pending_signal() -> int | None:
+    """The first signal this run received (None: none)."""
+    return _pending[0] if _pending else None
 
 
 def raise_pending_signal() -> None:
@@ -41,11 +71,12 @@ def signals_raise():
         yield
         return
     previous = {}
-    for name in _TERMINATING:
+    for name in TERMINATING:
         if hasattr(signal, name):
             sig = getattr(signal, name)
-            previous[sig] = signal.signal(sig, _on_signal)
-    _pending.clear()
+            previous[sig] = signal.signal(sig, on_signal)
+    if previous.get(signal.SIGINT) is not on_signal:  # a run of its own (not under main's program handlers)
+        _pending.clear()
     try:
         yield
     finally:
@@ -71,11 +102,11 @@ def one_warning_channel(quiet: bool):
         line = f"nlo-lab: warning: {escape(w.message)}"
         if line not in seen:
             seen.add(line)
-            print(line, file=sys.stderr)
+            _say(line)
 
 
 def error_line(message) -> int:
-    print(f"nlo-lab: error: {escape(message)}", file=sys.stderr)
+    _say(f"nlo-lab: error: {escape(message)}")
     return 2
 
 

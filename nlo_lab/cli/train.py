@@ -54,6 +54,7 @@ def run(args) -> int:
 
     import torch
 
+    from nlo_lab.atomic_files import check_output_file
     from nlo_lab.model import checkpoint_path, save_checkpoint
     from nlo_lab.paths import is_editable_checkout
     from nlo_lab.robot import load_robot
@@ -65,10 +66,13 @@ def run(args) -> int:
     settings = dataclasses.replace(TrainSettings(seed=args.seed, progress=not args.quiet), **{k: v for k, v in flags.items() if v is not None})
     if args.threads is not None:
         torch.set_num_threads(args.threads)
+    if args.out is not None:
+        check_output_file(args.out, what="--out", parents=True)  # before any input is read (--out '' too)
     robot = load_robot(args.robot)
-    result = train_model(robot, settings)
     # A checkout retrains the shipped file in place; an installed package is never written to.
-    out = Path(args.out) if args.out else checkpoint_path(robot.name) if is_editable_checkout() else Path(f"{robot.name}.pt")
+    out = Path(args.out) if args.out is not None else checkpoint_path(robot.name) if is_editable_checkout() else Path(f"{robot.name}.pt")
+    check_output_file(out, what="the checkpoint", parents=True)  # before training, not after it
+    result = train_model(robot, settings)
     save_checkpoint(result.model, out, robot)
     print(
         f"trained {escape(robot.name)}: {result.steps} steps in {result.seconds:.1f} s, "

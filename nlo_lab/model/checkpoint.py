@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import torch
 
+from nlo_lab.atomic_files import atomic_path
 from nlo_lab.errors import CheckpointError, NloLabError
 from nlo_lab.files import as_path, format_size, open_input
 from nlo_lab.human.skeleton import skeleton_graph
@@ -95,9 +96,8 @@ def save_checkpoint(model: RetargetModel, path, robot: Robot | None = None, **in
         "torch_version": str(torch.__version__),
         **info,
     }
-    tmp = path.with_name(path.name + ".tmp")
-    torch.save(ckpt, tmp)
-    tmp.replace(path)  # never a half-written checkpoint under the real name
+    with atomic_path(path) as tmp:  # never a half-written checkpoint under the real name; a failure names `path`
+        torch.save(ckpt, tmp)
     return path
 
 

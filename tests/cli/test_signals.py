@@ -1,0 +1,125 @@
+"""Signals at any instant of ``nlo-lab`` (issue 25): the imports, the run, a second signal, the exit.
+
+Each case runs the program as a user does (``python -m nlo_lab.cli ...``, or its entry point with
+the program's own arguments) and delivers the signal at a moment the test makes sure of; the run
+must end with 128 + N (or 0, when the signal came after the run was over) and at most one line on
+stderr, no traceback, never a death by the raw signal, and leave the output folder whole or
+absent. ``benchmarks/signals.py`` sweeps the instants from the first milliseconds to the exit.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+ARGV = ["retarget", "demo:introduction_06", "--robot", "nao", "--json"]
+SET = ["trajectory.csv", "trajectory.npz", "viewer.html"]
+
+
+def _env() -> dict:
+    return dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+
+
+def _ends_well(proc: subprocess.Popen, err: str, sig: int, out: Path, allow_zero: bool = False) -> None:
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert proc.returncode >= 0, f"killed by the raw signal {-proc.returncode}: {err}"
+    assert proc.returncode == 128 + sig or (allow_zero and proc.returncode == 0), (proc.returncode, err)
+    assert len(lines) <= 1 and "Traceback" not in err, err
+    if proc.returncode == 128 + sig and lines:
+        assert lines[0] == f"nlo-lab: interrupted by {signal.Signals(sig).name}", lines
+    held = sorted(os.listdir(out)) if out.is_dir() else []
+    assert held in ([], SET), held
+    assert not [p for p in out.parent.iterdir() if ".nlo-lab-tmp-" in p.name]
+
+
+def _program(code: str, sig: int, tmp_path: Path) -> tuple[subprocess.Popen, str, str]:
+    """Run the entry point as the program (its own argv) after ``code`` arranged when ``sig`` comes."""
+    code = f"import os, signal, sys, threading; from nlo_lab.cli import main, program; sys.argv = ['nlo-lab', *sys.argv[1:]]; {code}; main()"
+    proc = subprocess.Popen([sys.executable, "-c", code, *ARGV, "--out", "out"], cwd=tmp_path, env=_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out, err = proc.communicate(timeout=300)
+    return proc, out, err
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP])
+def test_a_signal_the_instant_the_handlers_are_in(sig, tmp_path):
+    """The signal arrives as the entry point's first act returns (before its error path is entered): one line, 128 + N."""
+    install = ("first = program._install; calls = []; "
+               f"program._install = lambda h: (first(h), calls.append(h), len(calls) == 1 and os.kill(os.getpid(), {int(sig)}))")
+    proc, out, err = _program(install, sig, tmp_path)
+    _ends_well(proc, err, sig, tmp_path / "out")
+    assert proc.returncode == 128 + sig and out == "" and err.strip() == f"nlo-lab: interrupted by {signal.Signals(sig).name}"
+
+
+def test_a_signal_during_the_imports(tmp_path):
+    """A signal while the parser, numpy and the commands import (about 0.4 s; a C extension may turn the
+    interruption into an ImportError) ends the run as interrupted, before any output."""
+    timer = f"threading.Timer(0.05, os.kill, (os.getpid(), {int(signal.SIGINT)})).start()"
+    proc, out, err = _program(timer, signal.SIGINT, tmp_path)
+    _ends_well(proc, err, signal.SIGINT, tmp_path / "out")
+    assert proc.returncode == 130 and out == "" and not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("delay", [0.15, 0.3, 0.6])
+def test_a_signal_while_the_program_starts(delay, tmp_path):
+    """``python -m nlo_lab.cli``, as a user runs it, interrupted early: from nlo_lab's first line on, one line at most."""
+    start = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "import nlo_lab"], env=_env(), check=True)  # Python's own start on this machine
+    python_start = time.perf_counter() - start
+    proc = subprocess.Popen([sys.executable, "-m", "nlo_lab.cli", *ARGV, "--out", "out"], cwd=tmp_path, env=_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(python_start + delay)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=300)
+    _ends_well(proc, err, signal.SIGTERM, tmp_path / "out", allow_zero=True)
+
+
+@pytest.mark.slow
+def test_a_second_signal_during_the_clean_up(tmp_path):
+    """The first signal starts the clean-up; a second one is recorded, not raised into it: one line, its status.
+
+    Two signals that arrive while the interpreter is inside one C call are run by Python in the order of
+    their numbers (SIGINT 2 before SIGTERM 15), so either may be the one the run ends with."""
+    proc = subprocess.Popen([sys.executable, "-m", "nlo_lab.cli", *ARGV, "--iters", "3000", "--out", "out"], cwd=tmp_path,
+                            env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(8)  # well into the optimisation
+    assert proc.poll() is None
+    proc.send_signal(signal.SIGTERM)
+    time.sleep(0.001)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=300)
+    first = signal.SIGTERM if proc.returncode == 143 else signal.SIGINT
+    _ends_well(proc, err, first, tmp_path / "out")
+    assert err.strip() == f"nlo-lab: interrupted by {first.name}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_as_the_program_exits(sig, tmp_path):
+    """The run printed its summary: a signal now ends the process with 128 + N (or it is gone: 0), never raw."""
+    proc = subprocess.Popen([sys.executable, "-m", "nlo_lab.cli", *ARGV, "--iters", "5", "--out", "out"], cwd=tmp_path,
+                            env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    line = proc.stdout.readline()  # the JSON summary: the run's work is done
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=300)
+    assert line.startswith("{"), (line, err)
+    _ends_well(proc, err, sig, tmp_path / "out", allow_zero=True)
+    assert sorted(os.listdir(tmp_path / "out")) == SET
+
+
+def test_an_uncaught_bug_still_gives_a_traceback(tmp_path):
+    """Only a bug of nlo_lab may give a traceback (exit 1): the error path does not swallow it."""
+    code = ("import sys; import nlo_lab.cli.retarget as r; "
+            "r.run = lambda args: (_ for _ in ()).throw(ZeroDivisionError('a bug')); "
+            "from nlo_lab.cli import main; sys.exit(main(sys.argv[1:]))")
+    proc = subprocess.run([sys.executable, "-c", code, *ARGV], cwd=tmp_path, env=_env(), capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 1 and "ZeroDivisionError: a bug" in proc.stderr and "Traceback" in proc.stderr
