@@ -8,6 +8,9 @@ to the digits quoted (``0.058`` matches ``0.0582``; ``24.6 %`` matches ``24.6``)
 Integers are not checked (counts such as "17 of 25" are read from a table, and
 "Eq. 10" is not a figure).
 
+A doc's results section (:data:`RESULTS_HEADINGS`: the README's "Results in one glance") quotes
+nothing else: each of its paragraphs and list items with a decimal number must name its sections.
+
 Run after ``make results`` to see which quotes the new figures changed::
 
     python tools/quoted_figures.py            # README.md and docs/PAPER.md against docs/RESULTS.md
@@ -24,6 +27,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = (ROOT / "README.md", ROOT / "docs" / "PAPER.md")
 RESULTS = ROOT / "docs" / "RESULTS.md"
+RESULTS_HEADINGS = {"README.md": "## Results in one glance"}  # a section of measured figures only: every one cited
 
 REFERENCE = re.compile(r"\(docs/RESULTS\.md:\s+([^)]+)\)")  # the reference may break across lines
 NUMBER = re.compile(r"(?<![\w.])-?\d+\.\d+(?![\w.]*\d)")  # a decimal number, not part of a version or a name
@@ -59,14 +63,30 @@ def _shown(value: str, numbers: list[float]) -> bool:
     return any(abs(abs(r) - abs(q)) <= 0.5 * 10**-digits + 1e-12 for r in numbers)
 
 
+def _results_lines(doc: Path, text: str) -> range:
+    """The line numbers of ``doc``'s results section (:data:`RESULTS_HEADINGS`; empty if it has none)."""
+    heading = RESULTS_HEADINGS.get(doc.name)
+    lines = text.splitlines()
+    if heading is None or heading not in lines:
+        return range(0)
+    start = lines.index(heading) + 1
+    end = next((i for i in range(start, len(lines)) if lines[i].startswith("## ")), len(lines))
+    return range(start + 1, end + 1)
+
+
 def check(doc: Path, results: Path = RESULTS) -> list[str]:
-    """One message per quoted figure of ``doc`` that its named sections do not show (and per unknown section)."""
+    """One message per quoted figure of ``doc`` that its named sections do not show (and per unknown section),
+    and per figure of its results section without a source."""
     known = sections(results.read_text())
+    text = doc.read_text()
+    in_results = _results_lines(doc, text)
     problems = []
-    for line, block in blocks(doc.read_text()):
+    for line, block in blocks(text):
         block = CODE.sub("", block)  # `code` is neither a figure nor a reference
         refs = REFERENCE.findall(block)
         if not refs:
+            if line in in_results and NUMBER.search(block):
+                problems.append(f"{doc.name}:{line}: {NUMBER.search(block).group()} has no source (docs/RESULTS.md: SECTION)")
             continue
         names = [n.strip() for ref in refs for n in ref.split(",") if n.strip()]
         missing = [n for n in names if n not in known]

@@ -129,6 +129,16 @@ def test_quoted_figures_are_checked_against_the_named_sections(tools, tmp_path):
     assert problems == ["D.md:3: 0.0583 is not shown in t:x", "D.md:6: no section t:y in R.md", "D.md:8: 0.0591 is not shown in t:x"], problems
 
 
+def test_the_readmes_results_section_quotes_no_figure_without_its_source(tools, tmp_path):
+    quoted = tools[2]
+    results = tmp_path / "R.md"
+    results.write_text("<!-- BEGIN t:x -->\n| mean | 0.0582 |\n<!-- END t:x -->\n")
+    doc = tmp_path / "README.md"
+    doc.write_text("# x\n\nA limit of 0.35 rad.\n\n## Results in one glance\n\n- 0.058 m (docs/RESULTS.md: t:x)\n"
+                   "- 1.93 s, typed from memory\n\n## Layout\n\nVersion 0.5 here.\n")
+    assert quoted.check(doc, results) == ["README.md:8: 1.93 has no source (docs/RESULTS.md: SECTION)"]
+
+
 def test_the_readme_and_paper_quote_only_figures_that_results_shows(tools):
     quoted = tools[2]
     problems = [p for doc in quoted.DOCS for p in quoted.check(doc)]
