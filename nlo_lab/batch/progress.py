@@ -33,7 +33,8 @@ class Progress:
     Args:
         total: inputs to run.
         show: draw anything at all.
-        skipped: inputs the run does not need to run (said once, at the start).
+        skipped: inputs settled without running (done before, failed before on the same content, or
+            unreadable; said once, at the start).
         stream: where to write (default ``sys.stderr``).
 
     Nothing shows before :meth:`start`.
@@ -52,14 +53,15 @@ class Progress:
         self.show, skipped, total = self.wanted, self.skipped, self.total
         if not self.show:
             return
-        interactive = getattr(self.stream, "isatty", lambda: False)() or "ipykernel" in sys.modules
+        # a terminal, or a notebook's stderr (ipykernel's OutStream, which is no tty but draws a bar)
+        interactive = getattr(self.stream, "isatty", lambda: False)() or type(self.stream).__module__.startswith("ipykernel")
         if interactive:
-            note = f" ({skipped} from earlier runs)" if skipped else ""
+            note = f" ({skipped} settled without running)" if skipped else ""
             self._bar = tqdm(total=total, desc=f"batch{note}", unit="input", file=self.stream, dynamic_ncols=True,
-                             bar_format="{desc}: {bar} {n_fmt}/{total_fmt} done, {postfix} [{elapsed}<{remaining}, {rate_fmt}]")
+                             bar_format="{desc}: {bar} {n_fmt}/{total_fmt} done{postfix} [{elapsed}<{remaining}, {rate_fmt}]")
             self._bar.set_postfix_str("0 failed")
         else:
-            self._line(f"{total} inputs to run" + (f", {skipped} from earlier runs" if skipped else ""))
+            self._line(f"{total} inputs to run" + (f", {skipped} settled without running" if skipped else ""))
 
     def _line(self, text: str) -> None:
         print(f"nlo-lab: batch: {text}", file=self.stream, flush=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import os
+import re
 import shutil
 import signal
 import socket
@@ -100,12 +101,17 @@ def test_a_manifest_with_relative_paths(tmp_path):
     (tmp_path / "lists" / "corpus.txt").write_text("# my corpus\n../data/a/one.pose\n../data/missing.pose\n")
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
-    proc = batch("../lists/corpus.txt", "--robot", "nao", "--out", "../out", "--iters", 2, "--workers", 1, "--quiet", cwd=elsewhere)
+    proc = batch("../lists/corpus.txt", "--robot", "nao", "--out", "../out", "--iters", 2, "--workers", 1, cwd=elsewhere)
     assert proc.returncode == 1, proc.stderr
     rows = table(tmp_path / "out")
     assert {k: r["status"] for k, r in rows.items()} == {"a/one": "ok", "missing": "failed"}
     assert rows["missing"]["error"] == f"file not found: {Path('..') / 'lists' / '..' / 'data' / 'missing.pose'}"
     assert complete(tmp_path / "out" / "a" / "one")
+    # not --quiet, into a pipe (a log): the failure's line, then the progress as plain lines (done, failed, rate)
+    lines = proc.stderr.splitlines()
+    assert lines[0] == f"nlo-lab: error: {rows['missing']['error']}" and "Traceback" not in proc.stderr
+    assert lines[1] == "nlo-lab: batch: 1 inputs to run, 1 settled without running"
+    assert re.fullmatch(r"nlo-lab: batch: 1/1 done, 0 failed, \d+\.\d\d inputs/s in \d+ s", lines[-1]), lines
 
 
 def test_a_scheduler_address_where_nothing_listens(tmp_path):
