@@ -61,3 +61,15 @@ def make_live():
 @pytest.fixture(scope="session")
 def nobody() -> FrameLandmarks:
     return FrameLandmarks(width=640, height=480)
+
+
+def _listening() -> set[tuple[str, int]]:
+    import psutil
+
+    return {(c.laddr.ip, c.laddr.port) for c in psutil.Process().net_connections(kind="inet") if c.status == psutil.CONN_LISTEN}
+
+
+@pytest.fixture
+def listening_sockets():
+    """``listening_sockets()``: the ``(ip, port)`` this process listens on (the live path must add none: issue 30)."""
+    return _listening

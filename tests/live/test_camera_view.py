@@ -129,6 +129,17 @@ def test_recording_only_when_asked(view, tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["session"]
 
 
+def test_the_view_listens_on_no_port(make_live, recorded, listening_sockets, monkeypatch, tmp_path):
+    before = listening_sockets()
+    view = CameraView(make_live(recorded[0]))
+    monkeypatch.setattr(view, "send", lambda content, buffers=None: None)
+    view.record(tmp_path)
+    for i in range(1, 6):
+        _frame(view, i, 1.0 + i / 25)
+    view.stop()
+    assert view.frames_processed == 5 and listening_sockets() == before  # frames come over the comm: no server, no port
+
+
 def test_the_figures_are_read_only(view):
     for name in ("frames_received", "frames_processed", "fps", "latency_ms", "found", "error"):
         with pytest.raises(traitlets.TraitError, match="read-only"):

@@ -93,8 +93,9 @@ def test_bad_calls_are_clear_errors(make_live, recorded):
 
 
 @pytest.mark.slow
-def test_mediapipe_on_the_sample_video_and_a_frame_with_nobody():
+def test_mediapipe_on_the_sample_video_and_a_frame_with_nobody(listening_sockets):
     pytest.importorskip("mediapipe", reason="the video extra (mediapipe) is not installed")
+    before = listening_sockets()
     from pathlib import Path
 
     from nlo_lab.human import read_video_frames
@@ -113,3 +114,4 @@ def test_mediapipe_on_the_sample_video_and_a_frame_with_nobody():
         q = np.stack([f.angles for f in out + empty])
         t = np.array([f.t for f in out + empty])
         assert limit_violations(live.robot, q) == 0 and velocity_violations(live.robot, q, t) == 0
+        assert listening_sockets() == before  # MediaPipe and the optimiser open no port
