@@ -38,6 +38,7 @@ __all__ = [
     "LATENT_RANGE",
     "COUNT_RANGE",
     "WEIGHT_RANGE",
+    "WORKERS_RANGE",
     "RATE_RANGE",
     "SECONDS_RANGE",
     "check_int",
@@ -64,6 +65,7 @@ COUNT_RANGE = (1, 1_000_000)  # other counts: frames per chunk, validation frame
 WEIGHT_RANGE = (0.0, 1e6)  # a loss weight: 1000x the largest default; beyond it float32 losses overflow to NaN
 RATE_RANGE = (1e-12, 1e3)  # step sizes, sigmas, damping, tolerances, clips
 SECONDS_RANGE = (1e-3, 1e7)  # wall-clock budgets [s] (1e7 s: 116 days)
+WORKERS_RANGE = (1, 1024)  # worker processes of a batch's local cluster
 
 
 def check_int(name: str, value: Any, minimum: int | None = None, maximum: int | None = None) -> int:

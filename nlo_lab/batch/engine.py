@@ -29,12 +29,13 @@ from urllib.parse import urlsplit
 import nlo_lab
 from nlo_lab.atomic_files import stale_temp_folders_in
 from nlo_lab.batch.inputs import RESULTS_FILE, find_inputs
-from nlo_lab.batch.lock import run_lock
+from nlo_lab.batch.lock import check_out_place, run_lock
 from nlo_lab.batch.plan import plan_run
 from nlo_lab.batch.progress import Progress
 from nlo_lab.batch.settings import BatchSettings
 from nlo_lab.batch.table import COLUMNS, ResultsTable, failed_row
 from nlo_lab.errors import NloLabError, escape
+from nlo_lab.settings import WORKERS_RANGE, check_int
 
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
@@ -281,7 +282,9 @@ def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "
     Raises:
         InputError: an input path that does not exist, no input found, two inputs for one folder.
         SchedulerError: no scheduler at ``scheduler``; the batch extra missing.
-        OutputError: ``out`` cannot be written; another batch is writing it.
+        SettingsError: ``workers`` outside :data:`nlo_lab.settings.WORKERS_RANGE`.
+        OutputError: ``out`` is empty, not a folder or cannot be written (checked before any input is
+            read); another batch is writing it.
         NloLabError: an unknown robot, a bad setting (found when the first worker loads the model, before
             any input runs).
     """
@@ -290,7 +293,9 @@ def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "
     if workers is not None and (scheduler or client is not None):
         raise SchedulerError("workers sizes the local cluster; with a scheduler or a client, the cluster's own workers run")
     settings = BatchSettings(robot, init, iterations, seed, weights, viewer)  # type: ignore[arg-type]  # a Robot is kept as its spec path
-    out = Path(out).expanduser()
+    out = check_out_place(out)  # before any input is read
+    if workers is not None:
+        check_int("workers", workers, *WORKERS_RANGE)
     items = find_inputs(inputs, out)
     with run_lock(out):
         plan = plan_run(items, out, settings, resume=resume, retry_failed=retry_failed)

@@ -14,9 +14,33 @@ from pathlib import Path
 
 from nlo_lab.errors import OutputError
 
-__all__ = ["LOCK_FILE", "run_lock"]
+__all__ = ["LOCK_FILE", "run_lock", "check_out_place"]
 
 LOCK_FILE = ".nlo-lab-batch.lock"
+
+
+def check_out_place(out) -> Path:
+    """The batch's output folder, checked before any input is read; returns it as a Path.
+
+    Refused: an empty path (it would be the current folder), an existing entry that is not a
+    folder, a path below a file, a place we may not write in.
+
+    Raises:
+        OutputError: naming the folder and the reason.
+    """
+    if not isinstance(out, (str, os.PathLike)) or not os.fspath(out) or "\x00" in os.fspath(out):
+        raise OutputError(f"the output folder must be a non-empty path, got {out!r}")
+    path = Path(out).expanduser()
+    if os.path.lexists(path) and not path.is_dir():
+        raise OutputError(f"{path} exists and is not a folder")
+    place = path
+    while not os.path.lexists(place):
+        place = place.parent
+    if not place.is_dir():
+        raise OutputError(f"{path} lies below {place}, which is not a folder")
+    if not os.access(place, os.W_OK | os.X_OK):
+        raise OutputError(f"no permission to write in {place}")
+    return path
 
 
 @contextlib.contextmanager

@@ -16,10 +16,10 @@ import time
 
 from nlo_lab.cli.flags import ITERS_RANGE, MAX_SEED, WEIGHT_RANGE, LazyChoices, UsageError, ranged_int
 from nlo_lab.errors import escape
+from nlo_lab.settings import WORKERS_RANGE  # worker processes of the local cluster (the library's bound too)
 
 __all__ = ["WORKERS_RANGE", "NEEDS_TORCH", "add_parser", "run"]
 
-WORKERS_RANGE = (1, 1024)  # worker processes of the local cluster
 NEEDS_TORCH = False  # the workers import it; this process decides what to run without it (a resume takes a fraction of a second)
 
 
