@@ -169,7 +169,8 @@ def main() -> None:
         "one to quote",
         f"`uptime` at the start: {uptime_start}; at the end: {uptime_end}",
         f"a load at the start above {QUIET_LOAD:g} ({load_start:.1f} here) means other work shared the cores: the latency "
-        "and frame-rate verdicts are then PROVISIONAL (the limits and distances do not depend on the load)"
+        "and frame-rate verdicts are then PROVISIONAL, and so is the distance at the camera's pace (fewer frames processed, "
+        "so the robot lags further); the limits and the every-frame distance do not depend on the load"
         if busy else f"load at the start {load_start:.1f} (at most {QUIET_LOAD:g}): the timing verdicts stand",
     ]) + [
         "| figure | measured | target | |",
