@@ -5,9 +5,18 @@
 Rewrites ``capsules``, ``collision_pairs`` and ``collision_margin`` of ``NAME.json`` with
 ``nlo_lab.robot.capsule_draft.draft_collision`` (what ``nlo-lab robot init`` does for any URDF):
 capsules that hold every ``<collision>`` element, pairs that can collide, thinned copies where
-fat capsules would block what the geometry allows. The margin's ``default`` is kept; per-pair
-margins are dropped (the hands' capsules they named are gone). The rest pose is the spec's
-``neutral_pose`` (YuMi's zero pose crosses the forearms).
+fat capsules would block what the geometry allows. The margin's ``default`` is kept. The rest
+pose is the spec's ``neutral_pose`` (YuMi's zero pose crosses the forearms).
+
+The fingers of one hand (:func:`one_hand`, YuMi's Inspire hands):
+
+* pairs between two of the four fingers are dropped: each flexes in its own plane, parallel to
+  the others', by one actuated joint, so their geometry never meets (the check by the URDF's
+  geometry, ``nlo_lab.robot.geometry_collision``: no overlap in 3000 random hand poses; their
+  capsules never came within 9 mm) and the pairs only cost time;
+* pairs of the thumb with a finger (or with itself) get margin 0: touching is what a pinch is
+  (sign handshapes need it), penetrating still costs (the geometry can overlap by 15 mm: the
+  thumb closes through the index finger), so they stay checked.
 """
 
 from __future__ import annotations
@@ -34,11 +43,38 @@ def fit(name: str) -> dict:
                             robot.lower_limits.double().numpy(), robot.upper_limits.double().numpy(), arms, default)
     print(f"{name}: {len(draft.capsules)} capsules, {len(draft.pairs)} pairs ({draft.thinned} thinned, "
           f"{draft.far} never near, {len(draft.touching)} link pairs touching at rest)")
+    capsules = [{"name": c.name, "link": c.link, "p0": list(c.p0), "p1": list(c.p1), "radius": c.radius} for c in draft.capsules]
+    pairs, contact = one_hand(robot, capsules, [list(p) for p in draft.pairs])
+    used = {n for p in pairs for n in p}
+    capsules = [c for c in capsules if "@" not in c["name"] or c["name"] in used]  # thinned copies of dropped pairs
+    if contact:
+        print(f"{name}: one hand's fingers: {len(draft.pairs) - len(pairs)} finger-finger pairs dropped, {len(contact)} thumb pairs at margin 0")
     return {
-        "capsules": [{"name": c.name, "link": c.link, "p0": list(c.p0), "p1": list(c.p1), "radius": c.radius} for c in draft.capsules],
-        "collision_pairs": [list(p) for p in draft.pairs],
-        "collision_margin": {"default": default},
+        "capsules": capsules,
+        "collision_pairs": pairs,
+        "collision_margin": {"default": default, **{f"{a}/{b}": 0.0 for a, b in contact}},
     }
+
+
+def one_hand(robot, capsules: list[dict], pairs: list[list[str]]) -> tuple[list[list[str]], list[list[str]]]:
+    """The checked pairs without those between two fingers of one hand, and the thumb's pairs (margin 0)."""
+    link_of = {c["name"]: c["link"] for c in capsules}
+    fingers: dict[str, set] = {}  # link -> the (side, finger)s whose tip hangs below it
+    for side in robot.spec.arms:
+        for finger, (_, tip) in robot.arm(side).fingers.items():
+            for link in robot.model.links:
+                if tip in robot.model.subtree(link):
+                    fingers.setdefault(link, set()).add((side, finger))
+    kept, contact = [], []
+    for a, b in pairs:
+        fa, fb = fingers.get(link_of[a], set()), fingers.get(link_of[b], set())
+        if len(fa) != 1 or len(fb) != 1 or next(iter(fa))[0] != next(iter(fb))[0]:
+            kept.append([a, b])  # not two links of one hand's fingers (the palm and the arm hold all five)
+        elif ("thumb" in {f for _, f in fa | fb}):
+            kept.append([a, b])
+            contact.append([a, b])
+        # else: two of the four fingers: dropped
+    return kept, contact
 
 
 def update(name: str) -> None:

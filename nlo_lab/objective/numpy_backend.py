@@ -36,7 +36,7 @@ from nlo_lab.objective.near_pairs import CULL_SLACK
 from nlo_lab.objective.points import PointPlan
 from nlo_lab.objective.targets import Targets
 from nlo_lab.objective.terms import UNIT_EPS, in_wrist_frame, pinch_activation, unit
-from nlo_lab.objective.weights import TERMS
+from nlo_lab.objective.weights import CONTACT_SCALE, TERMS
 from nlo_lab.robot.collision import segment_closest_points
 
 __all__ = ["PointTerms", "HandTerms", "point_terms", "maybe_near"]
@@ -286,8 +286,9 @@ class PointTerms:
                     e = np.where(d < m, np.exp(-d * d), 0.0)
                     value, slope = e, -2.0 * d * e  # the term and d term / d d
                 else:
-                    h = np.clip((m - d) / m, 0.0, None)
-                    value, slope = h * h, -2.0 * h / m
+                    s = np.where(m > 0, m, CONTACT_SCALE)  # collision_scale: a margin-0 pair's unit
+                    h = np.clip((m - d) / s, 0.0, None)
+                    value, slope = h * h, -2.0 * h / s
                 terms[:, 4] = np.bincount(near // self.radii.shape[0], weights=value, minlength=P.shape[0])
                 coll = (near, slope, w, u)
         hand = self.hand.forward(P, terms[:, 5:]) if self.hand.items else None

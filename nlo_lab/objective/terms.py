@@ -22,6 +22,7 @@ import torch
 from nlo_lab.errors import SettingsError
 from nlo_lab.objective.weights import (
     COLLISION_FORMS,
+    CONTACT_SCALE,
     PINCH_OFF,
     PINCH_ON,
     SMOOTH_MAX_STEP,
@@ -41,6 +42,7 @@ __all__ = [
     "pinch_activation",
     "in_wrist_frame",
     "collision_loss",
+    "collision_scale",
     "capsule_distances",
     "latent_loss",
     "smoothness_loss",
@@ -235,11 +237,19 @@ def pinch_loss(tip, hand_length, t_tip, t_hand_length, pairs, side, floor, mask)
     return masked_sum(active * (d - goal).clamp_min(0.0).pow(2), mask)
 
 
+def collision_scale(margins: torch.Tensor) -> torch.Tensor:
+    """``s = d_min``, or ``CONTACT_SCALE`` for a pair whose margin is 0: the hinge's length unit per pair [m]."""
+    return torch.where(margins > 0, margins, torch.full_like(margins, CONTACT_SCALE))
+
+
 @needs("capsule_ends")
 def collision_loss(distances: torch.Tensor, margins: torch.Tensor, form: str = "hinge") -> torch.Tensor:
     """Self-collision over the capsule pairs closer than their margin ``d_min``.
 
-    ``"hinge"`` (default): ``L_col = sum_pairs ((d_min - d)/d_min)²`` for ``d < d_min``.
+    ``"hinge"`` (default): ``L_col = sum_pairs ((d_min - d)/s)²`` for ``d < d_min``, ``s = d_min``
+    (:func:`collision_scale`): 1 where the capsules touch. A pair with ``d_min = 0`` (contact allowed,
+    e.g. the fingers of one hand: a pinch, a thumb over the fingers) costs only penetration, in
+    units of ``s = CONTACT_SCALE``.
     ``"paper"``: ``L_col = sum_pairs exp(-d²) [d < d_min]``. The paper's form jumps at
     ``d_min``, has almost no gradient near contact (``-2d e^{-d²}`` -> 0) and, with a
     surface distance (< 0 inside), pushes penetrating capsules *deeper*; the squared
@@ -262,7 +272,7 @@ def collision_loss(distances: torch.Tensor, margins: torch.Tensor, form: str = "
     if form == "paper":
         return masked_sum(torch.exp(-distances.pow(2)), distances < margins)
     # clamp: exactly 0 (and no gradient) at and above d_min
-    return ((margins - distances) / margins).clamp_min(0.0).pow(2).sum(-1)
+    return ((margins - distances) / collision_scale(margins)).clamp_min(0.0).pow(2).sum(-1)
 
 
 def capsule_distances(ends: torch.Tensor, radii: torch.Tensor) -> torch.Tensor:

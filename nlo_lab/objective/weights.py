@@ -13,6 +13,7 @@ __all__ = [
     "LossWeights",
     "TERMS",
     "COLLISION_FORMS",
+    "CONTACT_SCALE",
     "SMOOTH_SPEED_CAP",
     "SMOOTH_MAX_STEP",
     "SMOOTH_STEP_WIDTH",
@@ -24,6 +25,9 @@ __all__ = [
 TERMS = ("ee", "ori", "elbow", "finger", "collision", "tip", "thumb", "pinch")  # the per-frame terms, in the order Objective returns them
 HAND_TERMS = ("tip", "thumb", "pinch")  # the handshape terms (issue 27): zero on a robot without fingers
 COLLISION_FORMS = ("hinge", "paper")  # see nlo_lab.objective.terms.collision_loss
+# [m] the hinge's length unit for a capsule pair with margin 0 (contact allowed, penetration costs):
+# 1 mm of penetration costs what 1 mm inside a YuMi pair's 5 mm margin does
+CONTACT_SCALE = 0.005
 # A joint faster than this [rad/s] is smoothed as if its limit were this: NAO's wrist
 # (24.6 rad/s) could otherwise jump 0.85 rad between two frames at little cost, though
 # a jump is jitter whatever the motor (measured: docs/RESULTS.md, "Robot-ready motion").

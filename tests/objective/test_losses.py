@@ -11,10 +11,12 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.objective import (
+    CONTACT_SCALE,
     TERMS,
     LossWeights,
     Targets,
     collision_loss,
+    collision_scale,
     latent_loss,
     objective,
     point_plan,
@@ -155,6 +157,30 @@ def test_collision_loss_is_zero_above_the_margin_and_grows_inside():
     torch.testing.assert_close(paper[1], torch.exp(torch.tensor(-0.05**2, dtype=torch.float64)))
     with pytest.raises(SettingsError, match="collision form"):
         collision_loss(d, margins, form="soft")
+
+
+def test_a_margin_0_pair_costs_only_penetration_in_contact_scale_units():
+    # the thumb and the fingers of one hand (yumi.json): touching is a pinch, penetrating costs
+    margins = torch.tensor([0.0, 0.005], dtype=torch.float64)
+    d = torch.tensor([[0.001, 0.001], [0.0, 0.0], [-CONTACT_SCALE, -0.001]], dtype=torch.float64, requires_grad=True)
+    hinge = collision_loss(d, margins)
+    assert float(hinge[0].detach()) == pytest.approx(0.8**2) and float(hinge[1].detach()) == 1.0  # only the 5 mm pair counts
+    assert float(hinge[2].detach()) == pytest.approx(1.0 + 1.2**2)  # the margin-0 pair: 1 per CONTACT_SCALE of depth
+    hinge.sum().backward()
+    assert d.grad[0, 0] == 0 and d.grad[1, 0] == 0 and d.grad[2, 0] < 0
+    torch.testing.assert_close(collision_scale(margins), torch.tensor([CONTACT_SCALE, 0.005], dtype=torch.float64))
+
+
+def test_yumi_lets_the_thumb_touch_the_fingers_of_its_own_hand_only():
+    robot = load_robot("yumi")
+    margins = dict(zip(robot.spec.collision_pairs, robot.spec.pair_margins, strict=True))
+    link = {c.name: c.link for c in robot.spec.capsules}
+    zero = {(link[a], link[b]) for (a, b), m in margins.items() if m == 0}
+    assert zero and all("thumb" in a + b and a.split("_")[2] == b.split("_")[2] for a, b in zero), zero
+    assert ("yumi_hand_l_index_intermediate", "yumi_hand_l_thumb_distal") in zero
+    # no pair between two of the four fingers of one hand (they flex in parallel planes)
+    assert not any("thumb" not in link[a] + link[b] and "_hand_" in link[a] and "_hand_" in link[b]
+                   and "base" not in link[a] + link[b] for a, b in margins)
 
 
 def test_collision_hinge_pushes_capsules_apart_even_when_penetrating():

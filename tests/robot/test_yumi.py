@@ -175,7 +175,7 @@ def test_generated_files_match_the_generator():
     assert text == URDF.read_text(), "yumi.urdf was edited by hand: regenerate with make_yumi_urdf.py"
     written = json.loads(SPEC.read_text())
     collision = ("capsules", "collision_pairs", "collision_margin")
-    assert {k: v for k, v in spec.items() if k not in collision[:2]} == {k: v for k, v in written.items() if k not in collision[:2]}, (
+    assert {k: v for k, v in spec.items() if k not in collision} == {k: v for k, v in written.items() if k not in collision}, (
         "yumi.json differs from the generator's output")
     # the capsules are fitted to the URDF's collision geometry (assets/robots/fit_capsules.py)
     assert module.fit_capsules.fit("yumi") == {k: written[k] for k in collision}, "yumi.json's capsules differ: run fit_capsules.py yumi"
@@ -405,7 +405,12 @@ def test_capsules_and_pairs_are_well_formed(spec, urdf):
     for a, b in spec["collision_pairs"]:
         la, lb = link_of[a], link_of[b]
         assert la != lb and parents.get(la) != lb and parents.get(lb) != la, (a, b)
-    assert spec["collision_margin"] == {"default": 0.005}
+    assert spec["collision_margin"]["default"] == 0.005
+    # margin 0 (contact allowed, a pinch) only for the thumb against the fingers of its own hand
+    for key, value in spec["collision_margin"].items():
+        if key != "default":
+            a, b = (link_of[n] for n in key.split("/"))
+            assert value == 0.0 and "thumb" in a + b and a[:11] == b[:11], key
     # the two hands' finger envelopes, the thumb against the index finger, the forearms and the
     # body against the forearms are all checked (the hand-written capsules left fingers out: issue 28)
     links = {frozenset((link_of[a], link_of[b])) for a, b in spec["collision_pairs"]}
