@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import psutil
 import pytest
 
@@ -77,6 +78,13 @@ def test_a_folder_with_good_and_bad_files_exits_1_with_the_right_rows(tmp_path):
     assert proc.stdout.strip() == f"batch: 2 ok, 0 skipped, 2 failed of 4 inputs in {proc.stdout.split(' in ')[1].split(' s;')[0]} s; " \
                                   f"wrote {out}/results.csv"
     assert no_temporary_folders(out)
+    # each folder holds what `nlo-lab retarget --out` writes for the same input and flags
+    single = subprocess.run([sys.executable, "-m", "nlo_lab.cli", "retarget", str(corpus / "good.pose"), "--robot", "nao",
+                             "--iters", "2", "--out", str(tmp_path / "single")], capture_output=True, text=True, timeout=600)
+    assert single.returncode == 0, single.stderr
+    assert (out / "good" / "trajectory.csv").read_bytes() == (tmp_path / "single" / "trajectory.csv").read_bytes()
+    with np.load(out / "good" / "trajectory.npz") as a, np.load(tmp_path / "single" / "trajectory.npz") as b:
+        assert sorted(a.files) == sorted(b.files) and all(np.array_equal(a[k], b[k]) for k in a.files)
 
     # again: nothing runs (no cluster, not even torch imported); a failure on unchanged content keeps its row
     code = ("import sys; from nlo_lab.cli import main; status = main(sys.argv[1:]); "
