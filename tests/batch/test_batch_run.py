@@ -188,3 +188,33 @@ def test_results_equal_whatever_the_workers_and_a_killed_worker_changes_nothing(
         np.testing.assert_array_equal(ta.times, tb.times)
         assert a["frechet_m"] == b["frechet_m"] and a["input_sha256"] == b["input_sha256"]
     assert _hidden(tmp_path / "two") == []
+
+
+@pytest.mark.slow
+def test_our_local_cluster_has_single_threaded_workers_on_the_loopback():
+    from urllib.parse import urlsplit
+
+    with batch_engine._cluster(None, None, 2) as client:
+        info = client.scheduler_info()
+        assert urlsplit(info["address"]).hostname == "127.0.0.1"
+        assert len(info["workers"]) == 2 and {w["nthreads"] for w in info["workers"].values()} == {1}
+        assert {urlsplit(a).hostname for a in info["workers"]} == {"127.0.0.1"}
+        # torch, its BLAS and our own thread setting: one thread in every worker process
+        threads = client.run(lambda: (__import__("torch").get_num_threads(), __import__("os").environ.get("NLO_LAB_THREADS")))
+        assert sorted(threads.values()) == [(1, "1"), (1, "1")]
+
+
+def test_each_worker_builds_the_retargeter_once_per_settings(monkeypatch):
+    from nlo_lab.batch import BatchSettings, tasks
+
+    built = []
+    monkeypatch.setattr(tasks, "_CACHE", {})
+    monkeypatch.setattr(BatchSettings, "build", lambda self: built.append(self) or object())
+    a, b = BatchSettings("nao", iterations=3), BatchSettings("nao", iterations=3)
+    assert tasks.cached_retargeter(a) is tasks.cached_retargeter(b) and len(built) == 1  # equal settings: one model
+    assert tasks.warm_up(a) == __import__("nlo_lab").__version__ and len(built) == 1
+    tasks.cached_retargeter(BatchSettings("nao", iterations=4))
+    assert len(built) == 2
+    for i in range(10):  # a notebook trying many settings keeps a few models, not all
+        tasks.cached_retargeter(BatchSettings("nao", iterations=10 + i))
+    assert len(tasks._CACHE) == tasks._CACHE_SIZE
