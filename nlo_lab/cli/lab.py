@@ -32,7 +32,9 @@ def run(args) -> int:
     from nlo_lab.lab import copy_notebooks, lab_command, open_hint, other_version_copies, root_refusal, running_jupyter
     from nlo_lab.paths import user_notebooks_dir
 
-    folder = Path(args.dir).expanduser() if args.dir else user_notebooks_dir()
+    if args.dir is not None and not args.dir.strip():  # not "the default": a script's empty variable is a mistake
+        raise UsageError(f"nlo-lab lab: --dir must be a folder path, got {args.dir!r}")
+    folder = Path(args.dir).expanduser() if args.dir is not None else user_notebooks_dir()
     inside = running_jupyter()
     serve = not (args.copy_only or inside)
     if serve and not args.allow_root and root_refusal():

@@ -86,6 +86,16 @@ def test_train_refuses_an_empty_or_unwritable_out_before_the_robot_is_read(work,
     _one_line(*_run(["train", "--robot", "nao", "--out", "a-file/m.pt"], capsys), "a-file", "not a folder")
 
 
+@pytest.mark.parametrize("empty", ["", "  "])
+def test_lab_refuses_an_empty_dir_instead_of_using_the_default(empty, work, capsys, monkeypatch):
+    import nlo_lab.lab
+
+    monkeypatch.setenv("NLO_LAB_NOTEBOOKS", str(work / "default"))
+    monkeypatch.setattr(nlo_lab.lab, "copy_notebooks", lambda folder: pytest.fail(f"notebooks copied to {folder}"))
+    _one_line(*_run(["lab", "--copy-only", "--dir", empty], capsys), "--dir must be a folder path")
+    assert not (work / "default").exists()
+
+
 def test_save_pose_is_checked_before_the_video_is_read(work, capsys, no_input_read):
     (work / "clip.mp4").write_bytes(b"\x00" * 64)  # never opened: the refusal comes first
     _one_line(*_run(["retarget", "clip.mp4", "--robot", "nao", "--save-pose", "landmarks.txt"], capsys),
