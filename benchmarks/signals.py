@@ -5,7 +5,8 @@
 First one undisturbed run is timed (``nlo-lab retarget demo:introduction_06 --robot nao --iters 20
 --out DIR --json``, in a fresh process, ``python -m nlo_lab.cli`` as a user runs it). Then the same
 command is started again for each signal and each instant: 12 in the first 0.2 s (Python's own
-start and the imports) and ``--points`` spread evenly to 10 % past the undisturbed run's end, and the
+start), 6 from the measured time of ``python -c "import nlo_lab.cli"`` on (nlo_lab's imports) and
+``--points`` spread evenly to 10 % past the undisturbed run's end, and the
 signal is sent then. Each run is classed:
 
 - ``interrupted``: exit status 128 + signal, at most one line on stderr (``nlo-lab: interrupted by ...``);
@@ -97,7 +98,10 @@ def sweep(signals: list[str], points: int) -> dict:
     if base["code"] != 0:
         raise SystemExit(f"the undisturbed run failed: {base}")
     total = base["seconds"]
-    delays = sorted(set(EARLY) | {round(total * (i + 1) / points * 1.1, 3) for i in range(points)})
+    python_ms = python_start_ms()
+    first_line = python_ms[1] / 1000  # then nlo_lab's handlers are in: its imports follow
+    delays = sorted(set(EARLY) | {round(first_line + extra, 3) for extra in (0.0, 0.02, 0.05, 0.1, 0.2, 0.4)}
+                    | {round(total * (i + 1) / points * 1.1, 3) for i in range(points)})
     runs = []
     for name in signals:
         sig = getattr(signal, name)
@@ -110,7 +114,7 @@ def sweep(signals: list[str], points: int) -> dict:
             runs.append(r)
             print(f"{name:7} at {delay:6.3f} s: exit {r['code']:4}, {len(r['lines'])} line(s), set {r['set']:5}: {r['kind']}",
                   flush=True)
-    return {"runs": runs, "total": total, "delays": delays, "python_ms": python_start_ms()}
+    return {"runs": runs, "total": total, "delays": delays, "python_ms": python_ms}
 
 
 def report(result: dict) -> list[str]:
