@@ -95,8 +95,10 @@ class HandTerms:
     Every wrist -> fingertip vector (``tip``) and thumb tip -> fingertip vector (``thumb``) is the
     difference of two points, ``d = p_plus - p_minus``, seen in its wrist
     frame, ``v_i = a_i · d / l`` (``a_i``: the mapped wrist axes, ``l``: the robot's hand length);
-    the term sums ``mask |v - v̂|²`` per kind. The pinch reads the thumb vectors' lengths,
-    ``δ = sqrt(|d|² + ε)/l``: ``active mask ((δ - goal)_+)²``. Backward: ``g_v = 2 mask (v - v̂)``,
+    ``tip`` compares the vectors, ``w = v``, ``thumb`` their directions, ``w = v / n``,
+    ``n = sqrt(|v|² + ε)``; the term sums ``mask |w - ŵ|²`` per kind. The pinch reads the thumb
+    vectors' lengths, ``δ = sqrt(|d|² + ε)/l``: ``active mask ((δ - goal)_+)²``. Backward:
+    ``g_w = 2 mask (w - ŵ)``, ``g_v = g_w`` (vectors) or ``(g_w - w (w · g_w)) / n`` (directions),
     ``g_d = Σ_i g_v,i a_i / l`` and ``g_a_i = g_v,i d / l`` (summed per side onto the axes), and the
     pinch's ``2 active mask (δ - goal)_+ d / (l sqrt(|d|² + ε))`` onto ``d``; ``g_d`` onto both points.
     """
@@ -109,6 +111,7 @@ class HandTerms:
         dtype = v_hat.dtype
         self.length = np.asarray(length, dtype=dtype)[:, None]  # (M, 1) the robot's hand length per item
         self.kind = np.eye(2, dtype=dtype)[np.asarray(kind, dtype=np.int64)]  # (M, 2) tip / thumb
+        self.direction = self.kind[:, 1:2] > 0  # (M, 1) the items compared as directions (thumb)
         self.side_sum = np.eye(2, dtype=dtype)[self.side].T  # (2, M): sums the items of each side
         self.v_hat, self.mask = v_hat, mask[..., None]  # (T, M, 3), (T, M, 1)
         self.pinch_goal, self.pinch_weight = pinch_goal, pinch_weight  # (T, J): max(d̂, floor), activation x mask
@@ -129,6 +132,7 @@ class HandTerms:
             j = plan.thumb_pairs
             t_vec = torch.cat([t_tip - t.wrist[:, plan.finger_side], t_tip[:, j[:, 1]] - t_tip[:, j[:, 0]]], 1)
             v_hat = in_wrist_frame(t_vec, t.wrist_rotation, torch.as_tensor(side, dtype=torch.long), t.hand_length)
+            v_hat[:, len(fingers):] = unit(v_hat[:, len(fingers):])  # the thumb's: directions
             d_hat = (t_tip[:, j[:, 1]] - t_tip[:, j[:, 0]]).norm(dim=-1) / t.hand_length[:, plan.pair_side]
             goal, active = torch.maximum(d_hat, floor), pinch_activation(d_hat)
             mask = torch.cat([tip_mask, pair_mask], 1)
@@ -143,18 +147,22 @@ class HandTerms:
         d = P[:, self.plus] - P[:, self.minus]  # (B, M, 3)
         A = P[:, self.axes].reshape(P.shape[0], 2, 3, 3)[:, self.side]  # (B, M, 3, 3): rows = the wrist axes a_i
         v = np.einsum("bmij,bmj->bmi", A, d) / self.length  # (B, M, 3); einsum: 2x np.matmul's stacked 3x3s
-        r = np.where(self.mask, v - self.v_hat, 0.0)
+        n = np.where(self.direction, np.sqrt((v * v).sum(-1, keepdims=True) + UNIT_EPS), 1.0)  # (B, M, 1)
+        w = v / n
+        r = np.where(self.mask, w - self.v_hat, 0.0)
         out[:, :2] = (r * r).sum(-1) @ self.kind
         gap = d[:, self.pairs]
         root = np.sqrt((gap * gap).sum(-1) + UNIT_EPS)  # (B, J)
         over = np.maximum(root / self.length[self.pairs, 0] - self.pinch_goal, 0.0)
         out[:, 2] = (self.pinch_weight * over * over).sum(-1)
-        return d, A, r, root, over
+        return d, A, r, root, over, w, n
 
     def backward(self, g: np.ndarray, saved, gP: np.ndarray) -> None:
         """Adds the gradient of ``sum(g * terms)`` (``g (B, 3)``) with respect to the points to ``gP``."""
-        d, A, r, root, over = saved
-        g_v = 2.0 * r * (g[:, :2] @ self.kind.T)[..., None] / self.length  # (B, M, 3), with the 1/l of v
+        d, A, r, root, over, w, n = saved
+        g_w = 2.0 * r * (g[:, :2] @ self.kind.T)[..., None]  # (B, M, 3)
+        g_w = np.where(self.direction, (g_w - w * (w * g_w).sum(-1, keepdims=True)) / n, g_w)
+        g_v = g_w / self.length  # with the 1/l of v
         g_d = np.einsum("bmi,bmij->bmj", g_v, A)  # Σ_i g_v,i a_i
         g_A = g_v[..., None] * d[:, :, None, :]  # (B, M, 3, 3): onto axis i, coordinates c
         g_axes = np.matmul(self.side_sum, g_A.reshape(g.shape[0], self.items, 9)).reshape(g.shape[0], 6, 3)

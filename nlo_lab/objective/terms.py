@@ -180,10 +180,16 @@ def fingertip_loss(wrist, rotation, tip, hand_length, t_wrist, t_rotation, t_tip
 
 @needs("wrist_rotation", "finger_tip")
 def thumb_loss(rotation, tip, hand_length, t_rotation, t_tip, t_hand_length, pairs, side, mask) -> torch.Tensor:
-    """``L_thumb = sum_side sum_(finger != thumb) ||R_wᵀ(p_f - p_th)/l_h - R̂_wᵀ(p̂_f - p̂_th)/l̂_h||²``.
+    """``L_thumb = sum_side sum_(finger != thumb) ||u(R_wᵀ(p_f - p_th)) - u(R̂_wᵀ(p̂_f - p̂_th))||²``, ``u(v) = v/|v|``.
 
-    The thumb tip -> other fingertip vectors, in the wrist frame, scaled as in
-    :func:`fingertip_loss`: where the thumb sits against the other fingers.
+    The thumb tip -> other fingertip *directions*, in the wrist frame: where the thumb sits
+    against the other fingers, whatever the two hands' sizes and proportions (``2 - 2 cos`` of
+    the angle between the two directions). How close the thumb comes is the pinch term's
+    job. Directions, not the scaled vectors of :func:`fingertip_loss`: on the real recordings
+    of ``benchmarks/hands.py`` the vectors left the thumb at 27.6° from the human's (measured
+    2026-11-26), the directions at 21-24° (docs/RESULTS.md, "Handshapes"): the Inspire thumb
+    is shorter than a human's against the palm, so a scaled vector it cannot reach pulled it
+    off the human's direction.
 
     Args:
         rotation, t_rotation: ``(B, 2, 3, 3)``; tip, t_tip: ``(B, K, 3)`` [m];
@@ -196,9 +202,9 @@ def thumb_loss(rotation, tip, hand_length, t_rotation, t_tip, t_hand_length, pai
     """
     if pairs.shape[0] == 0:
         return tip.new_zeros(tip.shape[0])
-    v = in_wrist_frame(tip[:, pairs[:, 1]] - tip[:, pairs[:, 0]], rotation, side, hand_length)
-    v_hat = in_wrist_frame(t_tip[:, pairs[:, 1]] - t_tip[:, pairs[:, 0]], t_rotation, side, t_hand_length)
-    return masked_sum((v - v_hat).pow(2).sum(-1), mask)
+    u = unit(in_wrist_frame(tip[:, pairs[:, 1]] - tip[:, pairs[:, 0]], rotation, side, hand_length))
+    u_hat = unit(in_wrist_frame(t_tip[:, pairs[:, 1]] - t_tip[:, pairs[:, 0]], t_rotation, side, t_hand_length))
+    return masked_sum((u - u_hat).pow(2).sum(-1), mask)
 
 
 def pinch_activation(distance: torch.Tensor) -> torch.Tensor:

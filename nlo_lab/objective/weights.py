@@ -54,7 +54,7 @@ class LossWeights:
         collision: self-collision term.
         tip: wrist -> fingertip vectors in the wrist frame, scaled from the human's hand to the robot's
             (:func:`~nlo_lab.objective.terms.fingertip_loss`; not in the paper).
-        thumb: thumb tip -> other fingertip vectors, the same way (:func:`~nlo_lab.objective.terms.thumb_loss`).
+        thumb: thumb tip -> other fingertip directions in the wrist frame (:func:`~nlo_lab.objective.terms.thumb_loss`).
         pinch: a human pinch (thumb and fingertip touching) draws the robot's tips together
             (:func:`~nlo_lab.objective.terms.pinch_loss`).
         latent: weight of ``||z||²`` (``1/σ²``, σ = 1 in the paper).
@@ -69,7 +69,7 @@ class LossWeights:
     collision: float = 1000.0
     latent: float = 1.0
     smooth: float = 10.0
-    tip: float = 1000.0
+    tip: float = 3000.0
     thumb: float = 300.0
     pinch: float = 100.0
 

@@ -63,8 +63,9 @@ for name, (source, mult, off) in coupled.items():
 # - `L_tip = Σ_side Σ_finger ‖R_wᵀ(p_tip − p_w)/l_h − R̂_wᵀ(p̂_tip − p̂_w)/l̂_h‖²`: wrist→fingertip
 #   vectors, the human's scaled to the robot's hand (the "vector" retargeting of DexPilot and
 #   dex-retargeting);
-# - `L_thumb = Σ_side Σ_(f≠thumb) ‖R_wᵀ(p_f − p_th)/l_h − R̂_wᵀ(p̂_f − p̂_th)/l̂_h‖²`: where the thumb
-#   sits against each finger;
+# - `L_thumb = Σ_side Σ_(f≠thumb) ‖u(R_wᵀ(p_f − p_th)) − u(R̂_wᵀ(p̂_f − p̂_th))‖²`, `u(v) = v/‖v‖`: the
+#   direction from the thumb tip to each other fingertip, where the thumb sits against each finger
+#   (directions: the two hands' proportions differ; how close the thumb comes is the pinch's job);
 # - `L_pinch = Σ_side Σ_(f≠thumb) a(d̂)·((d − max(d̂, d_min))₊)²`: when the human's thumb and a fingertip
 #   touch (`a(d̂)` = 1 below 0.3 hand lengths, fading out at 0.6), the robot's are drawn together, but
 #   never below `d_min`, the closest this hand's thumb and that finger can come at all.

@@ -1,4 +1,4 @@
-"""The hand terms (issue 27): wrist -> fingertip and thumb -> fingertip vectors, pinch.
+"""The hand terms (issue 27): wrist -> fingertip vectors, thumb -> fingertip directions, pinch.
 
 Each term: its gradient against finite differences (float64), exactly 0 at a perfect match and
 not 0 away from it, masks; a human pinch closes the robot's thumb and finger down to what the
