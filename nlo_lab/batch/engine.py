@@ -15,6 +15,8 @@ worker (one machine, or a file system the cluster shares).
 
 from __future__ import annotations
 
+import asyncio
+import concurrent.futures
 import contextlib
 import importlib
 import logging
@@ -75,8 +77,9 @@ def _distributed():
         raise SchedulerError(f"nlo-lab batch needs the batch extra: pip install \"nlo_lab[batch]\" ({err})") from None
 
 
-def _check_listening(address: str) -> None:
-    """Refuse an address where nothing listens at once, instead of waiting for dask's connect timeout."""
+def _check_scheduler(address: str) -> None:
+    """Refuse, within :data:`CONNECT_TIMEOUT`, an address where nothing listens or where something else than a dask
+    scheduler does: dask's own client waits forever for the handshake of a server that accepts and stays silent."""
     parts = urlsplit(address if "://" in address else f"tcp://{address}")
     if parts.scheme not in ("tcp", "tls"):
         return  # another transport: let dask try
@@ -90,6 +93,20 @@ def _check_listening(address: str) -> None:
         socket.create_connection((host, port), timeout=CONNECT_TIMEOUT).close()
     except OSError as exc:
         raise SchedulerError(f"no dask scheduler at {address}: {exc.strerror or exc}") from None
+    if parts.scheme != "tcp":
+        return  # TLS needs the user's security settings: dask's client handshakes with them
+    comm = _distributed().comm
+
+    async def handshake() -> None:
+        opened = await asyncio.wait_for(comm.connect(address, timeout=CONNECT_TIMEOUT), CONNECT_TIMEOUT)
+        await opened.close()
+
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:  # its own event loop: a notebook's is running already
+        try:
+            pool.submit(asyncio.run, handshake()).result()
+        except Exception as exc:  # noqa: BLE001 - whatever the other end is, it is no dask scheduler
+            raise SchedulerError(f"{address} does not answer as a dask scheduler (no handshake within {CONNECT_TIMEOUT:g} s: "
+                                 f"{type(exc).__name__}); is it the address `dask scheduler` printed?") from None
 
 
 @contextlib.contextmanager
@@ -100,7 +117,7 @@ def _cluster(client, scheduler: str | None, workers: int | None):
         return
     distributed = _distributed()
     if scheduler:
-        _check_listening(scheduler)
+        _check_scheduler(scheduler)
         try:
             ours = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
         except (OSError, TimeoutError) as exc:

@@ -135,6 +135,18 @@ def test_a_scheduler_address_where_nothing_listens(tmp_path):
                           "expected tcp://HOST:PORT")
 
 
+def test_a_scheduler_address_where_something_else_listens(tmp_path):
+    shutil.copy(POSE, tmp_path / "a.pose")
+    with socket.socket() as server:  # accepts, then says nothing (dask's own client would wait for ever)
+        server.bind(("127.0.0.1", 0))
+        server.listen()
+        address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+        start = time.monotonic()
+        proc = batch(tmp_path / "a.pose", "--robot", "nao", "--out", tmp_path / "out", "--scheduler", address, timeout=120)
+    assert_one_line_error(proc, f"{address} does not answer as a dask scheduler", "is it the address `dask scheduler` printed?")
+    assert time.monotonic() - start < 60
+
+
 @pytest.mark.parametrize("args, needle", [
     (["{corpus}", "--robot", "nao", "--out", "{out}", "--scheduler", "tcp://127.0.0.1:1", "--workers", "2"], "--workers sizes the local"),
     (["{corpus}", "--robot", "nao", "--out", "{out}", "--weights", "ee=1e9"], "weight ee=1000000000.0 must be in [0, 1e+06]"),
