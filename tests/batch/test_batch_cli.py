@@ -109,12 +109,14 @@ def test_a_manifest_with_relative_paths(tmp_path):
     (tmp_path / "lists" / "corpus.txt").write_text("# my corpus\n../data/a/one.pose\n../data/missing.pose\n")
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
-    proc = batch("../lists/corpus.txt", "--robot", "nao", "--out", "../out", "--iters", 2, "--workers", 1, cwd=elsewhere)
+    proc = batch("../lists/corpus.txt", "--robot", "nao", "--out", "../out", "--iters", 2, "--workers", 1, "--viewer", cwd=elsewhere)
     assert proc.returncode == 1, proc.stderr
     rows = table(tmp_path / "out")
     assert {k: r["status"] for k, r in rows.items()} == {"a/one": "ok", "missing": "failed"}
     assert rows["missing"]["error"] == f"file not found: {Path('..') / 'lists' / '..' / 'data' / 'missing.pose'}"
-    assert complete(tmp_path / "out" / "a" / "one")
+    folder = tmp_path / "out" / "a" / "one"
+    assert sorted(os.listdir(folder)) == ["summary.json", "trajectory.csv", "trajectory.npz", "viewer.html"]  # --viewer
+    assert "<html" in (folder / "viewer.html").read_text(encoding="utf-8")[:2000].lower()
     # not --quiet, into a pipe (a log): the failure's line, then the progress as plain lines (done, failed, rate)
     lines = proc.stderr.splitlines()
     assert lines[0] == f"nlo-lab: error: {rows['missing']['error']}" and "Traceback" not in proc.stderr
