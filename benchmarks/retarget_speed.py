@@ -328,6 +328,11 @@ def report(args, runs, names, variants, profile_on, load_start, load_end, result
         f" the whole call (with retiming and the summary's metrics), median of {args.repeats} per process; one frame: `Retargeter.optimize_frame`, 30 iterations, median over {args.frames} frames per process."
         " Figures are medians over the rounds; CPU = the process's CPU time (steadier than wall time on a shared machine)."
     )
+    if args.against:
+        out += ["", f"`{args.against}` calibrates the machine: the same recordings and robot description, solved by the code"
+                " of that commit with its own objective (a different final loss means its objective had other terms, e.g."
+                " before the hand terms: not the same work). Its speed against `fast` in the same run says how much of a"
+                " figure is the code and how much the machine's load."]
     if busy:
         out += ["", f"**Provisional**: the machine was busy (load {load_start[0]:.1f} at the start, {load_end[0]:.1f} at the end,"
                 f" {os.cpu_count()} cores); wall times are then longer than on a quiet machine, the ratios less so."]
