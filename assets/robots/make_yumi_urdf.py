@@ -60,7 +60,7 @@ FLANGE_XYZ, FLANGE_RPY = (0.0, 0.0, 0.007), (0.0, 0.0, PI)
 
 # Inspire RH56, right hand, in its base frame: fingers along -y, index at -z,
 # pinky at +z, back of the hand +x (the palm and the thumb are on the -x side).
-HAND_VELOCITY = 1.0  # [rad/s] (no-load finger speed is about one range per second)
+HAND_VELOCITY = 2.0  # [rad/s] assumed: no published figure (see HAND_VELOCITY_ASSUMED, the spec's velocity_limits)
 HAND_EFFORT = 1.0  # [N m]
 # finger: (knuckle xyz, knuckle roll, proximal->intermediate xyz, intermediate->tip xyz)
 FINGERS = {
@@ -394,7 +394,7 @@ NEUTRAL_DEG = {1: -100.0, 2: -120.0, 7: 40.0, 3: 50.0, 4: 10.0, 5: -35.0, 6: -12
 # "moderate speed"); ASSUMED 2.0 rad/s for every actuated hand joint (a full 1.47 rad finger stroke
 # in about 0.75 s).
 ARM_VELOCITY = {"1": 3.1416, "2": 3.1416, "7": 3.1416, "3": 3.1416, "4": 6.9813, "5": 6.9813, "6": 6.9813}
-HAND_VELOCITY_ASSUMED = 2.0
+HAND_VELOCITY_ASSUMED = HAND_VELOCITY
 VELOCITY_SOURCE = (
     "arms: yumi_description (Orebro University, BSD-2) joint <limit velocity>; "
     "Inspire RH56 hand joints: no published figure found, 2.0 rad/s assumed"

@@ -18,6 +18,10 @@ Modules, along the data's path: :mod:`~nlo_lab.robot.spec` (the spec file),
 (visual and collision shapes as meshes), :mod:`~nlo_lab.robot.geometry_collision` (self-collision
 by the URDF's own geometry), :mod:`~nlo_lab.robot.capsule_fit` and
 :mod:`~nlo_lab.robot.capsule_draft` (capsules and checked pairs fitted to that geometry).
+A robot of one's own: :mod:`~nlo_lab.robot.fixed_joints` (joints not actuated fixed, the robot
+frame at the root), :mod:`~nlo_lab.robot.arm_finder`, :mod:`~nlo_lab.robot.wrist_alignment`,
+:mod:`~nlo_lab.robot.spec_draft` (``nlo-lab robot init``), :mod:`~nlo_lab.robot.spec_check`
+(``nlo-lab robot check``) and :mod:`~nlo_lab.robot.srdf`.
 """
 
 from nlo_lab.robot.collision import capsule_distance, closest_parameters, segment_distance, segment_distance_ends
@@ -26,6 +30,8 @@ from nlo_lab.robot.geometry_collision import GeometryCollision
 from nlo_lab.robot.kinematics import KinematicTree
 from nlo_lab.robot.robot import Robot, as_robot, check_angles, load_robot
 from nlo_lab.robot.spec import ArmSpec, CapsuleSpec, RobotSpec, known_robots, load_spec
+from nlo_lab.robot.spec_check import check_spec, spec_summary
+from nlo_lab.robot.spec_draft import Draft, draft_spec
 from nlo_lab.robot.structure_graph import structure_graph
 from nlo_lab.robot.urdf import JointInfo, URDFModel, load_urdf, parse_urdf
 
@@ -53,4 +59,8 @@ __all__ = [
     "link_shapes",
     "shape_mesh",
     "GeometryCollision",
+    "Draft",
+    "draft_spec",
+    "check_spec",
+    "spec_summary",
 ]

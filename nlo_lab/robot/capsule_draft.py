@@ -1,8 +1,11 @@
 """A robot's collision capsules and checked pairs, drafted from its URDF's geometry.
 
-**Capsules.** Each link's ``<collision>`` elements, else its ``<visual>`` ones, get capsules
-that hold their convex hulls (:func:`~nlo_lab.robot.capsule_fit.fit_link_capsules`): every
-point of the geometry lies inside a capsule, so capsules apart means geometry apart. A hand's
+**Capsules.** Each link's ``<collision>`` elements, else its ``<visual>`` ones, are gathered per
+moving rigid body (links fixed to one another: a wrist with its camera and gripper) and get
+capsules, on the body's first link, that hold their convex hulls (the links that do not move keep
+their own)
+(:func:`~nlo_lab.robot.capsule_fit.fit_link_capsules`): every point of the geometry lies inside
+a capsule, so capsules apart means geometry apart. A hand's
 fingers also get an **envelope**: capsules on the wrist link that hold the fingers in every
 pose of a random sample of finger poses; the rest of the robot meets the envelope, the
 fingers meet only each other (a pair count of tens instead of hundreds per hand).
@@ -16,11 +19,12 @@ paired with its own palm (it closes onto it by design). Of those:
   "never in collision");
 * pairs whose link *geometry* touches at the rest pose are left out (the self-collision check
   by the URDF's geometry, :mod:`~nlo_lab.robot.geometry_collision`, leaves them out alike);
-* pairs closer than :data:`NEAR` at rest (or touching, though the geometry does not: a capsule is
-  fatter than a box, or than YuMi's joint housings) are checked with **thinned** copies of both
-  capsules (named ``CAPSULE@OTHER``) when random poses show the geometry allows it: thinned enough
-  to clear each other at rest, and no further than every geometry overlap among
-  :data:`THIN_SAMPLES` random poses is still a capsule overlap (:func:`_thinning`);
+* pairs closer than their margin at rest though the geometry does not touch (a capsule is fatter
+  than a box, overshoots a cylinder's flat end, holds YuMi's joint housings loosely) are checked
+  with **thinned** copies (named ``CAPSULE~Nmm``, thinner by N mm): together just enough to clear
+  each other at rest by the margin, first the capsule that holds its geometry more loosely
+  (:func:`_thinning`), at most three quarters of a radius each; a pair that would need more is
+  left unchecked, and the draft says so;
 * pairs between the two arms (everything from one shoulder down against everything from the
   other) are always checked, even when they touch at rest (YuMi's zero pose crosses the
   forearms: such a robot needs a ``neutral_pose`` in its spec; the draft reports them).
@@ -54,10 +58,8 @@ REACH_SAMPLES = 4000  # random poses within the limits of the reach test
 REACH = 0.05  # [m] a pair whose capsules never come this close (nor closer than their radii) in those poses is not checked
 ENVELOPE_SAMPLES = 64  # random finger poses (and open, closed, rest) a hand's envelope holds
 INNER_CLEARANCE = 0.002  # [m] thinned capsules of a pair clear each other at rest by the margin and this ...
-INNER_MAX_THIN = 0.5  # ... taking at most this fraction of a radius
-THIN_SAMPLES = 1500  # random poses that calibrate how far a pair's capsules may be thinned
-THIN_SAFETY = 0.002  # [m] thinned capsules still overlap by this where the sampled geometry overlaps
-NEAR = 0.02  # [m] pairs closer than this at rest (or touching) get their thinning calibrated
+INNER_MAX_THIN = 0.75  # ... taking at most this fraction of a radius
+THIN_STEP = 0.002  # [m] thinnings are multiples of this, so that pairs share thinned copies
 ENVELOPE = "#fingers"  # key suffix of a hand's envelope
 
 
@@ -80,7 +82,7 @@ class CapsuleDraft:
 
     Attributes:
         capsules: the capsules (named ``LINK``, ``LINK_1``, ``LINK_2`` ... on a link with several,
-            ``WRIST_fingers`` for a hand's envelope, ``CAPSULE@OTHER_LINK`` for thinned copies).
+            ``WRIST_fingers`` for a hand's envelope, ``CAPSULE~Nmm`` for copies thinner by N mm).
         pairs: the checked pairs (capsule names).
         touching: link pairs whose geometry touches at the rest pose: not checked.
         arms_touching: capsule pairs between the two arms that touch at rest (checked anyway).
@@ -114,6 +116,25 @@ def _link_hulls(model) -> dict[str, list]:
             found[role].setdefault(shape.link, []).append(mesh.convex_hull)
     merged = {**found["visual"], **found["collision"]}
     return {link: merged[link] for link in getattr(model, "model", model).links if link in merged}
+
+
+def _body_hulls(model, tree) -> tuple[dict[str, list], dict[str, set[str]]]:
+    """Moving rigid body -> the hulls of all its links' geometry in the frame of the body's first link
+    (the child of its moving joint): links fixed to one another share their capsules. The links of
+    the body that does not move (torso, head, legs and base, all fixed) keep their own."""
+    first = {}
+    for i, link in enumerate(tree.link_names):
+        if np.allclose(tree.link_const[i], np.eye(4)) and tree.link_body[i] not in first:
+            first[tree.link_body[i]] = link
+    out: dict[str, list] = {}
+    members: dict[str, set[str]] = {}  # group -> the links whose geometry it holds
+    for link, hulls in _link_hulls(model).items():
+        i = tree.link_index[link]
+        group = link if tree.link_body[i] == 0 else first[tree.link_body[i]]
+        T = tree.link_const[i] if group != link else np.eye(4)  # T_body_link, constant
+        out.setdefault(group, []).extend(h.copy().apply_transform(T) for h in hulls)
+        members.setdefault(group, set()).add(link)
+    return out, members
 
 
 def capsule_gaps(capsules, poses: dict[str, np.ndarray], pairs: list[tuple[int, int]]) -> np.ndarray:
@@ -219,54 +240,19 @@ def _reach(tree, flat: list[Piece], pairs: list[tuple[int, int]], q: np.ndarray)
     return best
 
 
-class _Sample:
-    """Random poses within the limits with their link poses, and the geometry overlaps found in them
-    (per link pair, computed on demand): what the thinning of near pairs is calibrated on."""
-
-    def __init__(self, tree, hulls: dict, q: np.ndarray):
-        with torch.no_grad():
-            self.T = tree.forward(torch.as_tensor(q)).numpy()  # (S, L, 4, 4)
-        self.tree, self.hulls = tree, hulls
-        self.polytopes: dict[str, list] = {}
-        self.overlaps: dict[tuple[str, str, int], bool] = {}
-
-    def geometry_overlaps(self, a: str, b: str, k: int) -> bool:
-        """Does the geometry of links ``a`` and ``b`` overlap in pose ``k``?"""
-        if (a, b, k) not in self.overlaps:
-            pa, pb = (self.polytopes.setdefault(x, [polytope(x, h) for h in self.hulls[x]]) for x in (a, b))
-            Ta, Tb = self.T[k, self.tree.link_index[a]], self.T[k, self.tree.link_index[b]]
-            self.overlaps[(a, b, k)] = any(overlap_depth(u, Ta, v, Tb) > DEPTH_TOLERANCE for u in pa for v in pb)
-        return self.overlaps[(a, b, k)]
-
-    def gaps(self, a: Piece, b: Piece) -> np.ndarray:
-        """``(S,)`` the capsule gap of ``a`` and ``b`` in every pose [m]."""
-        ia, ib = self.tree.link_index[a.link], self.tree.link_index[b.link]
-        T = self.T
-        ends = np.stack([T[:, ia, :3, :3] @ a.p0 + T[:, ia, :3, 3], T[:, ia, :3, :3] @ a.p1 + T[:, ia, :3, 3],
-                         T[:, ib, :3, :3] @ b.p0 + T[:, ib, :3, 3], T[:, ib, :3, :3] @ b.p1 + T[:, ib, :3, 3]])  # (4, S, 3)
-        return segment_closest_points(np.ascontiguousarray(ends.transpose(0, 2, 1)))[3] - a.radius - b.radius
-
-
-def _thinning(sample: _Sample, a: Piece, b: Piece, rest_gap: float, margin: float) -> float | None:
-    """How far both capsules of a near pair may be thinned (see the module docstring).
-
-    At least enough to clear each other at rest by the collision margin and :data:`INNER_CLEARANCE`
-    (so the collision term is silent at rest); at most so much that
-    every geometry overlap of the links among the sampled poses is still a capsule overlap (by
-    :data:`THIN_SAFETY`), and :data:`INNER_MAX_THIN` of a radius. None when clearing the rest pose
-    takes more than that.
-    """
-    most = INNER_MAX_THIN * min(a.radius, b.radius)
-    least = max(0.0, 0.5 * (margin + INNER_CLEARANCE - rest_gap))
-    if least > most:
+def _thinning(a: Piece, b: Piece, rest_gap: float, margin: float) -> tuple[float, float] | None:
+    """How much to thin each capsule of a pair that sits closer than its margin at rest though the
+    geometry does not touch: together just enough to clear each other by the margin and
+    :data:`INNER_CLEARANCE` (so the collision term is silent at rest), on the :data:`THIN_STEP`
+    grid, taken first from the capsule that holds its geometry more loosely (a box's, not a
+    cylinder's), at most :data:`INNER_MAX_THIN` of each radius; None when that is not enough."""
+    need = max(0.0, margin + INNER_CLEARANCE - rest_gap)
+    loose, tight = (a, b) if a.excess >= b.excess else (b, a)
+    first = min(float(np.ceil(need / THIN_STEP - 1e-9) * THIN_STEP), np.floor(INNER_MAX_THIN * loose.radius / THIN_STEP) * THIN_STEP)
+    second = float(np.ceil(max(0.0, need - first) / THIN_STEP - 1e-9) * THIN_STEP)
+    if second > INNER_MAX_THIN * tight.radius:
         return None
-    gaps = sample.gaps(a, b)
-    # The geometry lies inside the capsules, so it overlaps only where they do. A thinning t still
-    # flags a sampled overlap at capsule gap g while g + 2t < 0: the shallowest overlap found decides.
-    for k in np.argsort(-gaps):
-        if gaps[k] < 0 and sample.geometry_overlaps(a.link, b.link, k):
-            return max(least, min(most, -0.5 * gaps[k] - THIN_SAFETY))
-    return most
+    return (first, second) if loose is a else (second, first)
 
 
 def _between_arms(side_of: dict, a: str, b: str) -> bool:
@@ -285,7 +271,8 @@ def _names(pieces: dict[str, list[Piece]]) -> list[CapsuleSpec]:
     return out
 
 
-def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float, samples: int = REACH_SAMPLES, seed: int = 0) -> CapsuleDraft:
+def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float, samples: int = REACH_SAMPLES, seed: int = 0,
+                    disabled: set | frozenset = frozenset()) -> CapsuleDraft:
     """Capsules and checked pairs of a robot (see the module docstring).
 
     Args:
@@ -295,9 +282,11 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
         arms: the arms' links and wrists (:class:`Arms`).
         margin: the collision margin d_min [m] the spec will give the pairs.
         samples: random poses of the reach test (0: no reach test); seed: their generator's seed.
+        disabled: link pairs an SRDF disables; two groups of capsules are not paired when every
+            link pair between them is disabled.
     """
     rest_q = np.asarray(rest_q, dtype=np.float64)
-    hulls = _link_hulls(model)
+    hulls, members = _body_hulls(model, tree)
     pieces = {link: fit_link_capsules(link, items) for link, items in hulls.items()}
     keys = {link: link for link in pieces}
     hand = _hands(tree, arms)
@@ -312,8 +301,10 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
     flat = [p for key in pieces for p in pieces[key]]
     group = [key for key in pieces for _ in pieces[key]]
     start = {key: group.index(key) for key in pieces}
-    pairs = [(start[a] + u, start[b] + v) for a, b in _key_pairs(tree, keys, hand)
-             for u in range(len(pieces[a])) for v in range(len(pieces[b]))]
+    members.update({key: {key} for key in keys if key not in members})  # envelopes: the wrist's
+    key_pairs = [(a, b) for a, b in _key_pairs(tree, keys, hand)
+                 if not all(frozenset((x, y)) in disabled for x in members[a] for y in members[b])]  # the SRDF says never
+    pairs = [(start[a] + u, start[b] + v) for a, b in key_pairs for u in range(len(pieces[a])) for v in range(len(pieces[b]))]
     with torch.no_grad():
         T = tree.forward(torch.as_tensor(rest_q))
     poses = {n: T[i].numpy() for i, n in enumerate(tree.link_names)}
@@ -328,8 +319,8 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
                 for u in hulls.get(la, []) for v in hulls.get(lb, [])
             ):
                 touching.add((la, lb))
-    checked, arms_touching, unchecked, inner = [], [], set(), []
-    far, thinned, sample = 0, 0, None
+    checked, arms_touching, unchecked, inner = [], [], set(), {}
+    far, thinned = 0, 0
     for (i, j), gap, near in zip(pairs, gaps, reach, strict=True):
         a, b = capsules[i], capsules[j]
         arms = _between_arms(side_of, group[i], group[j])
@@ -337,25 +328,26 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
         if (a.link, b.link) in touching or near > reach_of:
             far += near > reach_of
             continue
-        if arms or gap > margin + NEAR:
+        if arms or gap > margin + INNER_CLEARANCE:
             checked.append((a.name, b.name))
             if gap <= 0:
                 arms_touching.append(checked[-1])
             continue
-        if sample is None:
-            sample = _Sample(tree, hulls, _random_poses(rest_q, lower, upper, THIN_SAMPLES, seed + 1))
-        thin = _thinning(sample, flat[i], flat[j], gap, margin)
+        thin = _thinning(flat[i], flat[j], gap, margin)
         if thin is None:
             unchecked.add((a.link, b.link))
-        elif thin < 5e-4:  # not worth a copy
-            checked.append((a.name, b.name))
-        else:
-            copies = [CapsuleSpec(f"{c.name}@{o.name}", c.link, c.p0, c.p1, float(np.floor((c.radius - thin) * 1e4) / 1e4))
-                      for c, o in ((a, b), (b, a))]
-            inner.extend(copies)
-            checked.append((copies[0].name, copies[1].name))
-            thinned += 1
+            continue
+        names = []
+        for c, t in zip((a, b), thin, strict=True):
+            if t < 5e-4:
+                names.append(c.name)
+                continue
+            copy = CapsuleSpec(f"{c.name}~{round(t * 1000)}mm", c.link, c.p0, c.p1, float(np.floor((c.radius - t) * 1e4) / 1e4))
+            inner.setdefault(copy.name, copy)
+            names.append(copy.name)
+        checked.append(tuple(names))
+        thinned += 1
     if unchecked:
         warnings.warn(f"capsules of {len(unchecked)} link pairs touch at the rest pose though their geometry does not; "
                       f"those pairs are not checked: {sorted(unchecked)}", stacklevel=2)
-    return CapsuleDraft(capsules + inner, checked, sorted(touching), arms_touching, sorted(unchecked), thinned, far)
+    return CapsuleDraft(capsules + list(inner.values()), checked, sorted(touching), arms_touching, sorted(unchecked), thinned, far)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MERGE_RATIO", "CUT_RATIO", "MAX_PER_LINK", "MIN_RADIUS", "fit_capsule", "capsule_volume", "Piece", "fit_link_capsules"]
+__all__ = ["MERGE_RATIO", "CUT_RATIO", "MAX_PER_LINK", "MIN_RADIUS", "MIN_CUT_EXCESS", "fit_capsule", "capsule_volume", "Piece", "fit_link_capsules"]
 
 _SHRINK_STEPS = 24  # segment lengths tried per axis
 
@@ -101,6 +101,7 @@ MERGE_RATIO = 1.3  # merge two capsules of a link when one around both is at mos
 CUT_RATIO = 2.0  # ... and still fits: a capsule holding more than this times its geometry's volume is cut in two
 MAX_PER_LINK = 6  # capsules per link at most (a torso, a base, legs need several)
 MIN_RADIUS = 0.002  # [m] a point-like or flat element still gets a capsule this thick
+MIN_CUT_EXCESS = 5e-5  # [m^3] a capsule is cut only when it holds this much more than its geometry (50 cm^3: not a finger)
 
 
 @dataclass
@@ -182,17 +183,20 @@ def fit_link_capsules(link: str, hulls: list) -> list[Piece]:
 
     One capsule per hull; two merged while one capsule around both is at most :data:`MERGE_RATIO`
     times their volume and fits; then the worst fitting ones cut in two across a principal axis
-    while a capsule holds more than :data:`CUT_RATIO` times its hull's volume (a box is fat in a
-    capsule) and cutting saves a tenth of its volume, up to :data:`MAX_PER_LINK`. Every hull lies
-    inside the capsules.
+    while a capsule holds more than :data:`CUT_RATIO` times its hull's volume and at least
+    :data:`MIN_CUT_EXCESS` more (a box is fat in a capsule; a finger's few cm^3 are not worth a cut),
+    and cutting saves a tenth of its volume, up to :data:`MAX_PER_LINK`. Every hull lies inside the capsules.
     """
     pieces = _merged(link, hulls)
     while len(pieces) < MAX_PER_LINK:
-        worst = max(pieces, key=lambda p: p.volume - (float(p.hull.volume) if p.hull.is_volume else 0.0))
-        if worst.excess <= CUT_RATIO:
-            break
-        halves = _halves(worst)
-        if halves is None or sum(h.volume for h in halves) > 0.9 * worst.volume:
-            break
-        pieces = [p for p in pieces if p is not worst] + halves
+        excess = {id(p): p.volume - (float(p.hull.volume) if p.hull.is_volume else 0.0) for p in pieces}
+        for worst in sorted(pieces, key=lambda p: -excess[id(p)]):  # the loosest first
+            if worst.excess <= CUT_RATIO or excess[id(worst)] < MIN_CUT_EXCESS:
+                continue
+            halves = _halves(worst)
+            if halves is not None and sum(h.volume for h in halves) <= 0.9 * worst.volume:
+                pieces = [p for p in pieces if p is not worst] + halves
+                break
+        else:
+            return pieces
     return pieces

@@ -125,6 +125,10 @@ def decimate(mesh, max_faces: int):
     """``mesh`` with at most ``max_faces`` faces (trimesh's quadric decimation; a copy when already small)."""
     if len(mesh.faces) <= max_faces:
         return mesh.copy()
+    mesh = mesh.copy()
+    mesh.merge_vertices()  # exported meshes often repeat each corner per triangle: a soup decimates into holes
+    if len(mesh.faces) <= max_faces:
+        return mesh
     small = mesh.simplify_quadric_decimation(face_count=int(max_faces))
     if len(small.faces) == 0 or len(small.faces) > max_faces:  # degenerate input: keep the convex hull instead
         small = mesh.convex_hull

@@ -15,8 +15,10 @@ Bounding spheres skip pairs that are far apart.
 
 Which pairs are checked: links on two different rigid bodies (an actuated joint between
 them: the pose of two links on one body never changes), not adjacent (neither body hangs
-directly from the other by one joint), and not already overlapping at the robot's
-neutral pose (``Robot.neutral_q``), as SRDF files of real robots disable such pairs.
+directly from the other by one joint), not already overlapping at the robot's neutral pose
+(``Robot.neutral_q``), and not disabled by the robot's SRDF when its spec names one (real
+robots' makers disable the pairs their coarse shapes make collide where the robot does not:
+:mod:`~nlo_lab.robot.srdf`).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import numpy as np
 import torch
 
 from nlo_lab.robot.geometry import link_shapes, shape_mesh
+from nlo_lab.robot.srdf import disabled_pairs
 
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot.robot import Robot
@@ -109,6 +112,7 @@ class GeometryCollision:
     Args:
         robot: a loaded ``nlo_lab.robot.Robot``.
         role: ``"collision"`` (default) or ``"visual"`` elements.
+        disabled: link pairs not to check (default: those of the spec's SRDF, if it names one).
 
     Attributes:
         pieces: one :class:`Polytope` per element.
@@ -116,8 +120,12 @@ class GeometryCollision:
         skipped: ``[(link, reason)]`` elements left out (a mesh file missing or unreadable).
     """
 
-    def __init__(self, robot: Robot, role: str = "collision"):
+    def __init__(self, robot: Robot, role: str = "collision", disabled: set | None = None):
         self.robot = robot
+        if disabled is None:
+            srdf = getattr(robot.spec, "srdf", None)
+            disabled = disabled_pairs(srdf) if srdf is not None else set()
+        self.disabled = disabled
         self.pieces: list[Polytope] = []
         self.skipped: list[tuple[str, str]] = []
         for shape in link_shapes(robot.model, role):
@@ -133,7 +141,7 @@ class GeometryCollision:
         for i, a in enumerate(self.pieces):
             for j in range(i + 1, len(self.pieces)):
                 ba, bb = body[a.link], body[self.pieces[j].link]
-                if ba != bb and parent[ba] != bb and parent[bb] != ba:
+                if ba != bb and parent[ba] != bb and parent[bb] != ba and frozenset((a.link, self.pieces[j].link)) not in disabled:
                     candidates.append((i, j))
         rest = self.depths(robot.neutral_q.detach().double().cpu().numpy()[None], np.array(candidates).reshape(-1, 2))[0]
         touching = {frozenset((self.pieces[i].link, self.pieces[j].link)) for (i, j), d in zip(candidates, rest, strict=True) if d > 0}

@@ -20,12 +20,36 @@ from nlo_lab.errors import RobotDescriptionError, SettingsError, SettingsTypeErr
 from nlo_lab.human.demonstration import SIDES
 from nlo_lab.paths import is_bundled, repair_hint
 from nlo_lab.robot.collision import segment_distance_ends
+from nlo_lab.robot.fixed_joints import fixed_model, framed_model
 from nlo_lab.robot.kinematics import KinematicTree
 from nlo_lab.robot.spec import ArmSpec, RobotSpec, load_spec
 from nlo_lab.robot.structure_graph import structure_graph
-from nlo_lab.robot.urdf import URDFModel, parse_urdf
+from nlo_lab.robot.urdf import MOVING_TYPES, URDFModel, parse_urdf
 
-__all__ = ["Robot", "load_robot", "as_robot", "check_angles"]
+__all__ = ["Robot", "load_robot", "as_robot", "check_angles", "closest"]
+
+
+def closest(name: str, names, count: int = 3) -> str:
+    """``"; closest: a, b, c"``: the names most like ``name`` (a misspelt link or joint), or ``""``."""
+    import difflib
+
+    found = difflib.get_close_matches(name, sorted(names), n=count, cutoff=0.4)
+    return f"; closest: {', '.join(found)}" if found else ""
+
+
+def _check_actuated(spec: RobotSpec, model: URDFModel) -> None:
+    """Each actuated joint exists (else the closest names), turns, and has limits."""
+    joints = {j.name: j for j in model.joints}
+    for name in spec.actuated_joints:
+        j = joints.get(name)
+        if j is None:
+            raise RobotDescriptionError(f"{spec.path}: actuated joint {name!r} does not exist in {spec.urdf}{closest(name, joints)}")
+        if j.type not in MOVING_TYPES:
+            raise RobotDescriptionError(f"{spec.path}: actuated joint {name!r} is a {j.type} joint; nlo_lab actuates "
+                                        f"revolute and continuous joints (fix it in fixed_joints)")
+        if not j.has_limit:
+            raise RobotDescriptionError(f"{spec.path}: actuated joint {name!r} has no <limit> in {spec.urdf}: "
+                                        "give it lower and upper, or fix it in fixed_joints")
 
 
 def check_angles(q, n_joints: int, robot: str = "robot", joint_names: Sequence[str] | None = None) -> np.ndarray:
@@ -66,8 +90,11 @@ class Robot:
 
     def __init__(self, spec: RobotSpec, model: URDFModel, dtype: torch.dtype = torch.float32, device=None):
         self.spec = spec
-        self.model = model
         self.name = spec.name
+        _check_actuated(spec, model)
+        fixed = dict(spec.fixed_joints) if spec.fixed_joints is not None else None
+        model = framed_model(fixed_model(model, spec.actuated_joints, fixed, spec.path), spec.base_link, spec.robot_frame, spec.path)
+        self.model = model  # moving joints the spec does not actuate are fixed; the root is the robot frame
         try:
             self.tree = KinematicTree(model, spec.actuated_joints)
         except RobotDescriptionError as e:
@@ -107,19 +134,18 @@ class Robot:
     def _check_spec(self) -> None:
         spec, links = self.spec, set(self.model.links)
         where = f"{spec.path}"
-        if spec.base_link != self.model.root:
-            raise RobotDescriptionError(f"{where}: base_link {spec.base_link!r} is not the URDF root link {self.model.root!r} ({spec.urdf})")
         for side, arm in spec.arms.items():
             for role, link in (("shoulder", arm.shoulder), ("elbow", arm.elbow), ("wrist", arm.wrist)):
                 if link not in links:
-                    raise RobotDescriptionError(f"{where}: arms.{side}.{role} names link {link!r}, which does not exist in {spec.urdf}")
+                    raise RobotDescriptionError(f"{where}: arms.{side}.{role} names link {link!r}, which does not exist in {spec.urdf}{closest(link, links)}")
             for finger, pair in arm.fingers.items():
                 for link in pair:
                     if link not in links:
-                        raise RobotDescriptionError(f"{where}: arms.{side}.fingers.{finger} names link {link!r}, which does not exist in {spec.urdf}")
+                        raise RobotDescriptionError(
+                            f"{where}: arms.{side}.fingers.{finger} names link {link!r}, which does not exist in {spec.urdf}{closest(link, links)}")
         for c in spec.capsules:
             if c.link not in links:
-                raise RobotDescriptionError(f"{where}: capsule {c.name!r} names link {c.link!r}, which does not exist in {spec.urdf}")
+                raise RobotDescriptionError(f"{where}: capsule {c.name!r} names link {c.link!r}, which does not exist in {spec.urdf}{closest(c.link, links)}")
         for a, b in spec.collision_pairs:
             la, lb = spec.capsule(a).link, spec.capsule(b).link
             pa, pb = self.model.parent_joint(la), self.model.parent_joint(lb)
@@ -258,6 +284,10 @@ class Robot:
         Returns:
             ``(..., C, 2, 3)`` [m], capsules in spec order.
         """
+        if not self.spec.capsules:  # a spec without capsules checks no pair
+            some = poses if isinstance(poses, torch.Tensor) else next(iter(poses.values()))
+            lead = some.shape[:-3] if isinstance(poses, torch.Tensor) else some.shape[:-2]
+            return some.new_zeros((*lead, 0, 2, 3))
         if isinstance(poses, torch.Tensor):
             T = poses.index_select(-3, self._cap_link_t.to(poses.device))  # (..., C, 4, 4)
         else:

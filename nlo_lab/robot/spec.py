@@ -26,9 +26,10 @@ from nlo_lab.human.demonstration import FINGERS, SIDES
 from nlo_lab.paths import BUNDLED_ROBOTS, ROBOTS_DIR, is_bundled, repair_hint
 from nlo_lab.rotations import rpy_to_matrix
 
-__all__ = ["ArmSpec", "CapsuleSpec", "RobotSpec", "load_spec", "known_robots", "spec_text", "MAX_SPEC_BYTES"]
+__all__ = ["ArmSpec", "CapsuleSpec", "RobotSpec", "load_spec", "known_robots", "spec_text", "MAX_SPEC_BYTES", "FINGER_ALIASES"]
 
 MAX_SPEC_BYTES = 1 << 20  # a robot spec is kB of JSON (the bundled ones 5-45 kB)
+FINGER_ALIASES = {"little": "pinky"}  # a spec may name the little finger either way
 
 
 @dataclass(frozen=True)
@@ -106,7 +107,9 @@ class RobotSpec:
         name: robot name.
         path: the spec file.
         urdf: the URDF file (resolved).
-        base_link: the root link (the robot frame: origin between the shoulders).
+        base_link: the link the arms hang from and the robot frame sits on: the URDF's root
+            for the bundled robots (their root is already the robot frame), any link above both
+            shoulders with no actuated joint above it for a drafted spec.
         actuated_joints: order of :attr:`Robot.joint_names`.
         arms: ``{"left": ArmSpec, "right": ArmSpec}``.
         capsules: the collision capsules.
@@ -118,6 +121,13 @@ class RobotSpec:
         velocity_limits: optional ``((joint, max speed [rad/s]), ...)``, the published
             joint velocity limits (spec ``"velocity_limits"``; source in ``"velocity_limits_source"``).
         velocity_limits_source: where the velocity limits come from (free text).
+        fixed_joints: optional ``((joint, value), ...)``: the URDF's moving joints the robot does not
+            actuate, fixed at these values [rad or m] (their mimic joints follow). Without this field
+            every moving joint must be actuated or mimic one (the bundled robots).
+        robot_frame: optional ``(xyz, rpy)``: the robot frame (origin between the shoulders, X forward,
+            Y left, Z up) in ``base_link``'s frame at the fixed joints' values; without it, base_link's frame.
+        srdf: optional SRDF file (spec ``"srdf"``, relative to the spec): its disabled collision pairs are
+            left out of the self-collision check by the URDF's geometry (:mod:`nlo_lab.robot.srdf`).
     """
 
     name: str
@@ -133,6 +143,9 @@ class RobotSpec:
     neutral_pose: tuple[tuple[str, float], ...] | None = None
     velocity_limits: tuple[tuple[str, float], ...] | None = None
     velocity_limits_source: str = ""
+    fixed_joints: tuple[tuple[str, float], ...] | None = None
+    robot_frame: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+    srdf: Path | None = None
 
     def __post_init__(self) -> None:
         if set(self.arms) != set(SIDES):
@@ -162,8 +175,8 @@ def spec_text(data: dict) -> str:
 
     def render(value, indent: int) -> str:
         short = one_line(value)
-        if short is not None:
-            return short
+        if short is not None or not isinstance(value, (dict, list)):  # a long string stays one string
+            return short or json.dumps(value, ensure_ascii=False)
         pad, inner = " " * indent, " " * (indent + 2)
         if isinstance(value, dict):
             items = [f"{inner}{json.dumps(k, ensure_ascii=False)}: {render(v, indent + 2)}" for k, v in value.items()]
@@ -231,7 +244,7 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         raise RobotDescriptionError(f"{path}: malformed JSON ({e}){hint}") from None
     if not isinstance(data, dict):
         raise RobotDescriptionError(f"{path}: the spec must be a JSON object")
-    urdf = path.parent / str(_need(data, "urdf", "the spec", path))
+    urdf = Path(os.path.normpath(path.parent / str(_need(data, "urdf", "the spec", path))))
     actuated = _need(data, "actuated_joints", "the spec", path)
     if not isinstance(actuated, list) or not all(isinstance(a, str) for a in actuated) or not actuated:
         raise RobotDescriptionError(f"{path}: 'actuated_joints' must be a non-empty list of joint names")
@@ -243,6 +256,9 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         for fname, pair in (a.get("fingers") or {}).items():
             if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(x, str) for x in pair)):
                 raise RobotDescriptionError(f"{path}: arms.{side}.fingers.{fname} must be [base_link, tip_link]")
+            fname = FINGER_ALIASES.get(fname, fname)
+            if fname in fingers:
+                raise RobotDescriptionError(f"{path}: arms.{side}.fingers names the {fname} finger twice (little and pinky are one)")
             fingers[fname] = (pair[0], pair[1])
         try:
             arms[side] = ArmSpec(
@@ -317,6 +333,22 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         ):
             raise RobotDescriptionError(f"{path}: 'velocity_limits' must map joint names to speeds > 0 [rad/s]")
         velocity = tuple((str(k), float(v)) for k, v in velocity.items())
+    fixed = data.get("fixed_joints")
+    if fixed is not None:
+        if not isinstance(fixed, dict) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                                                  for v in fixed.values()):
+            raise RobotDescriptionError(f"{path}: 'fixed_joints' must map joint names to values [rad or m]")
+        both = sorted(set(fixed) & set(actuated))
+        if both:
+            raise RobotDescriptionError(f"{path}: joints {both} are both actuated and fixed")
+        fixed = tuple((str(k), float(v)) for k, v in fixed.items())
+    frame = data.get("robot_frame")
+    if frame is not None:
+        if not isinstance(frame, dict):
+            raise RobotDescriptionError(f"{path}: 'robot_frame' must be {{\"xyz\": [x, y, z], \"rpy\": [r, p, y]}}")
+        frame = (_vec3(frame.get("xyz", [0, 0, 0]), "robot_frame.xyz", path), _vec3(frame.get("rpy", [0, 0, 0]), "robot_frame.rpy", path))
+        if not all(math.isfinite(v) for part in frame for v in part):
+            raise RobotDescriptionError(f"{path}: robot_frame must hold finite numbers")
     return RobotSpec(
         name=str(data.get("name", path.stem)),
         path=path,
@@ -331,4 +363,7 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         neutral_pose=neutral,
         velocity_limits=velocity,
         velocity_limits_source=str(data.get("velocity_limits_source", "")),
+        fixed_joints=fixed,
+        robot_frame=frame,
+        srdf=None if data.get("srdf") is None else path.parent / str(data["srdf"]),
     )

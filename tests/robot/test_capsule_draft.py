@@ -28,11 +28,19 @@ def held(points: np.ndarray, caps) -> np.ndarray:
 
 @pytest.mark.parametrize("name", ROBOTS)
 def test_capsules_hold_every_collision_element(name):
+    """Links fixed to a moving body share that body's capsules (on its first link): YuMi's hand base on link 7."""
     robot = load_robot(name)
-    caps = [c for c in robot.spec.capsules if "@" not in c.name]  # thinned copies are for one pair each
+    tree = robot.tree
+    caps = [c for c in robot.spec.capsules if "~" not in c.name]  # thinned copies are for one pair each
+    first = {}
+    for i, link in enumerate(tree.link_names):
+        if np.allclose(tree.link_const[i], np.eye(4)):
+            first.setdefault(tree.link_body[i], link)
     for shape in link_shapes(robot.model, "collision"):
-        v = np.asarray(shape_mesh(shape).vertices)
-        ok = held(v, [c for c in caps if c.link == shape.link])
+        i = tree.link_index[shape.link]
+        owner, T = (shape.link, np.eye(4)) if tree.link_body[i] == 0 else (first[tree.link_body[i]], tree.link_const[i])
+        v = np.asarray(shape_mesh(shape).vertices) @ T[:3, :3].T + T[:3, 3]  # in the owner's frame
+        ok = held(v, [c for c in caps if c.link == owner])
         assert ok.all(), (name, shape.link, int((~ok).sum()))
 
 

@@ -114,7 +114,7 @@ def test_capsule_table_matches_the_specs():
     assert sorted(row["robot"] for row in rows) == sorted(NAMES)
     for row in rows:
         spec = json.loads((ROBOTS / f"{row['robot']}.json").read_text())
-        thinned = sum("@" in c["name"] for c in spec["capsules"])
+        thinned = sum("~" in c["name"] for c in spec["capsules"])
         assert len(spec["capsules"]) - thinned == int(row["capsules"]) and thinned == int(row["thinned copies"])
         assert len(spec["collision_pairs"]) == int(row["pairs"])
         assert spec["collision_margin"]["default"] == pytest.approx(float(row["margin default"]))
