@@ -14,7 +14,7 @@ process's first and last instants), :mod:`~nlo_lab.cli.app` (the registry of com
 and its error path), :mod:`~nlo_lab.cli.run_guard` (how a run ends: error line, warnings,
 signals), :mod:`~nlo_lab.cli.flags` (ranges, flag types, the parser class), and one module
 per command: :mod:`~nlo_lab.cli.retarget`, :mod:`~nlo_lab.cli.train`, :mod:`~nlo_lab.cli.evaluate`,
-:mod:`~nlo_lab.cli.demo`, :mod:`~nlo_lab.cli.lab`, :mod:`~nlo_lab.cli.batch`.
+:mod:`~nlo_lab.cli.demo`, :mod:`~nlo_lab.cli.lab`, :mod:`~nlo_lab.cli.batch`, :mod:`~nlo_lab.cli.robot`.
 """
 
 import importlib

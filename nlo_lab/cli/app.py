@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import signal
 
-from nlo_lab.cli import batch, demo, evaluate, lab, retarget, train
+from nlo_lab.cli import batch, demo, evaluate, lab, retarget, robot, train
 from nlo_lab.cli.flags import Parser
 from nlo_lab.cli.run_guard import (
     error_line,
@@ -34,6 +34,7 @@ COMMANDS = {
     "demo": demo,
     "lab": lab,
     "batch": batch,
+    "robot": robot,
 }
 
 

@@ -12,7 +12,9 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("evaluate", help="compare the method with the baselines on a corpus split")
-    p.add_argument("--robot", required=True)
+    p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
+    p.add_argument("--checkpoint", default=None, metavar="CKPT.pt",
+                   help="a trained checkpoint of this robot for the latent methods (default: the shipped one)")
     p.add_argument("--split", default="test", choices=("train", "test"))
     p.add_argument("--json", action="store_true", help="print the results as one JSON object on the last line")
     p.add_argument("--limit", type=ranged_int(*LIMIT_RANGE), default=None,
@@ -46,7 +48,8 @@ def run(args) -> int:
     settings = settings if args.iters is None else dataclasses.replace(settings, iterations=args.iters)
     robot = load_robot(args.robot)
     start = time.perf_counter()
-    ev = evaluate_split(robot, args.split, limit=args.limit, settings=settings, methods=methods, progress=not args.quiet)
+    ev = evaluate_split(robot, args.split, limit=args.limit, settings=settings, methods=methods, progress=not args.quiet,
+                        checkpoint=args.checkpoint)
     if args.json:
         print(json.dumps(to_json(ev)))
         return 0

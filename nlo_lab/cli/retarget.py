@@ -25,6 +25,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("input", metavar="INPUT",
                    help="a .pose/.h5/.npz file, a video (.mp4/.mov/.webm/.avi), or demo:NAME for a clip of the embedded corpus")
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
+    p.add_argument("--checkpoint", default=None, metavar="CKPT.pt",
+                   help="a trained checkpoint of this robot (nlo-lab train --out); default: the shipped one")
     p.add_argument("--init", default="encoder", choices=LazyChoices("nlo_lab.inference", "INITS"), metavar="INIT",
                    help="initialisation of the latent code: %(choices)s (default: encoder)")
     p.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=100,
@@ -97,6 +99,7 @@ def _print_summary(summary: dict) -> None:
 def run(args) -> int:
     from nlo_lab.atomic_files import check_output_place
     from nlo_lab.inference import OptimizeSettings, RetargetConfig
+    from nlo_lab.model import load_pretrained
     from nlo_lab.objective import LossWeights
     from nlo_lab.robot import load_robot
 
@@ -107,13 +110,14 @@ def run(args) -> int:
     _check_weights(weights)
     settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed, latent_sigma=args.sigma)
     robot = load_robot(args.robot)
+    model = load_pretrained(robot, args.checkpoint)  # before any work: a missing checkpoint is refused at once
     progress = not args.quiet and sys.stderr.isatty()
     video = None
     if _is_video(args.input):
         demo, video = _load_video(args, progress)
     else:
         demo = _load_input(args.input)
-    result = RetargetConfig(robot, settings, weights, progress=progress).build()(demo)
+    result = RetargetConfig(robot, settings, weights, model=model, progress=progress).build()(demo)
     if video is not None:
         result.summary["pose_seconds"] = round(video.seconds, 4)
     if args.out is not None:

@@ -41,7 +41,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "retarget it with --init train-stats, random or zeros)")
     p.add_argument("--max-steps", type=ranged_int(1, EPOCHS_RANGE[1] * BATCH_RANGE[1]), default=None,
                    help="stop after this many optimiser steps: a budget that does not depend on the machine's load (default: epochs decide)")
-    p.add_argument("--out", default=None, help="checkpoint path (default: assets/checkpoints/NAME.pt in a checkout, ./NAME.pt in an installed package)")
+    p.add_argument("--out", default=None, help="checkpoint path (default: ./NAME.pt; for a bundled robot in a checkout, "
+                                               "assets/checkpoints/NAME.pt)")
     p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0)
     p.add_argument("--threads", type=ranged_int(*THREADS_RANGE), default=None,
                    help="torch threads (default: NLO_LAB_THREADS, else 1)")
@@ -56,7 +57,7 @@ def run(args) -> int:
 
     from nlo_lab.atomic_files import check_output_file
     from nlo_lab.model import checkpoint_path, save_checkpoint
-    from nlo_lab.paths import is_editable_checkout
+    from nlo_lab.paths import is_bundled, is_editable_checkout
     from nlo_lab.robot import load_robot
     from nlo_lab.training import TrainSettings, train_model
 
@@ -69,8 +70,10 @@ def run(args) -> int:
     if args.out is not None:
         check_output_file(args.out, what="--out", parents=True)  # before any input is read (--out '' too)
     robot = load_robot(args.robot)
-    # A checkout retrains the shipped file in place; an installed package is never written to.
-    out = Path(args.out) if args.out is not None else checkpoint_path(robot.name) if is_editable_checkout() else Path(f"{robot.name}.pt")
+    # A checkout retrains a bundled robot's shipped file in place; an installed package is never written to,
+    # nor the shipped files by a robot of one's own (a spec .json): that goes to ./NAME.pt.
+    bundled = is_bundled(robot.spec.path)
+    out = Path(args.out) if args.out is not None else checkpoint_path(robot.name) if bundled and is_editable_checkout() else Path(f"{robot.name}.pt")
     check_output_file(out, what="the checkpoint", parents=True)  # before training, not after it
     result = train_model(robot, settings)
     save_checkpoint(result.model, out, robot)

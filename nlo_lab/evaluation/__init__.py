@@ -5,10 +5,13 @@
   with the metric of :mod:`nlo_lab.metrics` (``nlo-lab evaluate``).
 * :mod:`~nlo_lab.evaluation.tables`: the JSON contract object and Table I.
 * :mod:`~nlo_lab.evaluation.hands`: the handshape measures (:func:`hand_scores`; ``benchmarks/hands.py``).
+* :mod:`~nlo_lab.evaluation.directions`: the angle between the human's and the robot's arm
+  directions, against the robot at rest (:func:`direction_error`; ``benchmarks/robots.py``).
 
 The supervised baseline's network is trained by :mod:`nlo_lab.training.supervised`.
 """
 
+from nlo_lab.evaluation.directions import direction_angles, direction_error
 from nlo_lab.evaluation.hands import (
     MEASURES,
     HandScores,
@@ -41,6 +44,8 @@ from nlo_lab.evaluation.scores import Evaluation, SequenceScore, check_methods, 
 from nlo_lab.evaluation.tables import COLLISION_MARK, JSON_KEYS, format_table, to_json
 
 __all__ = [
+    "direction_angles",
+    "direction_error",
     # methods
     "METHODS", "LATENT_METHODS", "EVALUATION_MODES", "BaselineSettings", "MethodResult", "latent_encoder", "encoder_only",
     "latent_random", "joint_space", "nn_supervised", "ik", "ik_wrists", "wrist_positions", "run_method", "mean_objective",

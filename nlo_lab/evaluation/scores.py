@@ -140,6 +140,7 @@ def evaluate(
     model: RetargetModel | None = None,
     network=None,
     progress: bool = True,
+    checkpoint=None,
 ) -> Evaluation:
     """Run ``methods`` on every demonstration and score them.
 
@@ -151,6 +152,8 @@ def evaluate(
         model: the model of the latent methods (default: the shipped checkpoint).
         network: the ``nn_supervised`` network (default: trained/cached on first use).
         progress: a tqdm bar on stderr.
+        checkpoint: a checkpoint file for the latent methods instead of the shipped one
+            (a robot drafted from its URDF); not with ``model``.
 
     Returns:
         An :class:`Evaluation`.
@@ -163,8 +166,10 @@ def evaluate(
     if not demos:
         raise SettingsError("no sequences to evaluate")
     info: dict = {}
+    if model is not None and checkpoint is not None:
+        raise SettingsError("give a model or a checkpoint, not both")
     if model is None and any(m in LATENT_METHODS for m in methods):
-        model = load_pretrained(robot)
+        model = load_pretrained(robot, checkpoint)
     if network is None and "nn_supervised" in methods:
         if progress:
             print("nn_supervised: labelling and training (cached after the first run) ...", file=sys.stderr)

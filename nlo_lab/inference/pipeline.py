@@ -13,6 +13,7 @@ and the evaluation's latent methods all go through it.
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from contextlib import contextmanager
@@ -117,7 +118,7 @@ class RetargetConfig:
         robot: a loaded robot (``nlo_lab.robot.load_robot``).
         settings: initialisation strategy, iteration budget, ... (default: encoder, 100).
         weights: loss weights (default: the paper's).
-        model: a trained model for this robot; None: the shipped checkpoint
+        model: a trained model for this robot; None: ``checkpoint``, else the shipped checkpoint
             (:func:`nlo_lab.model.load_pretrained`).
         chunk_frames: optimise at most this many frames at once (bounded memory,
             see :data:`CHUNK_FRAMES`); None for the whole recording in one batch.
@@ -129,6 +130,8 @@ class RetargetConfig:
             (:meth:`~nlo_lab.inference.FastPaths.for_frames`), False the readable forms (the
             paper's decoder, the term functions, autograd through FK), or a
             :class:`~nlo_lab.inference.FastPaths` for every chunk.
+        checkpoint: a checkpoint file of this robot (``nlo-lab train --out``) to load when
+            ``model`` is None: a robot drafted from its URDF has no shipped one.
     """
 
     robot: Robot
@@ -139,6 +142,7 @@ class RetargetConfig:
     retime: bool = True
     progress: bool = False
     fast: bool | FastPaths = True
+    checkpoint: str | os.PathLike | None = None
 
     def build(self) -> Retargeter:
         """Check the configuration, load the model if none was given, and return the retargeter.
@@ -146,9 +150,12 @@ class RetargetConfig:
         Raises:
             SettingsError: ``chunk_frames`` is not a whole number >= 1 or None; ``fast`` is
                 not True, False or a FastPaths.
-            CheckpointError: no shipped checkpoint for this robot (``model`` omitted).
+            CheckpointError: no shipped checkpoint for this robot (``model`` and ``checkpoint``
+                omitted), or a ``checkpoint`` that is missing, damaged or made for another robot.
         """
         check_type("robot", self.robot, Robot, "a Robot (nlo_lab.robot.load_robot)")
+        if self.model is not None and self.checkpoint is not None:
+            raise SettingsError("give a model or a checkpoint, not both")
         if self.settings is not None:
             check_type("settings", self.settings, OptimizeSettings)
         if self.weights is not None:
@@ -158,7 +165,7 @@ class RetargetConfig:
         check_bool("retime", self.retime)
         check_bool("progress", self.progress)
         fast_paths(self.fast, 1)  # checked here, before any work
-        model = self.model if self.model is not None else load_pretrained(self.robot)
+        model = self.model if self.model is not None else load_pretrained(self.robot, self.checkpoint)
         return Retargeter(self, model, self.settings or OptimizeSettings(), self.weights or LossWeights())
 
 
@@ -274,6 +281,7 @@ def retarget(
     chunk_frames: int | None = CHUNK_FRAMES,
     retime: bool = True,
     fast: bool | FastPaths = True,
+    checkpoint: str | os.PathLike | None = None,
 ) -> RetargetResult:
     """Retarget a whole demonstration to ``robot`` by neural latent optimisation.
 
@@ -292,6 +300,7 @@ def retarget(
         retime: slow the trajectory down where a joint would exceed its velocity limit
             (:mod:`nlo_lab.inference.retime`); the trajectory's ``time`` then says when each frame plays.
         fast: the evaluations the optimisation runs (see :class:`RetargetConfig`); False: the readable forms.
+        checkpoint: a checkpoint file to load instead of the shipped one (a robot drafted from its URDF).
 
     Returns:
         A :class:`RetargetResult` with the trajectory and the quality figures.
@@ -301,7 +310,7 @@ def retarget(
             says valid, a wrist rotation that is not a rotation, fps out of range.
         SettingsError: the loss became NaN or infinite (e.g. absurd weights).
     """
-    config = RetargetConfig(robot, settings, weights, model, chunk_frames, retime, progress, fast)
+    config = RetargetConfig(robot, settings, weights, model, chunk_frames, retime, progress, fast, checkpoint)
     return config.build()(demo)
 
 

@@ -150,16 +150,23 @@ def checkpoint_path(name: str) -> Path:
     return CHECKPOINTS_DIR / f"{name}.pt"
 
 
-def load_pretrained(robot: Robot | str) -> RetargetModel:
-    """The shipped checkpoint of ``robot`` (a ``Robot`` or a name).
+def load_pretrained(robot: Robot | str, checkpoint=None) -> RetargetModel:
+    """The shipped checkpoint of ``robot`` (a ``Robot`` or a name), or the file ``checkpoint``.
 
     Raises:
-        CheckpointError: no shipped checkpoint for this robot (or a bad one).
+        CheckpointError: no shipped checkpoint for this robot (or a bad one); a ``checkpoint``
+            that is missing, damaged or made for another robot.
     """
     robot = as_robot(robot)
+    if checkpoint is not None:
+        return load_checkpoint(checkpoint, robot)
     path = checkpoint_path(robot.name)
     if not path.is_file() and not (robot.name in BUNDLED_ROBOTS and is_bundled(path)):
-        raise CheckpointError(f"no trained checkpoint for robot {robot.name!r} ({path}); run `nlo-lab train --robot {robot.name}`")
+        if is_bundled(robot.spec.path):
+            raise CheckpointError(f"no trained checkpoint for robot {robot.name!r} ({path}); run `nlo-lab train --robot {robot.name}`")
+        spec, out = robot.spec.path, f"{robot.name}.pt"
+        raise CheckpointError(f"no trained checkpoint for robot {robot.name!r} of {spec}: train one (`nlo-lab train --robot {spec} "
+                              f"--out {out}`) and give it (`--checkpoint {out}`, checkpoint= in the library)")
     try:
         return load_checkpoint(path, robot)
     except CheckpointError as exc:
