@@ -1,4 +1,4 @@
-"""meshcat scenes of a robot (from its URDF's primitive visuals) and of the robot with its human.
+"""meshcat scenes of a robot (from its URDF's visuals: primitives, meshes decimated) and of the robot with its human.
 
 A scene draws its geometry once (``draw``), then moves it: one frame at a time
 (``set_frame``) or as a meshcat animation with one key per frame (``add_to``)
@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +27,7 @@ from nlo_lab.paths import ROBOTS_DIR
 from nlo_lab.robot.urdf import load_urdf
 from nlo_lab.viz.camera import CameraView, frame_points, style_viewer
 from nlo_lab.viz.human_scene import HUMAN_COLOURS, HumanScene
+from nlo_lab.viz.robot_visuals import Visual, robot_visuals_of
 from nlo_lab.viz.tracks import Y_TO_Z, add_pose_tracks, cylinder, detail_of, material, matrix_to_quaternion, sphere, translation
 
 __all__ = [
@@ -53,23 +53,6 @@ GROUP_COLOURS = {
     "head": 0x9467BD,  # purple
 }
 HUMAN_SCALES = ("robot", "human")  # the human mapped to the robot's size and shoulders, or as recorded
-
-
-@dataclass(frozen=True)
-class Visual:
-    """One primitive visual of a URDF link.
-
-    Attributes:
-        link: the link's name.
-        kind: ``"box"``, ``"cylinder"`` or ``"sphere"``.
-        size: box (x, y, z) lengths; cylinder (radius, length); sphere (radius,) [m].
-        T_link_visual: ``(4, 4)`` pose of the primitive in the link frame (URDF convention: cylinder along Z).
-    """
-
-    link: str
-    kind: str
-    size: tuple[float, ...]
-    T_link_visual: np.ndarray
 
 
 # ------------------------------------------------------------------ URDF side
@@ -104,16 +87,27 @@ def _load_urdf(path: Path):
 
 
 def robot_visuals(urdf: Any) -> list[Visual]:
-    """The primitive visuals (box, cylinder, sphere) of every link; meshes are skipped.
+    """The visuals of every link: primitives, and meshes decimated to a face budget
+    (:func:`nlo_lab.viz.robot_visuals.robot_visuals_of`).
 
     Args:
-        urdf: a URDF path, a robot object, or a loaded ``yourdfpy.URDF``.
+        urdf: a robot object (its parsed model is reused), a URDF path, or a loaded
+            ``yourdfpy.URDF`` (primitives only: without its file, meshes cannot be found).
     """
-    model = getattr(getattr(urdf, "model", None), "urdf", None)  # a Robot keeps the yourdfpy.URDF it was parsed into
-    if model is None:
-        model = urdf if hasattr(urdf, "robot") and hasattr(urdf.robot, "links") else _load_urdf(urdf_path_of(urdf))
+    model = getattr(urdf, "model", None)  # a Robot keeps its parsed URDFModel
+    if model is not None and hasattr(model, "urdf"):
+        return robot_visuals_of(model)
+    if hasattr(urdf, "robot") and hasattr(urdf.robot, "links"):
+        return _primitive_visuals(urdf)
+    from nlo_lab.robot.urdf import parse_urdf
+
+    return robot_visuals_of(parse_urdf(urdf_path_of(urdf)))
+
+
+def _primitive_visuals(urdf) -> list[Visual]:
+    """The box, cylinder and sphere visuals of a loaded ``yourdfpy.URDF``."""
     out: list[Visual] = []
-    for link in model.robot.links:
+    for link in urdf.robot.links:
         for vis in link.visuals or []:
             geom = vis.geometry
             T = np.eye(4) if vis.origin is None else np.asarray(vis.origin, dtype=np.float64)
@@ -180,7 +174,8 @@ def _robot_arms(robot: Any) -> dict[str, tuple[str, str]] | None:
 
 # ---------------------------------------------------------------- robot scene
 class RobotScene:
-    """A robot drawn from its URDF's primitives and posed by its forward kinematics.
+    """A robot drawn from its URDF's visuals (primitives; meshes decimated to a face budget,
+    :mod:`nlo_lab.viz.robot_visuals`) and posed by its forward kinematics.
 
     Args:
         vis: a meshcat ``Visualizer``.
@@ -197,10 +192,11 @@ class RobotScene:
         self.path = path
         self.origin = translation(origin)
         self.opacity = float(opacity)
-        model = _load_urdf(urdf_path_of(robot))
-        self.visuals = robot_visuals(model)
+        parsed = getattr(getattr(robot, "model", None), "urdf", None)  # a Robot keeps the yourdfpy.URDF it was parsed into
+        model = parsed if parsed is not None else _load_urdf(urdf_path_of(robot))
+        self.visuals = robot_visuals(robot if parsed is not None else model)
         if not self.visuals:
-            raise RobotDescriptionError(f"robot {getattr(robot, 'name', '?')!r}: its URDF has no box, cylinder or sphere visuals to draw")
+            raise RobotDescriptionError(f"robot {getattr(robot, 'name', '?')!r}: its URDF has no visuals to draw")
         self.groups = link_groups(model, _robot_arms(robot))
         self.links = sorted({v.link for v in self.visuals})
 
@@ -218,6 +214,9 @@ class RobotScene:
                 radius, length = v.size
                 node.set_object(cylinder(length, radius, detail), material(colour, self.opacity))
                 node.set_transform(v.T_link_visual @ Y_TO_Z)
+            elif v.kind == "mesh":  # decimated already (nlo_lab.viz.robot_visuals)
+                node.set_object(g.TriangularMeshGeometry(v.vertices, v.faces), material(colour, self.opacity))
+                node.set_transform(v.T_link_visual)
             else:
                 node.set_object(sphere(v.size[0], detail), material(colour, self.opacity))
                 node.set_transform(v.T_link_visual)
@@ -271,6 +270,12 @@ class RobotScene:
         signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64)  # (8, 3)
         chunks = []
         for v in self.visuals:
+            if v.kind == "mesh":
+                lo, hi = v.vertices.min(0).astype(np.float64), v.vertices.max(0).astype(np.float64)
+                local = (lo + hi) / 2 + signs * (hi - lo) / 2  # the corners of the mesh's box
+                T = poses[v.link] @ v.T_link_visual
+                chunks.append(np.einsum("fij,kj->fki", T[:, :3, :3], local) + T[:, None, :3, 3])
+                continue
             if v.kind == "box":
                 half = 0.5 * np.asarray(v.size)
             elif v.kind == "cylinder":
