@@ -9,6 +9,7 @@
 * :mod:`~nlo_lab.lab.hand_panel`: :class:`HandPanel`, the hand weights and one handshape in close-up.
 * :mod:`~nlo_lab.lab.video_view`: :class:`VideoView`, a video beside the skeleton and the robot.
 * :mod:`~nlo_lab.lab.launch`: ``nlo-lab lab``: the learner's copy of the notebooks in JupyterLab.
+* :mod:`~nlo_lab.lab.own_robot`: notebook 10's lesson robot and spec variants.
 
 ipywidgets, PIL and JupyterLab are imported only when a panel, a view or the launcher needs them.
 """
@@ -42,6 +43,7 @@ from nlo_lab.lab.launch import (
     root_refusal,
     running_jupyter,
 )
+from nlo_lab.lab.own_robot import LESSON_URDF, lesson_urdf, retarget_report, spec_variant
 from nlo_lab.lab.retarget_panel import RetargetPanel
 from nlo_lab.lab.video_view import VideoView, jpeg_bytes, save_upload
 from nlo_lab.lab.views import View, guarded, svg_convergence
@@ -54,6 +56,8 @@ __all__ = [
     # views, panels, the video view
     "View", "guarded", "svg_convergence", "JointPanel", "RetargetPanel", "WeightsPanel", "HandPanel", "HAND_SLIDERS",
     "VideoView", "jpeg_bytes", "save_upload",
+    # notebook 10
+    "LESSON_URDF", "lesson_urdf", "spec_variant", "retarget_report",
     # launch
     "bundled_notebooks", "copy_notebooks", "lab_command", "notebook_revision", "other_version_copies",
     "running_jupyter", "open_hint", "root_refusal",

@@ -138,8 +138,9 @@ def show_view(robot: Robot | str, angles=None, demo=None, *, layout: str = "side
     return widget
 
 
-def show_robot(robot: Robot | str, q=None, *, height: int = 400):
-    """One pose of ``robot`` (``(n,)`` [rad], neutral if None) as a new scene; see :func:`show_view`."""
+def show_robot(robot: Robot | str, q=None, *, height: int = 400, capsules: bool = False):
+    """One pose of ``robot`` (``(n,)`` [rad], neutral if None) as a new scene; see :func:`show_view`.
+    ``capsules=True`` draws the spec's collision capsules over it (:func:`nlo_lab.viz.capsules.draw_capsules`)."""
     # lazy: anywidget and ipywidgets: only when a view is drawn in a kernel
     from nlo_lab.viz import SceneWidget
 
@@ -150,7 +151,13 @@ def show_robot(robot: Robot | str, q=None, *, height: int = 400):
             raise SettingsError(f"show_robot shows one pose; got {q.shape[0]} frames (use show_view)")
     except NloLabError as exc:
         return _failed(SceneWidget(height=height), exc)
-    return show_view(robot, q, height=height)
+    widget = show_view(robot, q, height=height)
+    if capsules and getattr(widget, "scene", None) is not None:
+        from nlo_lab.viz.capsules import draw_capsules
+
+        with widget.hold():
+            draw_capsules(widget.vis, robot, path=widget.scene.robot_scene.path)
+    return widget
 
 
 def show_human(demo, *, height: int = 400):
