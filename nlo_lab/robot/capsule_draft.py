@@ -22,8 +22,8 @@ paired with its own palm (it closes onto it by design). Of those:
 * pairs closer than their margin at rest though the geometry does not touch (a capsule is fatter
   than a box, overshoots a cylinder's flat end, holds YuMi's joint housings loosely) are checked
   with **thinned** copies (named ``CAPSULE~Nmm``, thinner by N mm): together just enough to clear
-  each other at rest by the margin, first the capsule that holds its geometry more loosely
-  (:func:`_thinning`), at most three quarters of a radius each; a pair that would need more is
+  each other at rest by the margin, half each (:func:`_thinning`), at most three quarters of a
+  radius each; a pair that would need more is
   left unchecked, and the draft says so;
 * pairs between the two arms (everything from one shoulder down against everything from the
   other) are always checked, even when they touch at rest (YuMi's zero pose crosses the
@@ -57,9 +57,9 @@ __all__ = [
 REACH_SAMPLES = 4000  # random poses within the limits of the reach test
 REACH = 0.05  # [m] a pair whose capsules never come this close (nor closer than their radii) in those poses is not checked
 ENVELOPE_SAMPLES = 64  # random finger poses (and open, closed, rest) a hand's envelope holds
-INNER_CLEARANCE = 0.002  # [m] thinned capsules of a pair clear each other at rest by the margin and this ...
+INNER_CLEARANCE = 0.0005  # [m] thinned capsules of a pair clear each other at rest by the margin and this ...
 INNER_MAX_THIN = 0.75  # ... taking at most this fraction of a radius
-THIN_STEP = 0.002  # [m] thinnings are multiples of this, so that pairs share thinned copies
+THIN_STEP = 0.001  # [m] thinnings are multiples of this, so that pairs share thinned copies
 ENVELOPE = "#fingers"  # key suffix of a hand's envelope
 
 
@@ -244,15 +244,21 @@ def _thinning(a: Piece, b: Piece, rest_gap: float, margin: float) -> tuple[float
     """How much to thin each capsule of a pair that sits closer than its margin at rest though the
     geometry does not touch: together just enough to clear each other by the margin and
     :data:`INNER_CLEARANCE` (so the collision term is silent at rest), on the :data:`THIN_STEP`
-    grid, taken first from the capsule that holds its geometry more loosely (a box's, not a
-    cylinder's), at most :data:`INNER_MAX_THIN` of each radius; None when that is not enough."""
+    grid, half each (a thinned capsule leaves its geometry out by up to its thinning: the least
+    thinning, halved, leaves the least out on either side; NAO's torso thinned alone by 12 mm let
+    its box's corners 1 mm into the upper arms), at most :data:`INNER_MAX_THIN` of a radius, the other taking what one
+    cannot; None when that is not enough."""
     need = max(0.0, margin + INNER_CLEARANCE - rest_gap)
-    loose, tight = (a, b) if a.excess >= b.excess else (b, a)
-    first = min(float(np.ceil(need / THIN_STEP - 1e-9) * THIN_STEP), np.floor(INNER_MAX_THIN * loose.radius / THIN_STEP) * THIN_STEP)
-    second = float(np.ceil(max(0.0, need - first) / THIN_STEP - 1e-9) * THIN_STEP)
-    if second > INNER_MAX_THIN * tight.radius:
-        return None
-    return (first, second) if loose is a else (second, first)
+    half = float(np.ceil(need / 2 / THIN_STEP - 1e-9) * THIN_STEP)
+    most = {id(c): float(np.floor(INNER_MAX_THIN * c.radius / THIN_STEP) * THIN_STEP) for c in (a, b)}
+    first = min(half, most[id(a)])
+    second = max(half, float(np.ceil(max(0.0, need - first) / THIN_STEP - 1e-9) * THIN_STEP))
+    if second > most[id(b)]:
+        first = min(most[id(a)], float(np.ceil(max(0.0, need - most[id(b)]) / THIN_STEP - 1e-9) * THIN_STEP))
+        second = most[id(b)]
+        if first + second < need - 1e-9:
+            return None
+    return first, second
 
 
 def _between_arms(side_of: dict, a: str, b: str) -> bool:
