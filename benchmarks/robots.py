@@ -140,7 +140,9 @@ def main() -> int:
     out.mkdir(parents=True, exist_ok=True)
     demos = recordings()
     rows, setup, met = [], [], True
-    for name in args.robots.split(","):
+    names = args.robots.split(",")
+    drafted, bundled = [n for n in names if n not in BUNDLED], [n for n in names if n in BUNDLED]
+    for name in names:
         robot, ckpt, info = prepare(name, out, args.train_seconds, args.reuse)
         setup.append(f"| {name} | {info['joints']} | {info['pairs']} | {info['draft_s']:.0f} | {info['train_s']:.0f} | {info['steps']} |")
         print(setup[-1], flush=True)
@@ -158,8 +160,10 @@ def main() -> int:
         "",
         stamp().strip(),
         "",
-        "Specs drafted by `nlo-lab robot init` from the URDFs (and SRDFs) of `example-robot-data`, checkpoints trained",
-        f"for at most {args.train_seconds:.0f} s on one thread; the bundled robots with their shipped checkpoints.",
+        *([f"Specs drafted by `nlo-lab robot init` from the URDFs (and SRDFs) of `example-robot-data`, checkpoints trained for at "
+           f"most {args.train_seconds:.0f} s on one thread (train [s]: that run's wall time on the loaded machine)."] if drafted else []),
+        *(["The bundled robots with their shipped checkpoints."] if bundled else []),
+        "Recordings: " + ", ".join(label for label, _ in demos) + " (retargeted with the defaults).",
         "",
         "| robot | actuated joints | checked pairs | draft [s] | train [s] | train steps |",
         "|---|---|---|---|---|---|",
@@ -167,6 +171,7 @@ def main() -> int:
         "",
         "Targets: 0 limit violations, 0 velocity violations after retiming, 0 frames where the URDF's collision geometry",
         "overlaps (deeper than 0.1 mm; the SRDF's disabled pairs left out), direction error at most 0.6 of the robot at rest.",
+        "Capsule collision frames count thinned capsules' overlaps too (informative: the geometry decides).",
         "",
         "| robot | recording | frames | retarget [s] | limit viol. | velocity viol. | capsule coll. frames | geometry coll. frames |"
         " deepest [mm] | direction error [deg] | at rest [deg] | ratio | targets met |",
