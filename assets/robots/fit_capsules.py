@@ -46,7 +46,7 @@ def fit(name: str) -> dict:
     capsules = [{"name": c.name, "link": c.link, "p0": list(c.p0), "p1": list(c.p1), "radius": c.radius} for c in draft.capsules]
     pairs, contact = one_hand(robot, capsules, [list(p) for p in draft.pairs])
     used = {n for p in pairs for n in p}
-    capsules = [c for c in capsules if "@" not in c["name"] or c["name"] in used]  # thinned copies of dropped pairs
+    capsules = [c for c in capsules if "~" not in c["name"] or c["name"] in used]  # thinned copies of dropped pairs
     if contact:
         print(f"{name}: one hand's fingers: {len(draft.pairs) - len(pairs)} finger-finger pairs dropped, {len(contact)} thumb pairs at margin 0")
     return {

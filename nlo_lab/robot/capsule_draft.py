@@ -11,8 +11,11 @@ pose of a random sample of finger poses; the rest of the robot meets the envelop
 fingers meet only each other (a pair count of tens instead of hundreds per hand).
 
 **Checked pairs.** Capsules on two different rigid bodies (an actuated joint between them)
-whose bodies are not adjacent (one hanging from the other by one joint); a finger is never
-paired with its own palm (it closes onto it by design). Of those:
+whose bodies are not adjacent (one hanging from the other by one joint). A finger meets the other
+fingers of its hand, and its palm where their geometry overlaps in one of :data:`PALM_SAMPLES` random
+finger poses (YuMi's thumb closed 3 mm into the hand base while that pair was left out; its other
+fingers never reach the palm, and a palm's fat capsule would only keep them from closing); the rest
+of the robot meets the hand's envelope. Of those:
 
 * pairs that never come within :data:`REACH` (or their summed radii, if smaller) of each other
   in :data:`REACH_SAMPLES` random poses within the joint limits are left out (as MoveIt's
@@ -57,6 +60,7 @@ __all__ = [
 REACH_SAMPLES = 4000  # random poses within the limits of the reach test
 REACH = 0.05  # [m] a pair whose capsules never come this close (nor closer than their radii) in those poses is not checked
 ENVELOPE_SAMPLES = 64  # random finger poses (and open, closed, rest) a hand's envelope holds
+PALM_SAMPLES = 256  # random finger poses (and open, closed) in which a finger may meet its own palm's geometry
 INNER_CLEARANCE = 0.0005  # [m] thinned capsules of a pair clear each other at rest by the margin and this ...
 INNER_MAX_THIN = 0.75  # ... taking at most this fraction of a radius
 THIN_STEP = 0.001  # [m] thinnings are multiples of this, so that pairs share thinned copies
@@ -199,6 +203,27 @@ def _envelope(tree, hulls: dict, wrist: str, fingers: list[str], rest_q, lower, 
     return fit_link_capsules(wrist, [trimesh.convex.convex_hull(np.concatenate(points))])
 
 
+def _palm_reached(tree, hulls: dict, keys: dict[str, str], pairs: list[tuple[str, str]], hand: dict, rest_q, lower, upper,
+                  seed: int) -> set[tuple[str, str]]:
+    """The finger-palm ``pairs`` (group keys, one hand) whose geometry overlaps in :data:`PALM_SAMPLES` random
+    poses of the hands' joints (and all open, all closed): the others never meet."""
+    if not pairs:
+        return set()
+    joints = [i for i, name in enumerate(tree.actuated) if hand.get(tree.model.joint(name).child, (None, ""))[1] == "finger"]
+    q = _random_poses(rest_q, lower, upper, PALM_SAMPLES + 2, seed, joints)
+    q[0, joints], q[1, joints] = np.asarray(lower)[joints], np.asarray(upper)[joints]
+    with torch.no_grad():
+        T = tree.forward(torch.as_tensor(q)).numpy()  # (S, L, 4, 4)
+    found = set()
+    for a, b in pairs:
+        la, lb = keys[a], keys[b]
+        ia, ib = tree.link_index[la], tree.link_index[lb]
+        shapes = [(polytope(la, u), polytope(lb, v)) for u in hulls.get(a, []) for v in hulls.get(b, [])]
+        if any(overlap_depth(pa, T[k, ia], pb, T[k, ib]) > DEPTH_TOLERANCE for k in range(len(q)) for pa, pb in shapes):
+            found.add((a, b))
+    return found
+
+
 def _key_pairs(tree, keys: dict[str, str], hand: dict[str, tuple[str, str]]) -> list[tuple[str, str]]:
     """Pairs of piece groups that may collide (``keys``: group -> the link its capsules sit on)."""
     body = {n: tree.link_body[i] for i, n in enumerate(tree.link_names)}
@@ -215,8 +240,8 @@ def _key_pairs(tree, keys: dict[str, str], hand: dict[str, tuple[str, str]]) -> 
             if ba == bb or parent[ba] == bb or parent[bb] == ba:
                 continue
             (sa, ra), (sb, rb) = role(a), role(b)
-            if "finger" in (ra, rb) and not (ra == rb == "finger" and sa == sb):
-                continue  # a finger meets its own hand's fingers; the rest of the robot meets the envelope
+            if "finger" in (ra, rb) and not (sa == sb and {ra, rb} <= {"finger", "palm"}):
+                continue  # a finger meets its own hand (fingers, palm); the rest of the robot meets the envelope
             if "envelope" in (ra, rb) and sa == sb:
                 continue
             out.append((a, b))
@@ -310,6 +335,9 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
     members.update({key: {key} for key in keys if key not in members})  # envelopes: the wrist's
     key_pairs = [(a, b) for a, b in _key_pairs(tree, keys, hand)
                  if not all(frozenset((x, y)) in disabled for x in members[a] for y in members[b])]  # the SRDF says never
+    palm = [(a, b) for a, b in key_pairs if {hand.get(a, (None, ""))[1], hand.get(b, (None, ""))[1]} == {"finger", "palm"}]
+    reached = _palm_reached(tree, hulls, keys, palm, hand, rest_q, lower, upper, seed)
+    key_pairs = [p for p in key_pairs if p not in palm or p in reached]
     pairs = [(start[a] + u, start[b] + v) for a, b in key_pairs for u in range(len(pieces[a])) for v in range(len(pieces[b]))]
     with torch.no_grad():
         T = tree.forward(torch.as_tensor(rest_q))
