@@ -18,7 +18,7 @@ import signal
 import sys
 import threading
 
-from nlo_lab.cli.run_guard import TERMINATING, clear, interrupted_line, on_signal, pending_signal
+from nlo_lab.cli.run_guard import TERMINATING, cancel_retry, clear, interrupted_line, on_signal, pending_signal, raise_pending_signal
 from nlo_lab.errors import Interrupted
 
 __all__ = ["main"]
@@ -58,6 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             from nlo_lab.cli.app import run
 
+            raise_pending_signal()  # one that came inside the import above (on_signal defers it)
             status = run(argv)
         except BaseException:  # during the imports (a signal there may surface as an ImportError), or a bug
             signum = pending_signal()
@@ -67,9 +68,11 @@ def main(argv: list[str] | None = None) -> int:
         if program:
             _flush()
             _install(_exit_now)
+            cancel_retry()
     except Interrupted as exc:  # right after the handlers went in (no line yet), or in the run's last instants
         if program:
             _install(_exit_now)
+            cancel_retry()
         status = interrupted_line(exc.signum) if status is None else 128 + exc.signum
     if program:
         _flush()

@@ -22,18 +22,65 @@ import warnings
 from nlo_lab.errors import Interrupted, escape
 
 __all__ = ["signals_raise", "raise_pending_signal", "one_warning_channel", "error_line", "os_error_text",
-           "interrupted_line", "pending_signal", "on_signal", "clear", "TERMINATING"]
+           "interrupted_line", "pending_signal", "on_signal", "cancel_retry", "clear", "TERMINATING"]
 
 TERMINATING = ("SIGTERM", "SIGHUP", "SIGINT")
 _pending: list[int] = []  # signals received, even those some library's `except BaseException` swallowed
 _said: list[str] = []  # the lines this run printed on stderr: an interrupted run adds its line only to none
 
 
+RETRY_SECONDS = 0.02  # how soon a signal that came inside an import is raised again (once the import is over)
+
+
+def _inside_import(frame) -> bool:
+    """Whether ``frame`` runs (directly or not) inside an ``import``."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib._bootstrap"):
+            return True
+        frame = frame.f_back
+    return False
+
+
 def on_signal(signum, frame):
-    """The handler of a run: record the signal; raise :class:`Interrupted` for the first one."""
+    """The handler of a run: record the signal; raise :class:`Interrupted` for the first one.
+
+    Not inside an import: a C extension's initialisation may call Python code from C++ (torch's
+    ``torch.distributed`` does), and an exception raised there aborts the process (``terminate
+    called after throwing an instance of 'pybind11::error_already_set'``, exit by SIGABRT). The
+    signal is then raised by a SIGALRM every :data:`RETRY_SECONDS` once the import is over.
+    """
     _pending.append(signum)
-    if len(_pending) == 1:  # a second signal while the first one's clean-up runs is recorded, not raised
-        raise Interrupted(signum)
+    if len(_pending) != 1:  # a second signal while the first one's clean-up runs is recorded, not raised
+        return
+    if _inside_import(frame):
+        _retry_later()
+        return
+    raise Interrupted(signum)
+
+
+_alarm_before: list = []  # SIGALRM's handler before a retry took it
+
+
+def _on_retry(signum, frame):
+    if _inside_import(frame):
+        signal.setitimer(signal.ITIMER_REAL, RETRY_SECONDS)
+        return
+    cancel_retry()
+    raise Interrupted(_pending[0])
+
+
+def _retry_later() -> None:
+    if hasattr(signal, "setitimer"):
+        if signal.getsignal(signal.SIGALRM) is not _on_retry:
+            _alarm_before[:] = [signal.signal(signal.SIGALRM, _on_retry)]
+        signal.setitimer(signal.ITIMER_REAL, RETRY_SECONDS)
+
+
+def cancel_retry() -> None:
+    """Stop a pending retry and give SIGALRM its handler back (the signal is being raised, or the run is over)."""
+    if hasattr(signal, "setitimer") and signal.getsignal(signal.SIGALRM) is _on_retry:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, _alarm_before[0] if _alarm_before and _alarm_before[0] is not None else signal.SIG_DFL)
 
 
 def clear() -> None:
@@ -61,6 +108,7 @@ def pending_signal() -> int | None:
 
 def raise_pending_signal() -> None:
     if _pending:
+        cancel_retry()
         raise Interrupted(_pending[0])
 
 
@@ -80,6 +128,8 @@ def signals_raise():
     try:
         yield
     finally:
+        if previous.get(signal.SIGINT) is not on_signal:  # a run of its own: its retry ends with it
+            cancel_retry()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
 

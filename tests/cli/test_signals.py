@@ -67,6 +67,29 @@ def test_a_signal_during_the_imports(tmp_path):
     assert proc.returncode == 130 and out == "" and not (tmp_path / "out").exists()
 
 
+def test_a_signal_inside_an_import_is_raised_when_the_import_is_over(tmp_path):
+    """torch's import runs Python called from C++ (``torch.distributed``): an exception raised there aborted
+    the process (SIGABRT, ``terminate called after throwing ... pybind11::error_already_set``, 73 lines;
+    found by benchmarks/signals.py). A signal that comes inside an import is raised once it is over."""
+    (tmp_path / "slow_import.py").write_text("import os, signal\nos.kill(os.getpid(), signal.SIGTERM)\n"
+                                             "total = sum(i for i in range(10**5))  # bytecode: the handler runs here\n"
+                                             "completed = True\n")
+    code = ("import signal, time\nfrom nlo_lab.cli.run_guard import signals_raise\nfrom nlo_lab.errors import Interrupted\n"
+            "with signals_raise():\n"
+            "    try:\n"
+            "        import slow_import\n"
+            "        print('imported', slow_import.completed, flush=True)\n"
+            "        time.sleep(60)\n"
+            "        print('not interrupted')\n"
+            "    except Interrupted as exc:\n"
+            "        print('interrupted', exc.signum)\n"
+            "print('SIGALRM back to default', signal.getsignal(signal.SIGALRM) == signal.SIG_DFL)\n")
+    start = time.perf_counter()
+    run = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=120)
+    assert run.stdout.splitlines() == ["imported True", "interrupted 15", "SIGALRM back to default True"], run.stdout + run.stderr
+    assert time.perf_counter() - start < 30 and run.returncode == 0
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("delay", [0.15, 0.3, 0.6])
 def test_a_signal_while_the_program_starts(delay, tmp_path):
