@@ -115,6 +115,11 @@ def load() -> str:
     return f"{_LOAD_AT_START[0]:.1f} at the start, {os.getloadavg()[0]:.1f} at the end (1-min average, {os.cpu_count()} cores)"
 
 
+def busy(threshold: float = 1.5) -> bool:
+    """Whether the 1-minute load average at the start or now was above ``threshold``: timings then provisional."""
+    return _LOAD_AT_START is not None and max(_LOAD_AT_START[0], os.getloadavg()[0]) > threshold
+
+
 def stamp() -> str:
     """Command, commit, machine, load and date as markdown lines."""
     now = datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")

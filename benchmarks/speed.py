@@ -219,6 +219,10 @@ def main(argv=None) -> int:
     out.append(f"| one frame, 30 iterations, median ≤ 50 ms | {one_med * 1000:.1f} ms (p90 {one_p90 * 1000:.1f} ms, {len(one)} frames) | {'yes' if one_med <= 0.05 else '**no**'} |")
     tsec = info.get("train_seconds")
     out.append(f"| training to the shipped checkpoint ≤ 10 min | {train_line} | {('yes' if tsec <= 600 else '**no**') if tsec else 'n/a'} |")
+    if results_doc.busy():
+        out += ["", f"**Provisional**: the machine was busy, load {results_doc.load()}. Wall times are longer than on a quiet"
+                " machine; `benchmarks/retarget_speed.py` reports CPU time too, and a calibration against an older commit in the"
+                " same run (section retarget-speed)."]
     out += [
         "",
         "### Against joint-space optimisation (same objective)",
