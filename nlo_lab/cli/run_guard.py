@@ -47,11 +47,13 @@ def on_signal(signum, frame):
     Not inside an import: a C extension's initialisation may call Python code from C++ (torch's
     ``torch.distributed`` does), and an exception raised there aborts the process (``terminate
     called after throwing an instance of 'pybind11::error_already_set'``, exit by SIGABRT). The
-    signal is then raised by a SIGALRM every :data:`RETRY_SECONDS` once the import is over.
+    signal is then raised by a SIGALRM every :data:`RETRY_SECONDS` once the import is over. One
+    raised where Python cannot propagate it (a weakref callback) is raised again the same way.
     """
     _pending.append(signum)
     if len(_pending) != 1:  # a second signal while the first one's clean-up runs is recorded, not raised
         return
+    _catch_swallowed()
     if _inside_import(frame):
         _retry_later()
         return
@@ -59,6 +61,27 @@ def on_signal(signum, frame):
 
 
 _alarm_before: list = []  # SIGALRM's handler before a retry took it
+_hook_before: list = []  # sys.unraisablehook before a signal came
+
+
+def _swallowed(info) -> None:
+    """sys.unraisablehook once a signal came: an Interrupted raised where Python cannot propagate it
+    (a ``__del__``, a weakref callback: "Exception ignored in ...") is raised again soon, unprinted."""
+    if isinstance(info.exc_value, Interrupted):
+        _retry_later()
+        return
+    (_hook_before[0] if _hook_before else sys.__unraisablehook__)(info)
+
+
+def _catch_swallowed() -> None:
+    if sys.unraisablehook is not _swallowed:
+        _hook_before[:] = [sys.unraisablehook]
+        sys.unraisablehook = _swallowed
+
+
+def _release_swallowed() -> None:
+    if sys.unraisablehook is _swallowed:
+        sys.unraisablehook = _hook_before[0] if _hook_before else sys.__unraisablehook__
 
 
 def _on_retry(signum, frame):
@@ -128,8 +151,9 @@ def signals_raise():
     try:
         yield
     finally:
-        if previous.get(signal.SIGINT) is not on_signal:  # a run of its own: its retry ends with it
+        if previous.get(signal.SIGINT) is not on_signal:  # a run of its own: its retry and hook end with it
             cancel_retry()
+            _release_swallowed()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
 

@@ -74,20 +74,38 @@ def test_a_signal_inside_an_import_is_raised_when_the_import_is_over(tmp_path):
     (tmp_path / "slow_import.py").write_text("import os, signal\nos.kill(os.getpid(), signal.SIGTERM)\n"
                                              "total = sum(i for i in range(10**5))  # bytecode: the handler runs here\n"
                                              "completed = True\n")
-    code = ("import signal, time\nfrom nlo_lab.cli.run_guard import signals_raise\nfrom nlo_lab.errors import Interrupted\n"
+    code = ("import signal, sys, time\nfrom nlo_lab.cli.run_guard import signals_raise\nfrom nlo_lab.errors import Interrupted\n"
             "with signals_raise():\n"
             "    try:\n"
             "        import slow_import\n"
-            "        print('imported', slow_import.completed, flush=True)\n"
             "        time.sleep(60)\n"
             "        print('not interrupted')\n"
-            "    except Interrupted as exc:\n"
-            "        print('interrupted', exc.signum)\n"
+            "    except Interrupted as exc:  # a failed import leaves no module behind\n"
+            "        print('interrupted', exc.signum, 'imported', getattr(sys.modules.get('slow_import'), 'completed', False))\n"
             "print('SIGALRM back to default', signal.getsignal(signal.SIGALRM) == signal.SIG_DFL)\n")
     start = time.perf_counter()
     run = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=120)
-    assert run.stdout.splitlines() == ["imported True", "interrupted 15", "SIGALRM back to default True"], run.stdout + run.stderr
+    assert run.stdout.splitlines() == ["interrupted 15 imported True", "SIGALRM back to default True"], run.stdout + run.stderr
     assert time.perf_counter() - start < 30 and run.returncode == 0
+
+
+def test_a_signal_python_cannot_propagate_is_raised_again(tmp_path):
+    """Raised inside a ``__del__`` or a weakref callback, an exception is "ignored" (printed, lost): 8 lines
+    and a run that went on (found by a random hunt of signal instants). It is raised again, unprinted."""
+    code = ("import os, signal, time\nfrom nlo_lab.cli.run_guard import signals_raise\nfrom nlo_lab.errors import Interrupted\n"
+            "class Dying:\n"
+            "    def __del__(self):\n"
+            "        os.kill(os.getpid(), signal.SIGTERM)\n"
+            "        total = sum(i for i in range(10**5))  # the handler runs here, where its exception is ignored\n"
+            "with signals_raise():\n"
+            "    try:\n"
+            "        Dying()\n"
+            "        time.sleep(5)\n"
+            "        print('not interrupted')\n"
+            "    except Interrupted as exc:\n"
+            "        print('interrupted', exc.signum)\n")
+    run = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=120)
+    assert run.stdout.splitlines() == ["interrupted 15"] and run.stderr == "", run.stdout + run.stderr
 
 
 @pytest.mark.slow
