@@ -159,7 +159,8 @@ def main() -> int:
         print(setup[-1], flush=True)
         if name in drafted and arm == "7/7" and min(len(report.fingers[s]) for s in ("left", "right")) >= 3:
             full = "the default epochs" if info["train_s"] < 0.98 * args.train_seconds else "stopped by the time limit"
-            timing.append(f"Training a robot with 7-joint arms and 3-finger hands ({name}): {info['steps']} steps ({full}) in "
+            fingers = min(len(report.fingers[s]) for s in ("left", "right"))
+            timing.append(f"Training a robot with 7-joint arms and {fingers}-finger hands ({name}): {info['steps']} steps ({full}) in "
                           f"{info['train_s']:.0f} s on one thread of 2 loaded cores (target: 600 s): "
                           f"{'met' if info['train_s'] <= 600 else 'NOT met'}.")
         for label, demo in demos:
