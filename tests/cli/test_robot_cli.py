@@ -192,3 +192,20 @@ def test_huge_and_missing_meshes(tmp_path, capsys, assert_one_line_error):
     code, out, err = run(["robot", "init", urdf, "--out", tmp_path / "x.json"], capsys)
     assert code == 0, err
     assert "gone.stl is missing" in err
+
+
+def test_the_base_flag(tiny, tmp_path, capsys, assert_one_line_error):
+    """--base: the link the arms hang from; the joints above it stay fixed, those below it on the way to the
+    shoulders are actuated, so it must sit above both shoulders and below every joint nlo_lab cannot actuate."""
+    spec = tmp_path / "tiny.json"
+    code, _, err = run(["robot", "init", tiny, "--out", spec, "--base", "torso"], capsys)
+    assert code == 0, err
+    data = json.loads(spec.read_text())
+    assert data["base_link"] == "torso" and data["fixed_joints"]["lift"] == 0.0
+    code, _, err = run(["robot", "init", tiny, "--out", tmp_path / "x.json", "--base", "l_hand"], capsys)
+    assert_one_line_error(code, err, "--base 'l_hand' is not above the left shoulder")
+    code, _, err = run(["robot", "init", tiny, "--out", tmp_path / "x.json", "--base", "base"], capsys)
+    assert_one_line_error(code, err, "prismatic joint 'lift'", "--base")
+    code, _, err = run(["robot", "init", tiny, "--out", tmp_path / "x.json", "--base", "torsoo"], capsys)
+    assert_one_line_error(code, err, "'torsoo'", "closest: torso")
+    assert not (tmp_path / "x.json").exists()
