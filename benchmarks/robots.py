@@ -87,7 +87,8 @@ def prepare(name: str, out: Path, train_seconds: float, reuse: bool) -> tuple:
     data = robot_data()
     spec, ckpt = out / f"{name}.json", out / f"{name}.pt"
     t0 = time.perf_counter()
-    if not (reuse and spec.is_file()):
+    drafted_now = not (reuse and spec.is_file())
+    if drafted_now:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             draft = draft_spec(data / urdf, spec, srdf=None if srdf is None else data / srdf, **flags)
@@ -97,7 +98,8 @@ def prepare(name: str, out: Path, train_seconds: float, reuse: bool) -> tuple:
     info = {"joints": robot.n_joints, "pairs": len(robot.spec.collision_pairs), "draft_s": draft_s, "train_s": 0.0, "steps": 0}
     record = out / f"{name}.info.json"  # the draft's and the training's times, kept for --reuse
     if reuse and ckpt.is_file() and record.is_file():
-        info.update({k: v for k, v in json.loads(record.read_text()).items() if k in ("draft_s", "train_s", "steps")})
+        kept = ("train_s", "steps") if drafted_now else ("draft_s", "train_s", "steps")  # a fresh draft's own time wins
+        info.update({k: v for k, v in json.loads(record.read_text()).items() if k in kept})
     elif not (reuse and ckpt.is_file()):
         result = train_model(robot, dataclasses.replace(TrainSettings(progress=False), max_seconds=train_seconds))
         save_checkpoint(result.model, ckpt, robot)

@@ -1,14 +1,13 @@
 """A robot's collision capsules and checked pairs, drafted from its URDF's geometry.
 
-**Capsules.** Each link's ``<collision>`` elements, else its ``<visual>`` ones, are gathered per
-moving rigid body (links fixed to one another: a wrist with its camera and gripper) and get
-capsules, on the body's first link, that hold their convex hulls (the links that do not move keep
-their own)
-(:func:`~nlo_lab.robot.capsule_fit.fit_link_capsules`): every point of the geometry lies inside
-a capsule, so capsules apart means geometry apart. A hand's
+**Capsules.** Each link's ``<collision>`` elements, else its ``<visual>`` ones, get capsules that
+hold their convex hulls (:func:`~nlo_lab.robot.capsule_fit.fit_link_capsules`): every point of the
+geometry lies inside a capsule, so capsules apart means geometry apart. A link fixed to a moving
+body (a wrist's camera, a hand's palm) keeps its own capsules, seated on the body's first link
+(the one FK poses), so that each pair of links is checked or left out on its own. A hand's
 fingers also get an **envelope**: capsules on the wrist link that hold the fingers in every
 pose of a random sample of finger poses; the rest of the robot meets the envelope, the
-fingers meet only each other (a pair count of tens instead of hundreds per hand).
+fingers meet only each other and their palm (a pair count of tens instead of hundreds per hand).
 
 **Checked pairs.** Capsules on two different rigid bodies (an actuated joint between them)
 whose bodies are not adjacent (one hanging from the other by one joint). A finger meets the other
@@ -122,23 +121,24 @@ def _link_hulls(model) -> dict[str, list]:
     return {link: merged[link] for link in getattr(model, "model", model).links if link in merged}
 
 
-def _body_hulls(model, tree) -> tuple[dict[str, list], dict[str, set[str]]]:
-    """Moving rigid body -> the hulls of all its links' geometry in the frame of the body's first link
-    (the child of its moving joint): links fixed to one another share their capsules. The links of
-    the body that does not move (torso, head, legs and base, all fixed) keep their own."""
+def _body_hulls(model, tree) -> tuple[dict[str, list], dict[str, str]]:
+    """Link -> the hulls of its geometry in the frame of the link its capsules sit on (the seat), and
+    link -> seat: a link fixed to a moving body sits on the body's first link (the child of its moving
+    joint: the only link of the body FK poses); the links of the body that does not move (torso, head,
+    legs and base) on themselves. Each link keeps its own capsules, so that a pair of links is checked
+    or not on its own (TIAGo's hand: a safety box around the fingertips at rest, its palm clear of them)."""
     first = {}
     for i, link in enumerate(tree.link_names):
         if np.allclose(tree.link_const[i], np.eye(4)) and tree.link_body[i] not in first:
             first[tree.link_body[i]] = link
     out: dict[str, list] = {}
-    members: dict[str, set[str]] = {}  # group -> the links whose geometry it holds
+    seat: dict[str, str] = {}
     for link, hulls in _link_hulls(model).items():
         i = tree.link_index[link]
-        group = link if tree.link_body[i] == 0 else first[tree.link_body[i]]
-        T = tree.link_const[i] if group != link else np.eye(4)  # T_body_link, constant
-        out.setdefault(group, []).extend(h.copy().apply_transform(T) for h in hulls)
-        members.setdefault(group, set()).add(link)
-    return out, members
+        seat[link] = link if tree.link_body[i] == 0 else first[tree.link_body[i]]
+        T = tree.link_const[i] if seat[link] != link else np.eye(4)  # T_seat_link, constant
+        out[link] = [h.copy().apply_transform(T) for h in hulls]
+    return out, seat
 
 
 def capsule_gaps(capsules, poses: dict[str, np.ndarray], pairs: list[tuple[int, int]]) -> np.ndarray:
@@ -181,13 +181,13 @@ def _hands(tree, arms: Arms) -> dict[str, tuple[str, str]]:
     return out
 
 
-def _envelope(tree, hulls: dict, wrist: str, fingers: list[str], rest_q, lower, upper, seed: int) -> list[Piece]:
+def _envelope(tree, hulls: dict, wrist: str, fingers: dict[str, str], rest_q, lower, upper, seed: int) -> list[Piece]:
     """Capsules on the wrist link holding the fingers' geometry in :data:`ENVELOPE_SAMPLES` random finger
     poses, all open, all closed and the rest pose."""
     # lazy: trimesh loads its mesh formats on import: only where meshes are read
     import trimesh
 
-    joints = [i for i, name in enumerate(tree.actuated) if tree.model.joint(name).child in set(fingers)]
+    joints = [i for i, name in enumerate(tree.actuated) if tree.model.joint(name).child in set(fingers.values())]
     q = _random_poses(rest_q, lower, upper, ENVELOPE_SAMPLES + 3, seed, joints)
     q[0] = rest_q
     q[1, joints], q[2, joints] = np.asarray(lower)[joints], np.asarray(upper)[joints]
@@ -195,8 +195,8 @@ def _envelope(tree, hulls: dict, wrist: str, fingers: list[str], rest_q, lower, 
         T = tree.forward(torch.as_tensor(q)).numpy()  # (S, L, 4, 4)
     inv_wrist = np.linalg.inv(T[:, tree.link_index[wrist]])
     points = []
-    for link in fingers:
-        rel = inv_wrist @ T[:, tree.link_index[link]]  # (S, 4, 4) T_wrist_link
+    for link, seat in fingers.items():  # finger link -> the link its hulls are in
+        rel = inv_wrist @ T[:, tree.link_index[seat]]  # (S, 4, 4) T_wrist_seat
         for hull in hulls[link]:
             v = np.asarray(hull.vertices)
             points.append((np.einsum("sij,kj->ski", rel[:, :3, :3], v) + rel[:, None, :3, 3]).reshape(-1, 3))
@@ -317,12 +317,12 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
             link pair between them is disabled.
     """
     rest_q = np.asarray(rest_q, dtype=np.float64)
-    hulls, members = _body_hulls(model, tree)
-    pieces = {link: fit_link_capsules(link, items) for link, items in hulls.items()}
-    keys = {link: link for link in pieces}
+    hulls, seat = _body_hulls(model, tree)
+    pieces = {link: fit_link_capsules(seat[link], items) for link, items in hulls.items()}
+    keys = dict(seat)  # group -> the link its capsules sit on
     hand = _hands(tree, arms)
     for side, wrist in arms.wrists.items():
-        fingers = [link for link in hulls if hand.get(link) == (side, "finger")]
+        fingers = {link: seat[link] for link in hulls if hand.get(link) == (side, "finger")}
         if fingers:
             pieces[wrist + ENVELOPE] = _envelope(tree, hulls, wrist, fingers, rest_q, lower, upper, seed)
             keys[wrist + ENVELOPE] = wrist
@@ -332,7 +332,7 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
     flat = [p for key in pieces for p in pieces[key]]
     group = [key for key in pieces for _ in pieces[key]]
     start = {key: group.index(key) for key in pieces}
-    members.update({key: {key} for key in keys if key not in members})  # envelopes: the wrist's
+    members = {key: {keys[key] if key.endswith(ENVELOPE) else key} for key in keys}  # the links whose geometry a group holds
     key_pairs = [(a, b) for a, b in _key_pairs(tree, keys, hand)
                  if not all(frozenset((x, y)) in disabled for x in members[a] for y in members[b])]  # the SRDF says never
     palm = [(a, b) for a, b in key_pairs if {hand.get(a, (None, ""))[1], hand.get(b, (None, ""))[1]} == {"finger", "palm"}]
@@ -346,20 +346,20 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
     reach = _reach(tree, flat, pairs, _random_poses(rest_q, lower, upper, samples, seed)) if samples else np.full(len(pairs), -np.inf)
     touching = set()  # link pairs whose geometry touches at rest (an envelope counts as touching)
     for (i, j), gap in zip(pairs, gaps, strict=True):
-        la, lb = flat[i].link, flat[j].link
-        if gap <= 0 and (la, lb) not in touching and not _between_arms(side_of, group[i], group[j]):
-            if ENVELOPE in group[i] + group[j] or any(
+        ga, gb, la, lb = group[i], group[j], flat[i].link, flat[j].link
+        if gap <= 0 and (ga, gb) not in touching and not _between_arms(side_of, ga, gb):
+            if ENVELOPE in ga + gb or any(
                 overlap_depth(polytope(la, u), poses[la], polytope(lb, v), poses[lb]) > DEPTH_TOLERANCE
-                for u in hulls.get(la, []) for v in hulls.get(lb, [])
+                for u in hulls.get(ga, []) for v in hulls.get(gb, [])
             ):
-                touching.add((la, lb))
+                touching.add((ga, gb))
     checked, arms_touching, unchecked, inner = [], [], set(), {}
     far, thinned = 0, 0
     for (i, j), gap, near in zip(pairs, gaps, reach, strict=True):
         a, b = capsules[i], capsules[j]
         arms = _between_arms(side_of, group[i], group[j])
         reach_of = min(REACH, a.radius + b.radius)  # small parts (fingers) need to come closer to count
-        if (a.link, b.link) in touching or near > reach_of:
+        if (group[i], group[j]) in touching or near > reach_of:
             far += near > reach_of
             continue
         if arms or gap > margin + INNER_CLEARANCE:
@@ -369,7 +369,7 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
             continue
         thin = _thinning(flat[i], flat[j], gap, margin)
         if thin is None:
-            unchecked.add((a.link, b.link))
+            unchecked.add((group[i], group[j]))
             continue
         names = []
         for c, t in zip((a, b), thin, strict=True):
