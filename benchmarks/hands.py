@@ -19,8 +19,8 @@ Methods, on every hand-frame (one hand in one frame with its wrist frame and fiv
   (the scale nlo_lab's terms use); mimic joints are expanded as the URDF says (both tools agree).
 * **open hand, not moving**: the hands at their neutral (open) pose, for scale.
 * **nlo_lab without the collision term** (a diagnostic, not a robot-safe method): what the
-  self-collision pairs cost the handshape (YuMi's spec pairs the fingers of one hand: a fist's
-  thumb over the fingers, or a pinch, is a contact the collision term pushes apart).
+  self-collision pairs cost the handshape (YuMi's spec pairs the thumb with the fingers of its
+  own hand at a 1 mm margin: a pinch may touch, the thumb may not go through a finger).
 
 One scorer for all: ``nlo_lab.evaluation.hands.hand_scores`` (our FK of YuMi; the measures and
 their definitions are in its docstring and in docs/RESULTS.md). Also: joint-limit violations of

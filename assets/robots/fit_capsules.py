@@ -14,9 +14,11 @@ The fingers of one hand (:func:`one_hand`, YuMi's Inspire hands):
   the others', by one actuated joint, so their geometry never meets (the check by the URDF's
   geometry, ``nlo_lab.robot.geometry_collision``: no overlap in 3000 random hand poses; their
   capsules never came within 9 mm) and the pairs only cost time;
-* pairs of the thumb with a finger (or with itself) get margin 0: touching is what a pinch is
-  (sign handshapes need it), penetrating still costs (the geometry can overlap by 15 mm: the
-  thumb closes through the index finger), so they stay checked.
+* pairs of the thumb with a finger (or with itself) get the margin :data:`THUMB_MARGIN` (1 mm):
+  touching is what a pinch is (sign handshapes need it), so the 5 mm default held the thumb off
+  the fingers; penetrating must still cost (the geometry can overlap by 15 mm: the thumb closes
+  through the index finger), and with margin 0 the optimum of a pinch sat just inside contact
+  (-0.1 mm, a self-collision frame by ``nlo_lab.metrics.self_collision_frames``).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from nlo_lab.robot.capsule_draft import Arms, draft_collision
 from nlo_lab.robot.spec import spec_text
 
 HERE = Path(__file__).resolve().parent
+THUMB_MARGIN = 0.001  # [m] d_min of a thumb against the fingers of its own hand (module docstring)
 
 
 def fit(name: str) -> dict:
@@ -48,16 +51,16 @@ def fit(name: str) -> dict:
     used = {n for p in pairs for n in p}
     capsules = [c for c in capsules if "~" not in c["name"] or c["name"] in used]  # thinned copies of dropped pairs
     if contact:
-        print(f"{name}: one hand's fingers: {len(draft.pairs) - len(pairs)} finger-finger pairs dropped, {len(contact)} thumb pairs at margin 0")
+        print(f"{name}: one hand's fingers: {len(draft.pairs) - len(pairs)} finger-finger pairs dropped, {len(contact)} thumb pairs at {THUMB_MARGIN} m")
     return {
         "capsules": capsules,
         "collision_pairs": pairs,
-        "collision_margin": {"default": default, **{f"{a}/{b}": 0.0 for a, b in contact}},
+        "collision_margin": {"default": default, **{f"{a}/{b}": THUMB_MARGIN for a, b in contact}},
     }
 
 
 def one_hand(robot, capsules: list[dict], pairs: list[list[str]]) -> tuple[list[list[str]], list[list[str]]]:
-    """The checked pairs without those between two fingers of one hand, and the thumb's pairs (margin 0)."""
+    """The checked pairs without those between two fingers of one hand, and the thumb's pairs (:data:`THUMB_MARGIN`)."""
     link_of = {c["name"]: c["link"] for c in capsules}
     fingers: dict[str, set] = {}  # link -> the (side, finger)s whose tip hangs below it
     for side in robot.spec.arms:

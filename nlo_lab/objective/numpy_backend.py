@@ -116,6 +116,12 @@ class HandTerms:
         self.v_hat, self.mask = v_hat, mask[..., None]  # (T, M, 3), (T, M, 1)
         self.pinch_goal, self.pinch_weight = pinch_goal, pinch_weight  # (T, J): max(d̂, floor), activation x mask
         self.pairs = slice(self.items - pinch_goal.shape[1], self.items)  # the thumb vectors
+        # (U, M) over the U points that end a vector: +1 at its plus point, -1 at its minus point, so g_d
+        # goes onto the points in one matmul (np.add.at, unbuffered: 61 against 30 us for 97 frames)
+        self.end_points, at = np.unique(np.concatenate([self.plus, self.minus]), return_inverse=True)
+        self.ends = np.zeros((len(self.end_points), self.items), dtype=dtype)
+        np.add.at(self.ends, (at[: self.items], np.arange(self.items)), 1.0)
+        np.add.at(self.ends, (at[self.items :], np.arange(self.items)), -1.0)
 
     @classmethod
     def build(cls, plan: PointPlan, t: Targets, tip_mask: torch.Tensor, pair_mask: torch.Tensor, floor: torch.Tensor) -> HandTerms:
@@ -168,9 +174,9 @@ class HandTerms:
         g_axes = np.matmul(self.side_sum, g_A.reshape(g.shape[0], self.items, 9)).reshape(g.shape[0], 6, 3)
         pinch = 2.0 * g[:, 2:3] * self.pinch_weight * over / (root * self.length[self.pairs, 0])  # (B, J)
         g_d[:, self.pairs] += pinch[..., None] * d[:, self.pairs]
-        # onto both ends of every vector (a point may end several); numpy takes a tuple index, its stubs do not
-        np.add.at(gP, (slice(None), self.plus), g_d)  # type: ignore[arg-type]
-        np.subtract.at(gP, (slice(None), self.minus), g_d)  # type: ignore[arg-type]
+        # onto both ends of every vector (a point may end several)
+        B = g.shape[0]
+        gP[:, self.end_points] += (self.ends @ g_d.transpose(1, 0, 2).reshape(self.items, 3 * B)).reshape(-1, B, 3).transpose(1, 0, 2)
         gP[:, self.axes] += g_axes
 
 

@@ -253,9 +253,10 @@ def collision_loss(distances: torch.Tensor, margins: torch.Tensor, form: str = "
     """Self-collision over the capsule pairs closer than their margin ``d_min``.
 
     ``"hinge"`` (default): ``L_col = sum_pairs ((d_min - d)/s)²`` for ``d < d_min``, ``s = d_min``
-    (:func:`collision_scale`): 1 where the capsules touch. A pair with ``d_min = 0`` (contact allowed,
-    e.g. the fingers of one hand: a pinch, a thumb over the fingers) costs only penetration, in
-    units of ``s = CONTACT_SCALE``.
+    (:func:`collision_scale`): 1 where the capsules touch. A pair with ``d_min = 0`` (a spec
+    allowing contact) costs only penetration, in units of ``s = CONTACT_SCALE`` (YuMi's thumb
+    against its own fingers has ``d_min`` = 1 mm instead: at 0 a pinch's optimum sat just inside
+    contact, ``assets/robots/YUMI.md``).
     ``"paper"``: ``L_col = sum_pairs exp(-d²) [d < d_min]``. The paper's form jumps at
     ``d_min``, has almost no gradient near contact (``-2d e^{-d²}`` -> 0) and, with a
     surface distance (< 0 inside), pushes penetrating capsules *deeper*; the squared

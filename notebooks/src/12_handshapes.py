@@ -120,8 +120,7 @@ fig = handshape_gallery(list(letters), humans, [{f: p[t] for f, p in robot_hands
 # ## Which letters this hand can make, and why not
 #
 # A letter counts as **made** when even the best hand pose is within 20° on both direction measures
-# (our threshold: about what a fist or a flat hand costs when only the curl is right, the proportions of
-# the Inspire fingers being shorter than a human's). What the hand lacks for a letter comes from the
+# (our threshold, a choice: change it and rerun). What the hand lacks for a letter comes from the
 # human's joint angles: fingers **spread** apart (no joint for it), a finger bent at its middle joint
 # but not at its knuckle, or the other way round (the middle joint follows the knuckle: a **hook**
 # cannot be made), the thumb **pinching** a finger it cannot reach (`d_min`).

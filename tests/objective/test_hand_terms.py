@@ -162,22 +162,16 @@ def test_pinch_activation_is_one_when_touching_and_zero_when_apart():
     torch.testing.assert_close(pinch_activation(d), torch.tensor([1.0, 1.0, 0.5, 0.0, 0.0]))
 
 
-@pytest.mark.parametrize(("finger", "collision"), [(1, 0.0), (4, 0.0), (1, 1000.0)])
-def test_a_human_pinch_closes_the_robots_thumb_and_finger(yumi, finger, collision, exact_targets):
-    """From an open hand, the pinch term draws the tips together, down to what the hand can do.
-
-    index: the hand can close it; pinky: only down to its floor. With the collision term on (its
-    default weight) too, the tips close without the capsules going through each other: the thumb's pairs
-    with the fingers of its own hand have margin 0 (yumi.json), so touching costs nothing; with YuMi's
-    5 mm default margin the thumb stopped 10 mm further away.
-    """
+@pytest.mark.parametrize("finger", [1, 4])  # index: the hand can close it; pinky: only down to its floor
+def test_a_human_pinch_closes_the_robots_thumb_and_finger(yumi, finger, exact_targets):
+    """From an open hand, the pinch term alone draws the tips together, down to what the hand can do."""
     q = yumi.neutral_q[None].clone()  # hands open
     t = exact_targets(yumi, q)
     tip = t.finger_tip.clone()
     tip[:, 0, 0] = tip[:, 0, finger]  # the human's left thumb tip on the fingertip: a pinch
     t = dataclasses.replace(t, finger_tip=tip)
     plan = point_plan(yumi, torch.float64)
-    loss = Objective(yumi, t, dataclasses.replace(ONLY["pinch"], collision=collision), fused=False)
+    loss = Objective(yumi, t, ONLY["pinch"], fused=False)
     pair = int(((plan.thumb_pairs[:, 0] == 0) & (plan.finger_index[plan.thumb_pairs[:, 1]] == finger)).nonzero())
     floor = float(plan.pinch_floor()[pair] * plan.hand_length[0])  # [m]
     before = float(tip_distance(yumi, q, 0, finger))
@@ -191,11 +185,6 @@ def test_a_human_pinch_closes_the_robots_thumb_and_finger(yumi, finger, collisio
         with torch.no_grad():
             x.copy_(torch.maximum(torch.minimum(x, yumi.upper_limits), yumi.lower_limits))
     after = float(tip_distance(yumi, x.detach(), 0, finger))
-    if collision:  # the thumb's capsules meet the index finger's on the way, and slide along it
-        d = yumi.capsule_distances(yumi.forward_kinematics_tensor(x.detach()))[0]
-        assert float(d.min()) > -0.001  # no more than touching
-        assert after < 0.045, (before, after)  # measured: 0.040 m; with YuMi's 5 mm margin 0.050 m
-        return
     assert after < floor + 0.004, (before, after, floor)  # closed as far as the hand can
     assert after > floor - 0.01  # the floor is what the hand can do (up to its sampling)
     assert float(tip_distance(yumi, x.detach(), 1, finger)) == pytest.approx(float(tip_distance(yumi, q, 1, finger)))  # other hand untouched
