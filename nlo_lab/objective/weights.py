@@ -69,7 +69,7 @@ class LossWeights:
     collision: float = 1000.0
     latent: float = 1.0
     smooth: float = 10.0
-    tip: float = 3000.0
+    tip: float = 1000.0
     thumb: float = 300.0
     pinch: float = 100.0
 
