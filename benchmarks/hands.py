@@ -163,8 +163,7 @@ def main() -> None:
     ap.add_argument("--no-video", action="store_true", help="leave out the video (no MediaPipe)")
     ap.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
     ap.add_argument("--threads", type=int, default=1,
-                    help="torch threads (1: no oversubscription on the shared 2-core machine, and the same sums in the same "
-                         "order every run: with 2, the patience stop ended at other steps and the measures moved by up to 4°)")
+                    help="torch threads (1: no oversubscription on the shared 2-core machine, as the other benchmarks)")
     args = ap.parse_args()
     torch.set_num_threads(max(1, args.threads))
     robot = load_robot("yumi")
