@@ -46,7 +46,7 @@ def offline(monkeypatch, nao, small, robot_clips):
     """The command line on the small sequences: corpus, checkpoint and network patched in."""
     demos, model, net = small
     monkeypatch.setattr(scores, "sign_corpus", lambda split, seed=0: robot_clips(nao, n=3))
-    monkeypatch.setattr(scores, "load_pretrained", lambda robot: model)
+    monkeypatch.setattr(scores, "load_pretrained", lambda robot, checkpoint=None: model)
     monkeypatch.setattr(scores, "supervised_network", lambda robot, settings=None, **k: net)
     return demos
 
