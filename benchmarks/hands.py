@@ -8,7 +8,7 @@ Data: every real recording we have (``../shared/data/pose/*.pose`` when that fol
 
 Methods, on every hand-frame (one hand in one frame with its wrist frame and five fingers seen):
 
-* **nlo_lab**: ``nlo_lab.inference.retarget`` with the shipped YuMi checkpoint and the default
+* **nlo_lab**: ``nlo_lab.pipeline.retarget`` with the shipped YuMi checkpoint and the default
   weights (both arms and both hands together, smoothness, retiming);
 * **dex, filtered** and **dex, unfiltered**: dex-retargeting 0.5 vector retargeting with our
   configs and hand-only URDFs (``benchmarks/hands/``), with and without its low-pass filter. It
@@ -53,9 +53,9 @@ from results_doc import stamp, update_section  # noqa: E402
 
 from nlo_lab.evaluation.hands import HandScores, hand_frames_mask, hand_scores  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
-from nlo_lab.inference import RetargetConfig  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
 from nlo_lab.objective import LossWeights, point_plan, targets_from_demonstration  # noqa: E402
+from nlo_lab.pipeline import RetargetConfig  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

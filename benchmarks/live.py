@@ -35,9 +35,9 @@ import numpy as np
 from results_doc import ROOT, heading, publish
 
 from nlo_lab.human import load_video, read_video_frames, video_info
-from nlo_lab.inference import retarget
 from nlo_lab.live import FRAME_SIZE, JPEG_QUALITY, SPLIT, CameraView
 from nlo_lab.metrics import limit_violations, velocity_violations
+from nlo_lab.pipeline import retarget
 from nlo_lab.robot import load_robot
 
 SAMPLE = ROOT / "assets" / "recordings" / "signer_webcam_58f.mp4"

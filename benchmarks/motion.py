@@ -4,7 +4,7 @@
 
 For every recording in ``../shared/data/pose/`` (skipped with a note when that folder is
 absent) and every clip of the synthetic test split, and for every robot, it retargets
-with the shipped model (``nlo_lab.inference.retarget``: smoothness term, warm start,
+with the shipped model (``nlo_lab.pipeline.retarget``: smoothness term, warm start,
 retiming) and prints per input: Fréchet distance (of the samples, so before any
 retiming), the joint speed over the limit had the frames played at the recording's rate,
 the slowdown retiming needed, velocity violations on the output's own time base, joint
@@ -32,9 +32,9 @@ from results_doc import stamp, update_section  # noqa: E402
 
 from nlo_lab.corpus import sign_corpus  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
-from nlo_lab.inference import retarget  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
 from nlo_lab.objective import LossWeights  # noqa: E402
+from nlo_lab.pipeline import retarget  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

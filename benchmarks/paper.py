@@ -54,10 +54,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
 
 from nlo_lab.corpus import sign_corpus  # noqa: E402
-from nlo_lab.inference import OptimizeSettings, RetargetConfig, RetargetInputs  # noqa: E402
+from nlo_lab.inference import OptimizeSettings, RetargetInputs
 from nlo_lab.metrics import self_collision_frames, tracking_errors  # noqa: E402
 from nlo_lab.model import ACTIVATIONS, EncoderInput, load_checkpoint, save_checkpoint  # noqa: E402
 from nlo_lab.objective import LossWeights  # noqa: E402
+from nlo_lab.pipeline import RetargetConfig  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.settings import SECONDS_RANGE  # noqa: E402
 from nlo_lab.threads import single_thread  # noqa: E402

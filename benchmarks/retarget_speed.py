@@ -80,7 +80,8 @@ def _demos(paths: list[str]):
 
 
 def _config(robot, model, iterations: int, variant: str):
-    from nlo_lab.inference import OptimizeSettings, RetargetConfig
+    from nlo_lab.inference import OptimizeSettings
+    from nlo_lab.pipeline import RetargetConfig
 
     settings = OptimizeSettings(iterations=iterations, patience=NO_STOP)
     if variant == "readable":

@@ -110,8 +110,8 @@ def prepare(name: str, out: Path, train_seconds: float, reuse: bool) -> tuple:
 
 def measure(robot, ckpt, demo) -> dict:
     from nlo_lab.evaluation.directions import direction_error
-    from nlo_lab.inference import retarget
     from nlo_lab.metrics import limit_violations
+    from nlo_lab.pipeline import retarget
     from nlo_lab.robot import GeometryCollision
 
     t0 = time.perf_counter()

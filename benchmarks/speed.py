@@ -8,7 +8,7 @@ Run::
 Measured in one run:
 
 1. **Retarget time against sequence length** (30 to 500 frames; clips of the test
-   split concatenated): :func:`nlo_lab.inference.retarget` with 100 latent iterations
+   split concatenated): :func:`nlo_lab.pipeline.retarget` with 100 latent iterations
    forced (no early stop), median of ``--repeats``; also with the default early stop.
 2. **One-frame interactive time** (in ``single_thread()``, as the lab's panel calls it): one frame re-optimised with 30 iterations from the
    encoder's latent (what a slider move costs), median and 90th percentile over
@@ -45,15 +45,9 @@ from nlo_lab.corpus import sign_corpus  # noqa: E402
 from nlo_lab.errors import CheckpointError  # noqa: E402
 from nlo_lab.evaluation import mean_objective  # noqa: E402
 from nlo_lab.human import Demonstration  # noqa: E402
-from nlo_lab.inference import (  # noqa: E402
-    JointOptimizeSettings,
-    OptimizeSettings,
-    RetargetInputs,
-    optimize_joints,
-    optimize_latent,
-    retarget,  # noqa: E402
-)
+from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetInputs, optimize_joints, optimize_latent
 from nlo_lab.model import load_pretrained  # noqa: E402
+from nlo_lab.pipeline import retarget
 from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.threads import single_thread  # noqa: E402
 from nlo_lab.training import TrainSettings, train_model  # noqa: E402
@@ -199,7 +193,7 @@ def main(argv=None) -> int:
     out += [
         "### Retarget time against sequence length",
         "",
-        "`nlo_lab.inference.retarget` (targets + encoder + latent optimisation, the whole sequence as one batch);"
+        "`nlo_lab.pipeline.retarget` (targets + encoder + latent optimisation, the whole sequence as one batch);"
         f" median of {args.repeats} runs.",
         "",
         "| frames | 100 iterations [s] | early stop (patience 5) [s] | iterations taken |",

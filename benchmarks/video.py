@@ -8,7 +8,7 @@
    frames per second, the CPU time over the wall time (the cores the estimation actually
    kept busy), the load average beside each, the speed-up over one worker, and whether
    the landmarks are byte-identical to one worker's (they must be).
-2. Retargeting the sample's demonstration (``nlo_lab.inference.retarget``, 100 iterations).
+2. Retargeting the sample's demonstration (``nlo_lab.pipeline.retarget``, 100 iterations).
 3. End to end per second of video: pose estimation (default workers: every core) +
    retargeting, over the video's duration; and the whole command
    ``nlo-lab retarget VIDEO --json`` as a user runs it (interpreter start and imports included).
@@ -31,8 +31,9 @@ import warnings
 from results_doc import ROOT, stamp, update_section
 
 from nlo_lab.human import estimate_pose, pose_to_demonstration, video_info
-from nlo_lab.inference import OptimizeSettings, retarget
+from nlo_lab.inference import OptimizeSettings
 from nlo_lab.model import load_pretrained
+from nlo_lab.pipeline import retarget
 from nlo_lab.robot import load_robot
 
 SAMPLE = ROOT / "assets" / "recordings" / "signer_webcam_58f.mp4"

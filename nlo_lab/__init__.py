@@ -8,7 +8,7 @@ The front door, for a first retargeting::
 
 Each name is imported from its home on first use (the module's ``__getattr__``), so that
 ``import nlo_lab`` stays cheap: it imports neither torch nor numpy. The homes stay the
-reference: :mod:`nlo_lab.robot`, :mod:`nlo_lab.sources`, :mod:`nlo_lab.inference`,
+reference: :mod:`nlo_lab.robot`, :mod:`nlo_lab.sources`, :mod:`nlo_lab.inference`, :mod:`nlo_lab.pipeline`,
 :mod:`nlo_lab.human`, :mod:`nlo_lab.objective`, :mod:`nlo_lab.errors`.
 """
 
@@ -24,9 +24,9 @@ _HOMES = {
     "Robot": "nlo_lab.robot",
     "load_demonstration": "nlo_lab.sources",  # a file, or demo:NAME
     "Demonstration": "nlo_lab.human",
-    "retarget": "nlo_lab.inference",
-    "RetargetConfig": "nlo_lab.inference",
-    "RetargetResult": "nlo_lab.inference",
+    "retarget": "nlo_lab.pipeline",
+    "RetargetConfig": "nlo_lab.pipeline",
+    "RetargetResult": "nlo_lab.pipeline",
     "OptimizeSettings": "nlo_lab.inference",
     "LossWeights": "nlo_lab.objective",
     "RobotTrajectory": "nlo_lab.inference",

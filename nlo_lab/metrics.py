@@ -10,14 +10,15 @@
 * :func:`tracking_errors`: wrist and elbow Fréchet distances after mapping the
   human into the robot's frame, plus velocity and acceleration errors.
 * :func:`self_collision_frames`, :func:`limit_violations`: feasibility counts.
-* :func:`joint_speeds`, :func:`speed_ratios` (retiming uses them too),
-  :func:`velocity_violations`, :func:`max_joint_speed_ratio`, :func:`max_joint_step`:
+* :func:`velocity_violations`, :func:`max_joint_speed_ratio`, :func:`max_joint_step`:
   joint speed against the robot's published velocity limits, on a trajectory's own
-  time base (a retimed trajectory's samples are not ``1/fps`` apart).
+  time base (a retimed trajectory's samples are not ``1/fps`` apart), on
+  :func:`joint_speeds` and :func:`speed_ratios` (at home in :mod:`nlo_lab.robot.speeds`:
+  retiming reads them too; here for the metrics' readers).
 
-The metrics measure a trajectory; they need the robot and the human, nothing that
-optimises. The retargeting summary (:mod:`nlo_lab.inference`) reports them, so this module
-comes before inference in the imports (docs/ARCHITECTURE.md).
+The metrics measure a trajectory; they come after inference on the data's path and import
+nothing of it. The retargeting summary (:func:`nlo_lab.pipeline.summary`) reports them
+(docs/ARCHITECTURE.md, "The order").
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.human import map_to_robot
 from nlo_lab.human.demonstration import SIDES
 from nlo_lab.robot import check_angles
+from nlo_lab.robot.speeds import joint_speeds, speed_ratios
 from nlo_lab.settings import check_array, check_positive
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -348,34 +350,6 @@ def _times(angles: np.ndarray, times: Any, fps: float | None) -> np.ndarray:
     if t.shape != (angles.shape[0],) or not np.isfinite(t).all() or (np.diff(t) <= 0).any():
         raise SettingsError(f"times must be ({angles.shape[0]},) finite and strictly increasing")
     return t
-
-
-def joint_speeds(angles: Any, times: Any) -> np.ndarray:
-    """``(T-1, n)`` finite-difference joint speeds ``|Δq| / Δt`` [rad/s] on the time base ``times``."""
-    q = np.asarray(angles, dtype=np.float64)
-    t = np.asarray(times, dtype=np.float64)
-    if q.ndim != 2 or t.shape != (q.shape[0],):
-        raise SettingsError(f"times must be ({q.shape[0] if q.ndim else '?'},) to match the angles (T, n), got {t.shape} and {q.shape}")
-    return np.abs(np.diff(q, axis=0)) / np.diff(t)[:, None]
-
-
-def speed_ratios(angles: Any, times: Any, limits: Any) -> np.ndarray:
-    """``(T-1, n)`` joint speed over its limit: > 1 is a violation (0 for unlimited joints).
-
-    Retiming (:mod:`nlo_lab.inference.retime`) stretches the segments until none is over 1.
-
-    Args:
-        angles: ``(T, n)`` [rad].
-        times: ``(T,)`` sample times [s].
-        limits: ``(n,)`` joint velocity limits [rad/s], each > 0 (``inf`` = no limit).
-    """
-    q = np.asarray(angles, dtype=np.float64)
-    v = np.asarray(limits, dtype=np.float64).reshape(-1)
-    if q.ndim != 2 or q.shape[1] != v.shape[0]:
-        raise SettingsError(f"angles must be (T, {v.shape[0]}) to match the velocity limits, got {q.shape}")
-    if not (v > 0).all():
-        raise SettingsError("velocity limits must be > 0 (inf = no limit)")
-    return joint_speeds(q, times) / v
 
 
 def joint_speed_ratios(robot: Robot, angles: Any, times: Any = None, fps: float | None = None) -> np.ndarray:

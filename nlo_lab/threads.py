@@ -5,7 +5,7 @@ than one intra-op thread, each operation hands work to a thread pool; on a
 2-core machine with anything else running, those hand-offs spin and wait and
 a 1.5 s job can take a minute (measured: FK of 133 frames of YuMi, 1.5 ms on
 one thread against 95 ms on two, with a second process busy). So the command
-line, the notebooks and :func:`nlo_lab.inference.retarget` use one thread.
+line, the notebooks and :func:`nlo_lab.pipeline.retarget` use one thread.
 
 numpy's BLAS (OpenBLAS in numpy's wheels) keeps its own pool, one thread per core, which
 torch's setting does not reach: the numpy forms of the decoder, FK and the objective

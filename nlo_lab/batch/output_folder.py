@@ -37,7 +37,7 @@ def write_output_folder(out_dir, result, demo, robot: Robot, *, viewer: bool = T
 
     Args:
         out_dir: the folder (created with its parents; other plain files in it are kept).
-        result: a :class:`~nlo_lab.inference.RetargetResult`.
+        result: a :class:`~nlo_lab.pipeline.RetargetResult`.
         demo: the demonstration it was made from (the viewer shows it beside the robot).
         robot: the robot.
         viewer: write ``viewer.html`` (the robot's motion beside the human's, played on the

@@ -110,8 +110,9 @@ class BatchSettings:
             NloLabError: an unknown robot, a bad spec or checkpoint, a setting out of range.
         """
         # lazy: torch: building the retargeter is the workers' work, not the client's
-        from nlo_lab.inference import OptimizeSettings, RetargetConfig
+        from nlo_lab.inference import OptimizeSettings
         from nlo_lab.objective import LossWeights
+        from nlo_lab.pipeline import RetargetConfig
         from nlo_lab.robot import load_robot
 
         settings = OptimizeSettings(init=self.init, iterations=self.iterations, seed=self.seed)

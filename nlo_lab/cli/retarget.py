@@ -98,9 +98,10 @@ def _print_summary(summary: dict) -> None:
 
 def run(args) -> int:
     from nlo_lab.atomic_files import check_output_place
-    from nlo_lab.inference import OptimizeSettings, RetargetConfig
+    from nlo_lab.inference import OptimizeSettings
     from nlo_lab.model import load_pretrained
     from nlo_lab.objective import LossWeights
+    from nlo_lab.pipeline import RetargetConfig
     from nlo_lab.robot import load_robot
 
     if args.out is not None:

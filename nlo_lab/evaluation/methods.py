@@ -41,8 +41,9 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.human import map_to_robot, node_features
-from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, RetargetConfig, optimize_joints, retime_times
+from nlo_lab.inference import JointOptimizeSettings, OptimizeSettings, optimize_joints, retime_times
 from nlo_lab.objective import LossWeights, objective, targets_from_demonstration
+from nlo_lab.pipeline import RetargetConfig
 from nlo_lab.settings import (
     ITERATIONS_RANGE,
     PATIENCE_RANGE,
@@ -168,9 +169,9 @@ def _numpy(q: torch.Tensor) -> np.ndarray:
 
 
 def _latent(name: str, robot, demo, settings: BaselineSettings, model, init: str, iterations: int) -> MethodResult:
-    """The retargeting pipeline's optimisation (:class:`~nlo_lab.inference.RetargetConfig`) with the
+    """The retargeting pipeline's optimisation (:class:`~nlo_lab.pipeline.RetargetConfig`) with the
     evaluation's fixed budget and the mode's weights, the whole sequence as one batch; retimed
-    to the velocity limits in robot-ready mode (as :meth:`~nlo_lab.inference.Retargeter.__call__` does)."""
+    to the velocity limits in robot-ready mode (as :meth:`~nlo_lab.pipeline.Retargeter.__call__` does)."""
     opt = OptimizeSettings(init=init, iterations=iterations, patience=settings.patience, latent_sigma=settings.random_sigma, seed=settings.seed)
     retargeter = RetargetConfig(robot, opt, settings.loss_weights, model=model, chunk_frames=None, retime=settings.retime).build()
     start = time.perf_counter()

@@ -9,15 +9,18 @@
 - :mod:`~nlo_lab.inference.joint_space`: the joint-space baseline (:func:`optimize_joints`).
 - :mod:`~nlo_lab.inference.retime`: slowing a trajectory to the joints' velocity limits.
 - :mod:`~nlo_lab.inference.trajectory`: :class:`RobotTrajectory` and its files.
-- :mod:`~nlo_lab.inference.pipeline`: the pipeline assembled in one place
-  (:class:`RetargetConfig` ``.build()`` -> :class:`Retargeter`), :func:`retarget`, :func:`summary`.
+- :mod:`~nlo_lab.inference.inputs`: :class:`RetargetInputs`, a demonstration's frames as the
+  optimisation and the training read them.
+
+The pipeline that assembles inference with the metrics (:class:`~nlo_lab.pipeline.RetargetConfig`,
+:func:`~nlo_lab.pipeline.retarget`) comes after the metrics: :mod:`nlo_lab.pipeline`.
 """
 
 from nlo_lab.inference.descent import Adam, OptimizeResult, descend, frozen, join_results, smoothness_term
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
+from nlo_lab.inference.inputs import RetargetInputs
 from nlo_lab.inference.joint_space import optimize_joints
 from nlo_lab.inference.latent import initial_latent, optimize_latent, optimize_stream, sequence_start
-from nlo_lab.inference.pipeline import CHUNK_FRAMES, RetargetConfig, Retargeter, RetargetInputs, RetargetResult, retarget, summary
 from nlo_lab.inference.retime import retime_times, segment_durations
 from nlo_lab.inference.settings import INITS, JOINT_INITS, JOINT_LIMITS, PAPER_LR, SMOOTH_LR, JointOptimizeSettings, OptimizeSettings
 from nlo_lab.inference.trajectory import FORMAT_VERSION, RobotTrajectory, TrajectoryError
@@ -34,6 +37,6 @@ __all__ = [
     # retime, trajectory
     "retime_times", "segment_durations",
     "RobotTrajectory", "TrajectoryError", "FORMAT_VERSION",
-    # pipeline
-    "CHUNK_FRAMES", "RetargetConfig", "Retargeter", "RetargetInputs", "RetargetResult", "retarget", "summary",
+    # inputs
+    "RetargetInputs",
 ]

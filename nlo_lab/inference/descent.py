@@ -61,7 +61,7 @@ def join_results(parts: list[OptimizeResult], init: str, seconds: float, frames_
     ``history`` is the mean over parts of each evaluation (a part that stopped early
     contributes its last value), weighted by the parts' frames when ``frames_weighted``;
     ``iterations`` the total steps, or with ``frames_weighted`` (parts optimised as
-    batches, :func:`nlo_lab.inference.retarget`) the most steps any part took.
+    batches, :func:`nlo_lab.pipeline.retarget`) the most steps any part took.
     """
     n = max(len(r.history) for r in parts)
     weight = [len(r.q) if frames_weighted else 1 for r in parts]

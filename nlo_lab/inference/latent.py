@@ -165,7 +165,7 @@ def optimize_latent(
         z0: ``(T, N_r, k)`` start latents; overrides ``settings.init`` (warm start).
         callback: called as ``callback(iteration, mean_loss)`` after every evaluation.
         anchor: ``(n,)`` fixed joint angles of the frame just before ``targets`` (the
-            previous chunk's last frame, :func:`nlo_lab.inference.retarget`): with the
+            previous chunk's last frame, :func:`nlo_lab.pipeline.retarget`): with the
             smoothness term on, frame 0's step from it is part of the objective and of
             the warm start, so a sequence optimised in chunks has no seam.
         encoder_input: the encoder's input of the same T frames; needed for

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.metrics import speed_ratios
+from nlo_lab.robot.speeds import speed_ratios
 
 __all__ = ["SAFETY", "segment_durations", "retime_times"]
 

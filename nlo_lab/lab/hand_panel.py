@@ -16,10 +16,11 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.evaluation.hands import hand_scores
-from nlo_lab.inference import OptimizeSettings, RetargetConfig
+from nlo_lab.inference import OptimizeSettings
 from nlo_lab.lab.views import View, guarded
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import HAND_TERMS, LossWeights, point_plan, targets_from_demonstration
+from nlo_lab.pipeline import RetargetConfig
 from nlo_lab.viz import RobotScene, frame_points, style_viewer
 from nlo_lab.viz.tracks import translation
 

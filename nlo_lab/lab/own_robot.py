@@ -54,8 +54,9 @@ def retarget_report(robot: Robot, demo, model, iterations: int = 100) -> dict[st
     ``arms_gap_m`` (the smallest gap between a left-arm and a right-arm capsule of the checked pairs, over the output).
     """
     from nlo_lab.evaluation import direction_error
-    from nlo_lab.inference import OptimizeSettings, retarget
+    from nlo_lab.inference import OptimizeSettings
     from nlo_lab.objective import robot_points
+    from nlo_lab.pipeline import retarget
 
     result = retarget(demo, robot, model=model, settings=OptimizeSettings(iterations=iterations))
     q = torch.as_tensor(np.array(result.trajectory.angles, dtype=np.float64))

@@ -31,11 +31,12 @@ import numpy as np
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.inference import INITS, OptimizeResult, OptimizeSettings, RetargetConfig, Retargeter, RetargetInputs, retime_times
+from nlo_lab.inference import INITS, OptimizeResult, OptimizeSettings, RetargetInputs, retime_times
 from nlo_lab.lab.views import View, guarded, svg_convergence
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import TERMS, LossWeights, Targets
 from nlo_lab.paths import BUNDLED_ROBOTS
+from nlo_lab.pipeline import RetargetConfig, Retargeter
 from nlo_lab.robot import load_robot
 from nlo_lab.threads import single_thread
 from nlo_lab.viz import RetargetScene
@@ -266,7 +267,7 @@ class RetargetPanel:
 
     def play_times(self) -> np.ndarray:
         """``(T,)`` times [s] at which Play shows the frames: the current angles retimed to the robot's
-        velocity limits (:func:`nlo_lab.inference.retime_times`, as :func:`nlo_lab.inference.retarget` does)."""
+        velocity limits (:func:`nlo_lab.inference.retime_times`, as :func:`nlo_lab.pipeline.retarget` does)."""
         return retime_times(self.angles, self.demo.fps, self.robot.velocity_limits.double().numpy())
 
     def reoptimise_frame(self, warm: bool = True) -> OptimizeResult:

@@ -6,7 +6,7 @@
 2. the ``.pose`` reader's geometry made causal, with a One-Euro filter on the landmarks
    (:class:`~nlo_lab.live.causal_reader.CausalReader`): a one-frame demonstration in the body frame;
 3. latent optimisation of that frame through the public pipeline (``RetargetConfig(...).build()``,
-   :meth:`~nlo_lab.inference.Retargeter.optimize_frame`), warm-started from the previous frame's latent
+   :meth:`~nlo_lab.pipeline.Retargeter.optimize_frame`), warm-started from the previous frame's latent
    (the encoder's guess when the person (re)appears);
 4. the robot's limits (:class:`~nlo_lab.live.motion_limits.MotionLimits`): the output moves towards the
    optimised pose by at most each joint's velocity limit times the time since the last frame (the
@@ -29,11 +29,12 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.human import Demonstration
-from nlo_lab.inference import OptimizeSettings, RetargetConfig, RetargetInputs
+from nlo_lab.inference import OptimizeSettings, RetargetInputs
 from nlo_lab.live.causal_reader import CausalReader, FilterSettings
 from nlo_lab.live.holistic import FrameLandmarks, HolisticTracker
 from nlo_lab.live.motion_limits import MotionLimits, ease_toward
 from nlo_lab.objective import LossWeights
+from nlo_lab.pipeline import RetargetConfig
 from nlo_lab.robot import Robot, load_robot
 from nlo_lab.settings import ITERATIONS_RANGE, check_int, check_positive
 

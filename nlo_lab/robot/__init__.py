@@ -21,7 +21,8 @@ by the URDF's own geometry), :mod:`~nlo_lab.robot.capsule_fit` and
 A robot of one's own: :mod:`~nlo_lab.robot.fixed_joints` (joints not actuated fixed, the robot
 frame at the root), :mod:`~nlo_lab.robot.arm_finder`, :mod:`~nlo_lab.robot.wrist_alignment`,
 :mod:`~nlo_lab.robot.spec_draft` (``nlo-lab robot init``), :mod:`~nlo_lab.robot.spec_check`
-(``nlo-lab robot check``) and :mod:`~nlo_lab.robot.srdf`.
+(``nlo-lab robot check``) and :mod:`~nlo_lab.robot.srdf`. A trajectory against the robot:
+:mod:`~nlo_lab.robot.speeds` (joint speeds over the velocity limits; retiming and the metrics read them).
 """
 
 from nlo_lab.robot.collision import capsule_distance, closest_parameters, segment_distance, segment_distance_ends
@@ -32,6 +33,7 @@ from nlo_lab.robot.robot import Robot, as_robot, check_angles, load_robot
 from nlo_lab.robot.spec import ArmSpec, CapsuleSpec, RobotSpec, known_robots, load_spec
 from nlo_lab.robot.spec_check import check_spec, spec_summary
 from nlo_lab.robot.spec_draft import Draft, draft_spec
+from nlo_lab.robot.speeds import joint_speeds, speed_ratios
 from nlo_lab.robot.structure_graph import structure_graph
 from nlo_lab.robot.urdf import JointInfo, URDFModel, load_urdf, parse_urdf
 
@@ -63,4 +65,6 @@ __all__ = [
     "draft_spec",
     "check_spec",
     "spec_summary",
+    "joint_speeds",
+    "speed_ratios",
 ]

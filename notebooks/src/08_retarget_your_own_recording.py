@@ -37,7 +37,8 @@ print(f"{path.name}: {len(demo)} frames at {demo.fps} fps")
 # shipped model of the robot; it returns the trajectory and the quality figures.
 
 # %%
-from nlo_lab.inference import OptimizeSettings, retarget
+from nlo_lab.inference import OptimizeSettings
+from nlo_lab.pipeline import retarget
 from nlo_lab.robot import load_robot
 
 robot = load_robot("yumi")                 # or "nao", "pepper"

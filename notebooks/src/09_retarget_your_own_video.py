@@ -90,7 +90,8 @@ Markdown(f"MediaPipe found the left hand in **{seen['left']}** and the right han
 # The same call as in notebook 08: the encoder's guess, then latent optimisation of the whole clip.
 
 # %%
-from nlo_lab.inference import OptimizeSettings, retarget
+from nlo_lab.inference import OptimizeSettings
+from nlo_lab.pipeline import retarget
 from nlo_lab.robot import load_robot
 
 robot = load_robot("yumi")                 # or "nao", "pepper"

@@ -102,8 +102,9 @@ from IPython.display import Markdown
 
 from nlo_lab.evaluation import direction_error
 from nlo_lab.human import load_demonstration
-from nlo_lab.inference import OptimizeSettings, retarget
+from nlo_lab.inference import OptimizeSettings
 from nlo_lab.lab import recording_path, show_view
+from nlo_lab.pipeline import retarget
 from nlo_lab.robot import load_robot
 
 demo = load_demonstration(recording_path())

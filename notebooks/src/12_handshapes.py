@@ -95,7 +95,8 @@ print(LossWeights())
 import numpy as np
 
 from nlo_lab.evaluation.hands import best_hand_angles, hand_scores, robot_hand_points
-from nlo_lab.inference import OptimizeSettings, RetargetConfig
+from nlo_lab.inference import OptimizeSettings
+from nlo_lab.pipeline import RetargetConfig
 
 weights = LossWeights(smooth=0.0)
 result = RetargetConfig(robot, settings=OptimizeSettings(iterations=budget(100, 20)), weights=weights, retime=False).build()(demo)

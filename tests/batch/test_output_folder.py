@@ -10,8 +10,9 @@ import pytest
 
 from nlo_lab.batch import SUMMARY_FILE, read_summary, write_output_folder
 from nlo_lab.human import load_demonstration
-from nlo_lab.inference import OptimizeSettings, RetargetConfig
+from nlo_lab.inference import OptimizeSettings
 from nlo_lab.paths import RECORDINGS_DIR
+from nlo_lab.pipeline import RetargetConfig
 from nlo_lab.robot import load_robot
 
 

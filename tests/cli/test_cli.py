@@ -169,7 +169,8 @@ def test_retarget_progress_bar_on_a_terminal_unless_quiet(monkeypatch, capsys, q
 
 def test_retarget_progress_bar_leaves_the_result_unchanged(capsys):
     from nlo_lab.corpus import corpus_clip, corpus_names
-    from nlo_lab.inference import OptimizeSettings, retarget
+    from nlo_lab.inference import OptimizeSettings
+    from nlo_lab.pipeline import retarget
     from nlo_lab.robot import load_robot
 
     robot, demo = load_robot("nao"), corpus_clip(corpus_names("test")[1])

@@ -144,7 +144,7 @@ def test_a_fully_masked_arm_names_the_file(work, demo_npz, capsys):
 def test_a_nan_loss_names_the_file(work, demo_npz, capsys, monkeypatch):
     import torch
 
-    import nlo_lab.inference.pipeline as pipeline
+    import nlo_lab.pipeline as pipeline
 
     real = pipeline.optimize_latent
 

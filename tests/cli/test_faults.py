@@ -31,7 +31,7 @@ from nlo_lab.cli import OUTPUT_FILES, main
 from nlo_lab.cli import retarget as retarget_command
 from nlo_lab.errors import CheckpointError, DemonstrationError, SettingsError
 from nlo_lab.human import save_npz
-from nlo_lab.inference import retarget
+from nlo_lab.pipeline import retarget
 from nlo_lab.robot import load_robot
 
 REPO = Path(__file__).resolve().parents[2]
@@ -493,7 +493,7 @@ def test_memory_error_is_one_line(work, demo_npz, capsys, monkeypatch):
     def oom(*args, **kwargs):
         raise MemoryError()
 
-    monkeypatch.setattr("nlo_lab.inference.Retargeter.__call__", oom)
+    monkeypatch.setattr("nlo_lab.pipeline.Retargeter.__call__", oom)
     fails_cleanly(capsys, work, ["retarget", demo_npz, "--robot", "nao", "--out", "out"], "out of memory")
 
 
@@ -501,7 +501,7 @@ def test_a_bug_still_gives_a_traceback(work, demo_npz, monkeypatch):
     def bug(*args, **kwargs):
         raise ZeroDivisionError("our bug")
 
-    monkeypatch.setattr("nlo_lab.inference.Retargeter.__call__", bug)
+    monkeypatch.setattr("nlo_lab.pipeline.Retargeter.__call__", bug)
     with pytest.raises(ZeroDivisionError):  # exit 1 with a traceback, from the interpreter
         main(["retarget", str(demo_npz), "--robot", "nao"])
 
@@ -537,7 +537,7 @@ def test_stale_temp_folder_of_a_killed_run_is_cleaned(work, demo_npz, capsys):
 def test_warnings_are_one_line_each_and_quiet_silences_them(work, demo_npz, capsys, monkeypatch):
     import warnings
 
-    from nlo_lab.inference import Retargeter
+    from nlo_lab.pipeline import Retargeter
 
     real = Retargeter.__call__
 

@@ -179,8 +179,9 @@ def test_demonstrations_are_built_or_refused(case):
     st.sampled_from(("ee", "ori", "elbow", "smooth", "collision")), st.floats(0, 1e6), max_size=2))
 def test_retarget_returns_a_finite_trajectory_or_refuses(case, iterations, weights, nao):
     from nlo_lab.human import Demonstration
-    from nlo_lab.inference import OptimizeSettings, retarget
+    from nlo_lab.inference import OptimizeSettings
     from nlo_lab.objective import LossWeights
+    from nlo_lab.pipeline import retarget
 
     fps, arrays = case
     demo = only_nlo_lab_errors(Demonstration, fps, **arrays)
@@ -194,7 +195,7 @@ def test_retarget_returns_a_finite_trajectory_or_refuses(case, iterations, weigh
 @PROFILE
 @given(args=st.tuples(anything, anything, anything, anything))
 def test_retarget_refuses_arguments_of_the_wrong_kind(args, nao):
-    from nlo_lab.inference import RetargetConfig, retarget
+    from nlo_lab.pipeline import RetargetConfig, retarget
 
     demo_arg, robot_arg, settings_arg, weights_arg = args
     only_nlo_lab_errors(retarget, demo_arg, nao)

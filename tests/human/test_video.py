@@ -111,8 +111,9 @@ def test_saved_pose_reads_back_to_the_same_demonstration(sample):
 
 
 def test_sample_retargets_feasibly(sample):
-    from nlo_lab.inference import OptimizeSettings, retarget
+    from nlo_lab.inference import OptimizeSettings
     from nlo_lab.metrics import limit_violations, max_joint_step, self_collision_frames, velocity_violations
+    from nlo_lab.pipeline import retarget
     from nlo_lab.robot import load_robot
 
     demo, _, _ = sample

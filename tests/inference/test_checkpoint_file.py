@@ -16,9 +16,10 @@ import torch
 from nlo_lab.cli import main
 from nlo_lab.errors import CheckpointError, SettingsError
 from nlo_lab.evaluation import evaluate_split
-from nlo_lab.inference import OptimizeSettings, RetargetConfig, retarget
+from nlo_lab.inference import OptimizeSettings
 from nlo_lab.model import load_pretrained, save_checkpoint
 from nlo_lab.paths import RECORDINGS_DIR
+from nlo_lab.pipeline import RetargetConfig, retarget
 from nlo_lab.robot import load_robot
 
 SETTINGS = OptimizeSettings(iterations=3)

@@ -10,9 +10,10 @@ import torch
 
 from nlo_lab.corpus import corpus_clip
 from nlo_lab.errors import SettingsError
-from nlo_lab.inference import FastPaths, OptimizeSettings, RetargetConfig, RetargetInputs, fast_paths, optimize_joints, optimize_latent
+from nlo_lab.inference import FastPaths, OptimizeSettings, RetargetInputs, fast_paths, optimize_joints, optimize_latent
 from nlo_lab.inference.fast_paths import DECODER_NUMPY_MAX_BATCH
 from nlo_lab.model import load_pretrained
+from nlo_lab.pipeline import RetargetConfig
 
 
 @pytest.fixture(scope="module")

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 import umsgpack
 
-from nlo_lab.inference import OptimizeSettings, retarget
+from nlo_lab.inference import OptimizeSettings
 from nlo_lab.metrics import frechet_distance, frechet_distance_reference
 from nlo_lab.objective import LossWeights
+from nlo_lab.pipeline import retarget
 from nlo_lab.robot import load_robot
 from nlo_lab.viz import _packing
 from nlo_lab.viz.export import VIEWER_MAX_FRAMES, decimate, recording_visualizer, static_html

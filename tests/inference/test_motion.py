@@ -21,7 +21,6 @@ from nlo_lab.inference import (
     RobotTrajectory,
     initial_latent,
     optimize_latent,
-    retarget,
     retime_times,
     segment_durations,
     sequence_start,
@@ -29,6 +28,7 @@ from nlo_lab.inference import (
 from nlo_lab.metrics import joint_speed_ratios, max_joint_speed_ratio, max_joint_step, velocity_violations
 from nlo_lab.model import encoder_input, load_pretrained
 from nlo_lab.objective import LossWeights, smoothness_loss, targets_from_demonstration
+from nlo_lab.pipeline import retarget
 from nlo_lab.robot import load_robot
 
 RECORDINGS = ["holistic_both_hands_47f.pose", "holistic_world_97f.pose", "mediapipe_right_hand_170f.pose"]

@@ -171,7 +171,7 @@ def test_callback_errors_are_shown_in_the_panel(demo, monkeypatch):
     def broken(*args, **kwargs):
         raise RuntimeError("the optimiser broke")
 
-    monkeypatch.setattr("nlo_lab.inference.Retargeter.optimize", broken)
+    monkeypatch.setattr("nlo_lab.pipeline.Retargeter.optimize", broken)
     with pytest.raises(RuntimeError, match="broke"):
         p.controls["ee"].value = 10.0
     assert "the optimiser broke" in p.error and "nlo-lab-panel-error" in p.status.value

@@ -71,7 +71,9 @@ def test_the_checks_see_what_they_look_for(arch, tmp_path):
 
 @pytest.mark.parametrize("module, before, after", [
     ("nlo_lab.training.train", "nlo_lab.inference.latent", "nlo_lab.evaluation.scores"),
-    ("nlo_lab.metrics", "nlo_lab.robot.robot", "nlo_lab.inference.retime"),
+    ("nlo_lab.metrics", "nlo_lab.inference.retime", "nlo_lab.evaluation.scores"),
+    ("nlo_lab.robot.speeds", "nlo_lab.human.demonstration", "nlo_lab.inference.retime"),
+    ("nlo_lab.pipeline", "nlo_lab.metrics", "nlo_lab.evaluation.methods"),
     ("nlo_lab.corpus.body", "nlo_lab.human.demonstration", "nlo_lab.sources"),
     ("nlo_lab", "nlo_lab.batch", "nlo_lab.cli.app"),
 ])

@@ -117,7 +117,8 @@ def test_the_command_line_and_the_settings_share_the_ranges():
 
 
 def test_retarget_config_checks_its_arguments(nao):
-    from nlo_lab.inference import OptimizeSettings, RetargetConfig
+    from nlo_lab.inference import OptimizeSettings
+    from nlo_lab.pipeline import RetargetConfig
 
     for kwargs, match in (({"robot": "nao"}, "robot must be a Robot"), ({"settings": {"iterations": 5}}, "settings must be OptimizeSettings"),
                           ({"weights": "ee=1"}, "weights must be LossWeights"), ({"chunk_frames": 0}, "chunk_frames"),
@@ -174,7 +175,7 @@ def test_coordinates_beyond_a_kilometre_are_an_error(tmp_path):
 
 def test_a_demonstration_read_from_a_file_names_it_in_later_errors(tmp_path, nao):
     from nlo_lab.human import load_demonstration, save_npz
-    from nlo_lab.inference import retarget
+    from nlo_lab.pipeline import retarget
 
     path = save_npz(_demo(), tmp_path / "clip.npz")
     demo = load_demonstration(path)
@@ -188,8 +189,9 @@ def test_a_nan_loss_names_the_file(tmp_path, nao, monkeypatch):
     import torch
 
     from nlo_lab.human import load_demonstration, save_npz
-    from nlo_lab.inference import OptimizeSettings, retarget
+    from nlo_lab.inference import OptimizeSettings
     from nlo_lab.inference import latent as latent_module
+    from nlo_lab.pipeline import retarget
 
     demo = load_demonstration(save_npz(_demo(), tmp_path / "clip.npz"))
     real = latent_module.optimize_latent
@@ -199,7 +201,7 @@ def test_a_nan_loss_names_the_file(tmp_path, nao, monkeypatch):
         result.loss = torch.full_like(result.loss, float("nan"))
         return result
 
-    import nlo_lab.inference.pipeline as pipeline
+    import nlo_lab.pipeline as pipeline
 
     monkeypatch.setattr(pipeline, "optimize_latent", nan_loss)
     with pytest.raises(SettingsError, match=r"the loss became NaN or infinite retargeting 'introduction_06' to nao .*\(file .*clip.npz\)"):

@@ -9,9 +9,10 @@ import torch
 
 from nlo_lab.corpus import sign_corpus
 from nlo_lab.errors import SettingsError
-from nlo_lab.inference import OptimizeSettings, RetargetConfig, optimize_latent
+from nlo_lab.inference import OptimizeSettings, optimize_latent
 from nlo_lab.model import load_checkpoint, save_checkpoint
 from nlo_lab.objective import LossWeights, objective
+from nlo_lab.pipeline import RetargetConfig
 from nlo_lab.training import LatentCodes, TrainSettings, autodecoder_loss, demos_inputs, new_model, train_model
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")

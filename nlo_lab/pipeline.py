@@ -1,4 +1,4 @@
-"""One call from a demonstration to a robot trajectory and its quality figures.
+"""The pipeline: one call from a demonstration to a robot trajectory and its quality figures.
 
 The pipeline is assembled in one place, :class:`RetargetConfig` (in the manner of
 dex-retargeting's ``RetargetingConfig.build()``): the robot, the loss weights, the
@@ -9,6 +9,11 @@ angles to the robot's velocity limits and measures the result with the metric of
 ``nlo_lab.metrics`` (Fréchet distance of wrists and elbows). :func:`retarget` is
 ``RetargetConfig(...).build()(demo)``; the command line, the notebooks, the lab's panel
 and the evaluation's latent methods all go through it.
+
+It assembles inference (the optimisation, :mod:`nlo_lab.inference`) and the metrics
+(:mod:`nlo_lab.metrics`) into one call, so it comes after both on the data's path
+(docs/ARCHITECTURE.md, "The order"): inference imports no metric, and the metrics no
+inference. :func:`summary` is the command line's JSON object.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.human import Demonstration
 from nlo_lab.inference.descent import OptimizeResult, join_results
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
+from nlo_lab.inference.inputs import RetargetInputs
 from nlo_lab.inference.latent import initial_latent, optimize_latent
 from nlo_lab.inference.retime import retime_times
 from nlo_lab.inference.settings import OptimizeSettings
@@ -40,8 +46,8 @@ from nlo_lab.metrics import (
     tracking_errors,
     velocity_violations,
 )
-from nlo_lab.model import EncoderInput, encoder_input, load_pretrained
-from nlo_lab.objective import LossWeights, Targets, targets_from_demonstration
+from nlo_lab.model import load_pretrained
+from nlo_lab.objective import LossWeights, Targets
 from nlo_lab.robot import Robot
 from nlo_lab.settings import COUNT_RANGE, check_bool, check_int, check_type
 from nlo_lab.threads import single_thread
@@ -49,7 +55,7 @@ from nlo_lab.threads import single_thread
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.model import RetargetModel
 
-__all__ = ["CHUNK_FRAMES", "RetargetConfig", "Retargeter", "RetargetInputs", "RetargetResult", "retarget", "summary"]
+__all__ = ["CHUNK_FRAMES", "RetargetConfig", "Retargeter", "RetargetResult", "retarget", "summary"]
 
 # Frames optimised together. Frames are independent (per-frame losses, per-frame Adam),
 # so chunks only bound memory: the autograd graph of one step holds about 0.3 MB per
@@ -77,37 +83,6 @@ class RetargetResult:
     optimization: OptimizeResult
     seconds: float
     summary: dict[str, Any] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class RetargetInputs:
-    """Demonstration frames as the latent optimisation and the training read them: what
-    the objective compares (:class:`~nlo_lab.objective.Targets`) and what the encoder
-    reads (:class:`~nlo_lab.model.EncoderInput`), the same T frames each."""
-
-    targets: Targets
-    encoder: EncoderInput
-
-    def __len__(self) -> int:
-        return len(self.targets)
-
-    def index(self, idx) -> RetargetInputs:
-        """Frames ``idx`` (a slice, index tensor or boolean mask)."""
-        return RetargetInputs(self.targets.index(idx), self.encoder.index(idx))
-
-    def to(self, device=None, dtype=None) -> RetargetInputs:
-        """A copy on ``device``; ``dtype`` applies to the float tensors only."""
-        return RetargetInputs(self.targets.to(device=device, dtype=dtype), self.encoder.to(device=device, dtype=dtype))
-
-    @staticmethod
-    def cat(items: list[RetargetInputs]) -> RetargetInputs:
-        """Concatenate along frames."""
-        return RetargetInputs(Targets.cat([x.targets for x in items]), EncoderInput.cat([x.encoder for x in items]))
-
-    @staticmethod
-    def from_demonstration(demo: Demonstration, dtype: torch.dtype = torch.float32, device=None) -> RetargetInputs:
-        """Targets in ``dtype`` on ``device``; the encoder's input in float32 (the models' dtype) on ``device``."""
-        return RetargetInputs(targets_from_demonstration(demo, dtype=dtype, device=device), encoder_input(demo, device=device))
 
 
 @dataclass(frozen=True)
@@ -263,7 +238,7 @@ class Retargeter:
         angles = result.q.detach().cpu().numpy().astype(np.float64)
         limits = robot.velocity_limits.double().numpy()
         times = retime_times(angles, demo.fps, limits) if self.config.retime else None
-        trajectory = RobotTrajectory(robot=robot.name, joint_names=list(robot.joint_names), angles=angles, fps=demo.fps, time=times)
+        trajectory = RobotTrajectory(robot=robot.name, joint_names=tuple(robot.joint_names), angles=angles, fps=demo.fps, time=times)
         out = RetargetResult(trajectory=trajectory, optimization=result, seconds=seconds)
         with single_thread():  # the metrics' FK too: with a thread per core, a busy machine made it 10x slower
             out.summary = summary(demo, robot, out)

@@ -11,18 +11,10 @@ import torch
 from nlo_lab.corpus import corpus_clip
 from nlo_lab.errors import SettingsError
 from nlo_lab.evaluation import BaselineSettings, run_method
-from nlo_lab.inference import (
-    OptimizeSettings,
-    RetargetConfig,
-    Retargeter,
-    RetargetInputs,
-    initial_latent,
-    optimize_latent,
-    retarget,
-    retime_times,
-)
+from nlo_lab.inference import OptimizeSettings, RetargetInputs, initial_latent, optimize_latent, retime_times
 from nlo_lab.model import encoder_input, load_pretrained
 from nlo_lab.objective import LossWeights, targets_from_demonstration
+from nlo_lab.pipeline import RetargetConfig, Retargeter, retarget
 from nlo_lab.threads import single_thread
 
 SETTINGS = OptimizeSettings(iterations=8)
