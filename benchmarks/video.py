@@ -12,6 +12,9 @@
 3. End to end per second of video: pose estimation (default workers: every core) +
    retargeting, over the video's duration; and the whole command
    ``nlo-lab retarget VIDEO --json`` as a user runs it (interpreter start and imports included).
+4. The cost of the segments that let workers share a video: the sample estimated as one
+   segment (pure tracking, ``SEGMENT_FRAMES`` raised above the frame count) against the
+   default segments, both retargeted with the default settings (``--no-segments`` skips it).
 
 Medians of ``--repeats`` runs; rewrites the ``video`` section of docs/RESULTS.md
 unless ``--no-write``.
@@ -28,8 +31,10 @@ import sys
 import time
 import warnings
 
+import numpy as np
 from results_doc import ROOT, stamp, update_section
 
+import nlo_lab.human.readers.video as video_reader
 from nlo_lab.human import estimate_pose, pose_to_demonstration, video_info
 from nlo_lab.inference import OptimizeSettings
 from nlo_lab.model import load_pretrained
@@ -45,6 +50,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--workers", default="1,2", help="comma-separated numbers of Holistic instances")
     ap.add_argument("--no-cli", action="store_true", help="skip timing the command line")
+    ap.add_argument("--no-segments", action="store_true", help="skip measuring the cost of the 30-frame segments")
     ap.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
     args = ap.parse_args()
     info = video_info(SAMPLE)
@@ -122,6 +128,8 @@ def main() -> None:
         print(f"command line `nlo-lab retarget {SAMPLE.name} --robot {robot.name} --json`: {cli:.2f} s median of "
               f"{args.repeats} ({cli / duration:.2f} s per second of video; pose_seconds {statistics.median(pose_in_cli):.2f})")
 
+    segments = None if args.no_segments else segment_cost(default_video, robot, model)
+
     if args.no_write:
         return
     lines = [
@@ -156,8 +164,70 @@ def main() -> None:
     if cli is not None:
         lines.append(f"- the command `nlo-lab retarget {SAMPLE.name} --robot {robot.name} --json` "
                      f"(start, imports, estimation, retargeting): {cli:.2f} s, {cli / duration:.2f} s per second of video")
+    lines += reading(rows, identical)
+    if segments is not None:
+        lines += segments
     update_section("video", "\n".join(lines))
     print("updated docs/RESULTS.md (section video)")
+
+
+def reading(rows, identical: bool) -> list[str]:
+    """What the pose-estimation table says, in words made from its own figures."""
+    if len(rows) < 2:
+        return []
+    first, last = rows[0], rows[-1]
+    speedup, busy, load = last[5], last[4], last[6]
+    verdict = ("a core was free for the extra worker" if speedup >= 1.2 else
+               "the extra worker found no idle core (a second worker helps only where a core is idle)")
+    return [
+        "",
+        f"Reading the table: {last[0]} workers against {first[0]}: {speedup:.2f}x "
+        f"({last[3]:.1f} against {first[3]:.1f} frames/s; CPU time / wall {busy:.2f}) at load average {load:.1f}: "
+        f"{verdict}. Whatever the load, the landmarks {'are' if identical else 'are NOT'} byte-identical for every "
+        "number of workers (also tested: "
+        "`tests/human/test_video.py::test_the_result_does_not_depend_on_the_number_of_workers`).",
+    ]
+
+
+def segment_cost(segmented, robot, model) -> list[str]:
+    """Retarget the sample from its default segments and from one segment (pure tracking); compare."""
+    saved = video_reader.SEGMENT_FRAMES
+    video_reader.SEGMENT_FRAMES = 10**6  # one segment: Holistic tracks the whole video
+    try:
+        whole = estimate_pose(SAMPLE, threads=1)
+    finally:
+        video_reader.SEGMENT_FRAMES = saved
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the sample's left hand is never seen: known
+        demos = {"segments": pose_to_demonstration(segmented), "one segment": pose_to_demonstration(whole)}
+    runs = {name: retarget(demo, robot, model=model) for name, demo in demos.items()}  # the default settings
+    a, b = demos["segments"], demos["one segment"]
+    both = a.arm_mask & b.arm_mask
+    apart = np.where(both, np.linalg.norm(a.arm_positions - b.arm_positions, axis=-1), -1.0)  # (T, 2, 3)
+    where = int(np.unravel_index(np.argmax(apart), apart.shape)[0])
+    gap = float(apart.max())
+    sa, sb = runs["segments"].summary, runs["one segment"].summary
+    restarts = ", ".join(str(first) for first, _ in video_reader.segment_bounds(SAMPLE)[1:]) or "none"
+    print(f"segments vs one segment: Fréchet {sa['frechet_m']:.4f} vs {sb['frechet_m']:.4f} m; largest arm-point gap {gap:.3f} m")
+
+    def violations(s):
+        return f"{s['limit_violations']} limit, {s['self_collision_frames']} collision, {s['velocity_violations']} velocity"
+
+    return [
+        "",
+        f"### Cost of the {saved}-frame segments",
+        "",
+        f"Tracking restarts at frame(s) {restarts}. The sample estimated as one segment (pure tracking) and as the "
+        "default segments, each retargeted with the default settings:",
+        "",
+        "| landmarks | Fréchet [m] | slowdown | violations |",
+        "|---|---|---|---|",
+        f"| {saved}-frame segments (default) | {sa['frechet_m']:.4f} | {sa['slowdown']:.3f} | {violations(sa)} |",
+        f"| one segment | {sb['frechet_m']:.4f} | {sb['slowdown']:.3f} | {violations(sb)} |",
+        "",
+        f"- Fréchet with segments over one segment: {sa['frechet_m'] / sb['frechet_m'] - 1:+.1%}",
+        f"- largest distance between an arm point of the two demonstrations: {gap:.3f} m (frame {where})",
+    ]
 
 
 if __name__ == "__main__":
