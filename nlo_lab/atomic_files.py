@@ -28,6 +28,7 @@ __all__ = [
     "current_umask",
     "check_output_place",
     "check_output_file",
+    "writable_place",
     "output_set",
     "stale_temp_folders",
     "stale_temp_folders_in",
@@ -177,16 +178,28 @@ def check_output_place(target: str | os.PathLike, names: tuple[str, ...]) -> Pat
         if blocking:
             what = "an entry of the output set" if blocking[0] in names else "an entry the swap cannot carry over"
             raise OutputError(f"{raw} holds {blocking[0]!r}, {what}: it is not a plain file")
-        writable = target.parent
-    else:
-        writable = target.parent
-        while not os.path.lexists(writable):
-            writable = writable.parent
-        if not writable.is_dir():
-            raise OutputError(f"{raw} lies below {writable}, which is not a folder")
-    if not os.access(writable, os.W_OK | os.X_OK):
-        raise OutputError(f"no permission to write in {writable}")
+    writable_place(target.parent, str(raw))
     return target
+
+
+def writable_place(path: str | os.PathLike, what: str) -> Path:
+    """The nearest existing entry at or above ``path``, which must be a folder we may write in; returns it.
+
+    Where a new output goes is decided by the first folder that exists on its path: the
+    folders below it are made, so it is the one that must take them. ``what`` names the output
+    in the message (``"out"``, ``"--save-pose out.pose"``).
+
+    Raises:
+        OutputError: the entry is not a folder (the path lies below a file), or it cannot be written.
+    """
+    place = Path(path)
+    while not os.path.lexists(place):
+        place = place.parent
+    if not place.is_dir():
+        raise OutputError(f"{what} lies below {place}, which is not a folder")
+    if not os.access(place, os.W_OK | os.X_OK):
+        raise OutputError(f"{what}: no permission to write in {place}")
+    return place
 
 
 def check_output_file(target: str | os.PathLike, *, what: str = "the output file", suffix: str | None = None,
@@ -217,12 +230,7 @@ def check_output_file(target: str | os.PathLike, *, what: str = "the output file
     folder = path.parent if str(path.parent) else Path(".")
     if not parents and not folder.is_dir():
         raise OutputError(f"{what} {path}: the folder {folder} does not exist")
-    while not os.path.lexists(folder):
-        folder = folder.parent
-    if not folder.is_dir():
-        raise OutputError(f"{what} {path} lies below {folder}, which is not a folder")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise OutputError(f"{what} {path}: no permission to write in {folder}")
+    writable_place(folder, f"{what} {path}")
     return path
 
 

@@ -16,7 +16,9 @@ session fixture that returns a function or a class, so a test asks for it by nam
 - ``random_feasible_pose`` / ``demonstration_from_robot``: poses a robot can take, and the human
   targets it meets exactly there (round trips).
 - ``write_authors_h5``: a file in the authors' HDF5 layout; ``pose_files``: Holistic-like ``.pose`` files.
-- ``assert_one_line_error``: what a command-line fault must look like.
+- ``assert_one_line_error``: what a command-line fault must look like; ``work``: a fresh current
+  folder; ``demo_npz``: a small demonstration archive in it; ``others_folder``: a folder of
+  another user; ``nan_loss``: the pipeline's optimisation made to end in a NaN loss.
 - ``lab_browser``: JupyterLab driven in Debian's Chromium (``tools/lab_browser.py``, shared with
   ``benchmarks/viewer.py``). A test marked ``browser`` is skipped, with the reason, where that
   browser or playwright is missing.
@@ -32,6 +34,7 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -422,3 +425,44 @@ def _assert_one_line_error(code, err, *needles):
 def assert_one_line_error() -> Callable[..., None]:
     """``assert_one_line_error(code, err, *needles)``: exit status 2, one stderr line holding the needles, no traceback."""
     return _assert_one_line_error
+
+
+@pytest.fixture
+def work(tmp_path, monkeypatch) -> Path:
+    """A folder of its own as the current folder (outputs of relative paths land in it)."""
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+@pytest.fixture
+def demo_npz(work, make_demo) -> Path:
+    """``work/demo.npz``: a 12-frame demonstration at 10 fps."""
+    from nlo_lab.human import save_npz
+
+    return save_npz(make_demo(T=12, fps=10.0), work / "demo.npz")
+
+
+@pytest.fixture
+def others_folder(tmp_path) -> Path:
+    """A folder another user owns: made and handed to uid 65534 as root, else root's ``/usr``."""
+    if os.geteuid() == 0:
+        theirs = tmp_path / "theirs"
+        theirs.mkdir(mode=0o777)
+        os.chown(theirs, 65534, 65534)
+        return theirs
+    return Path("/usr")  # root's, whatever the test user
+
+
+@pytest.fixture
+def nan_loss(monkeypatch) -> None:
+    """The pipeline's latent optimisation runs as usual, then reports a NaN loss (as absurd weights would)."""
+    import nlo_lab.pipeline as pipeline
+
+    real = pipeline.optimize_latent
+
+    def optimize_latent(*args, **kwargs):
+        result = real(*args, **kwargs)
+        result.loss = torch.full_like(result.loss, float("nan"))
+        return result
+
+    monkeypatch.setattr(pipeline, "optimize_latent", optimize_latent)

@@ -12,6 +12,7 @@ import os
 from collections.abc import Iterator
 from pathlib import Path
 
+from nlo_lab.atomic_files import writable_place
 from nlo_lab.errors import OutputError
 
 __all__ = ["LOCK_FILE", "run_lock", "check_out_place"]
@@ -33,13 +34,7 @@ def check_out_place(out) -> Path:
     path = Path(out).expanduser()
     if os.path.lexists(path) and not path.is_dir():
         raise OutputError(f"{path} exists and is not a folder")
-    place = path
-    while not os.path.lexists(place):
-        place = place.parent
-    if not place.is_dir():
-        raise OutputError(f"{path} lies below {place}, which is not a folder")
-    if not os.access(place, os.W_OK | os.X_OK):
-        raise OutputError(f"no permission to write in {place}")
+    writable_place(path, str(path))
     return path
 
 

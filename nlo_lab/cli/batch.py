@@ -14,7 +14,7 @@ import argparse
 import sys
 import time
 
-from nlo_lab.cli.flags import ITERS_RANGE, MAX_SEED, WEIGHT_RANGE, LazyChoices, UsageError, ranged_int
+from nlo_lab.cli.flags import MAX_SEED, WEIGHT_RANGE, UsageError, add_optimisation_flags, ranged_int
 from nlo_lab.errors import escape
 from nlo_lab.settings import WORKERS_RANGE  # worker processes of the local cluster (the library's bound too)
 
@@ -39,12 +39,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="run every input again (default: skip those done with the same content and settings)")
     p.add_argument("--retry-failed", action="store_true",
                    help="run inputs that failed before on unchanged content again (default: keep their failed rows)")
-    p.add_argument("--init", default="encoder", choices=LazyChoices("nlo_lab.inference", "INITS"), metavar="INIT",
-                   help="initialisation of the latent code: %(choices)s (default: encoder)")
-    p.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=100,
-                   help=f"latent optimisation budget, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
-    p.add_argument("--weights", default=None,
-                   help=f"loss weights, each {WEIGHT_RANGE[0]:g}..{WEIGHT_RANGE[1]:g}, e.g. ee=1000,ori=100,smooth=10")
+    add_optimisation_flags(p, "ee=1000,ori=100,smooth=10")
     p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
     p.add_argument("--viewer", action="store_true", help="also write each input's viewer.html")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr (failures are still listed)")

@@ -31,6 +31,7 @@ __all__ = [
     "ranged_int",
     "positive_float",
     "LazyChoices",
+    "add_optimisation_flags",
 ]
 
 # Stated ranges of the numeric flags: a value outside is refused (exit 2, one line) before any work.
@@ -102,3 +103,16 @@ class LazyChoices:
 
     def __contains__(self, value) -> bool:
         return value in self._names()
+
+
+def add_optimisation_flags(parser: argparse.ArgumentParser, weights_example: str) -> None:
+    """``--init``, ``--iters`` and ``--weights``: how the latent optimisation runs (``retarget`` and ``batch``).
+
+    ``weights_example`` ends the help of ``--weights`` (``"ee=1000,ori=100,smooth=10"``).
+    """
+    parser.add_argument("--init", default="encoder", choices=LazyChoices("nlo_lab.inference", "INITS"), metavar="INIT",
+                        help="initialisation of the latent code: %(choices)s (default: encoder)")
+    parser.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=100,
+                        help=f"latent optimisation budget, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
+    parser.add_argument("--weights", default=None,
+                        help=f"loss weights, each {WEIGHT_RANGE[0]:g}..{WEIGHT_RANGE[1]:g}, e.g. {weights_example}")

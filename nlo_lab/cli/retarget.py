@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from nlo_lab.batch.output_folder import OUTPUT_FILES, finite_or_null, write_output_folder
-from nlo_lab.cli.flags import ITERS_RANGE, MAX_SEED, THREADS_RANGE, WEIGHT_RANGE, LazyChoices, UsageError, positive_float, ranged_int
+from nlo_lab.cli.flags import MAX_SEED, THREADS_RANGE, WEIGHT_RANGE, UsageError, add_optimisation_flags, positive_float, ranged_int
 from nlo_lab.cli.run_guard import raise_pending_signal
 from nlo_lab.errors import escape
 
@@ -27,13 +27,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--robot", required=True, help="yumi, nao, pepper, or a robot spec .json")
     p.add_argument("--checkpoint", default=None, metavar="CKPT.pt",
                    help="a trained checkpoint of this robot (nlo-lab train --out); default: the shipped one")
-    p.add_argument("--init", default="encoder", choices=LazyChoices("nlo_lab.inference", "INITS"), metavar="INIT",
-                   help="initialisation of the latent code: %(choices)s (default: encoder)")
-    p.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=100,
-                   help=f"latent optimisation budget, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
-    p.add_argument("--weights", default=None,
-                   help=f"loss weights, each {WEIGHT_RANGE[0]:g}..{WEIGHT_RANGE[1]:g}, "
-                        "e.g. ee=1000,ori=100,elbow=100,finger=100,collision=1000")
+    add_optimisation_flags(p, "ee=1000,ori=100,elbow=100,finger=100,collision=1000")
     p.add_argument("--out", default=None, help="folder for trajectory.npz, trajectory.csv and viewer.html")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")

@@ -76,18 +76,6 @@ def fails_cleanly(capsys, workdir: Path, argv, *needles):
     return err
 
 
-@pytest.fixture
-def work(tmp_path, monkeypatch):
-    """A folder of its own as the current folder (outputs of relative paths land in it)."""
-    monkeypatch.chdir(tmp_path)
-    return tmp_path
-
-
-@pytest.fixture
-def demo_npz(work, make_demo):
-    return save_npz(make_demo(T=12, fps=10.0), work / "demo.npz")
-
-
 @pytest.fixture(scope="session")
 def npz_with(make_demo):
     def build(path: Path, **override) -> Path:

@@ -129,15 +129,24 @@ def test_a_read_only_output_folder_is_refused(tmp_path):
         out.chmod(0o755)
 
 
-def test_an_output_folder_of_another_user_is_refused(tmp_path):
+def test_an_output_folder_of_another_user_is_refused(others_folder):
     from nlo_lab.atomic_files import check_output_place
     from nlo_lab.errors import OutputError
 
-    if os.geteuid() == 0:
-        theirs = tmp_path / "theirs"
-        theirs.mkdir(mode=0o777)
-        os.chown(theirs, 65534, 65534)
-    else:
-        theirs = Path("/usr")  # root's, whatever the test user
     with pytest.raises(OutputError, match=r"belongs to another user \(uid \d+\)"):
-        check_output_place(theirs, ("a",))
+        check_output_place(others_folder, ("a",))
+
+
+def test_the_writable_place_is_the_nearest_existing_folder(tmp_path):
+    from nlo_lab.atomic_files import writable_place
+    from nlo_lab.errors import OutputError
+
+    assert writable_place(tmp_path / "new" / "deeper" / "out", "out") == tmp_path
+    (tmp_path / "a-file").write_text("x")
+    with pytest.raises(OutputError, match=f"^out lies below {tmp_path / 'a-file'}, which is not a folder$"):
+        writable_place(tmp_path / "a-file" / "below", "out")
+    if os.geteuid() != 0:  # root writes anywhere
+        locked = tmp_path / "locked"
+        locked.mkdir(mode=0o555)
+        with pytest.raises(OutputError, match=f"^out: no permission to write in {locked}$"):
+            writable_place(locked / "new", "out")
