@@ -28,7 +28,7 @@ BEGIN, END = "<!-- architecture.py: begin -->", "<!-- architecture.py: end -->"
 
 # The stages, in the order the data flows and the imports go (docs/ARCHITECTURE.md, "The order").
 # A module belongs to the last stage whose prefix it starts with; the root module nlo_lab alone
-# is the front door. The spine's modules each form a stage of their own, in the order they
+# is the front door, and nlo_lab/__main__.py (the program) is the command line's. The spine's modules each form a stage of their own, in the order they
 # import each other.
 SPINE = [
     "nlo_lab.errors",
@@ -76,6 +76,8 @@ def stage(module: str) -> int:
     """Index in :data:`ORDER`; -1 for a module no stage holds."""
     if module == "nlo_lab":
         return ORDER.index("nlo_lab")
+    if module == "nlo_lab.__main__":  # the program (the console script, python -m nlo_lab): the command line's
+        return ORDER.index("nlo_lab.cli")
     found = [i for i, prefix in enumerate(ORDER) if prefix != "nlo_lab" and (module == prefix or module.startswith(prefix + "."))]
     return found[-1] if found else -1
 

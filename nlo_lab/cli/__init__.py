@@ -10,7 +10,7 @@ SIGINT end the run with exit 128+signal after the clean-up ran: the outputs of
 ``retarget --out`` appear as a whole set or not at all (:func:`nlo_lab.atomic_files.output_set`).
 
 The package: :mod:`~nlo_lab.cli.program` (the entry point :func:`main`, which takes the signals of the
-process's first and last instants), :mod:`~nlo_lab.cli.app` (the registry of commands, :func:`build_parser`, the run
+process's first and last instants; the program's very first lines are :mod:`nlo_lab.__main__`'s), :mod:`~nlo_lab.cli.app` (the registry of commands, :func:`build_parser`, the run
 and its error path), :mod:`~nlo_lab.cli.run_guard` (how a run ends: error line, warnings,
 signals), :mod:`~nlo_lab.cli.flags` (ranges, flag types, the parser class), and one module
 per command: :mod:`~nlo_lab.cli.retarget`, :mod:`~nlo_lab.cli.train`, :mod:`~nlo_lab.cli.evaluate`,
@@ -19,16 +19,16 @@ per command: :mod:`~nlo_lab.cli.retarget`, :mod:`~nlo_lab.cli.train`, :mod:`~nlo
 
 import importlib
 
-from nlo_lab.cli.program import main  # light: the signal handlers come before the parser's imports
-
 # the command line's entry points, then the stated ranges of its numeric flags (docs/ARCHITECTURE.md)
 __all__ = ["main", "build_parser", "COMMANDS", "UsageError", "OUTPUT_FILES", "DEMO_CLIP",
            "MAX_SEED", "ITERS_RANGE", "EPOCHS_RANGE", "LIMIT_RANGE", "THREADS_RANGE", "BATCH_RANGE", "LATENT_RANGE", "WEIGHT_RANGE"]  # fmt: skip
 
 
 def __getattr__(name: str):
-    """The other public names, imported from their module on first use (the entry point must not wait for them)."""
+    """The public names, imported from their module on first use: ``python -m nlo_lab.cli`` imports this package
+    before its ``__main__``, whose first act is to take the signals (:mod:`nlo_lab.__main__`)."""
     homes = {
+        "main": "nlo_lab.cli.program",
         "build_parser": "nlo_lab.cli.app",
         "COMMANDS": "nlo_lab.cli.app",
         "DEMO_CLIP": "nlo_lab.cli.demo",

@@ -9,6 +9,8 @@ absent. ``benchmarks/signals.py`` sweeps the instants from the first millisecond
 
 from __future__ import annotations
 
+import ast
+import importlib.util
 import os
 import signal
 import subprocess
@@ -191,3 +193,94 @@ def test_an_uncaught_bug_still_gives_a_traceback(tmp_path):
     proc = subprocess.run([sys.executable, "-c", code, *ARGV], cwd=tmp_path, env=_env(), capture_output=True, text=True,
                           timeout=300)
     assert proc.returncode == 1 and "ZeroDivisionError: a bug" in proc.stderr and "Traceback" in proc.stderr
+
+
+# ----------------------------------------------------------------------------- the process's first instants
+@pytest.fixture(scope="module")
+def window():
+    """``benchmarks/signal_window.py``: the console script as installed, and a process's caught signals."""
+    spec = importlib.util.spec_from_file_location("nlo_lab_benchmark_signal_window", REPO / "benchmarks" / "signal_window.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _handled(window, proc: subprocess.Popen) -> bool:
+    """Whether nlo_lab's first handler is in (Python itself never takes SIGTERM)."""
+    return bool(window.caught(proc.pid) >> (signal.SIGTERM - 1) & 1)
+
+
+def _start(cmd: list, folder: Path) -> subprocess.Popen:
+    return subprocess.Popen([*map(str, cmd), *ARGV, "--out", "out"], cwd=folder, env=_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def test_the_entry_point_takes_the_signals_before_anything_else_it_imports(window):
+    """The console script's ``from MODULE import main``: every module imported after the entry point's own
+    (and the ``signal`` its handlers need) is imported with nlo_lab's handlers in, nlo_lab.cli's included."""
+    module, func = window.entry_point()
+    code = ("import ast, signal, sys\n"
+            "seen = []\n"
+            "class Watch:\n"
+            "    def find_spec(self, name, path=None, target=None):\n"
+            "        seen.append((name, signal.getsignal(signal.SIGTERM) not in (signal.SIG_DFL, None)))\n"
+            "sys.meta_path.insert(0, Watch())\n"
+            f"from {module} import {func}\n"
+            "print(repr(seen))\n")
+    run = subprocess.run([sys.executable, "-c", code], env=_env(), capture_output=True, text=True, timeout=120, check=True)
+    seen = ast.literal_eval(run.stdout.strip())
+    before = [name for name, handled in seen if not handled]
+    assert set(before) <= {"nlo_lab", module, "signal"}, before
+    assert ("nlo_lab.cli.program", True) in seen and ("nlo_lab.cli.run_guard", True) in seen, seen
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("way", ["script", "-m nlo_lab", "-m nlo_lab.cli"])
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_from_the_first_handler_on_a_signal_is_ours(way, sig, tmp_path, window):
+    """From the instant the program's first handler is in (``nlo_lab/__main__.py``'s first lines), through the
+    imports of the entry point and the commands, a signal ends the run with 128 + N and its one line."""
+    first = {"script": [window.console_script(tmp_path)], "-m nlo_lab": [sys.executable, "-m", "nlo_lab"],
+             "-m nlo_lab.cli": [sys.executable, "-m", "nlo_lab.cli"]}[way]
+    delays = (0.0, 0.001, 0.003, 0.01, 0.03, 0.1, 0.3) if way == "script" else (0.0, 0.01)
+    for delay in delays:
+        folder = tmp_path / f"run-{delay}"
+        folder.mkdir()
+        proc = _start(first, folder)
+        while not _handled(window, proc) and proc.poll() is None:
+            pass  # polled without pause: the signal follows the handler as closely as this process can
+        time.sleep(delay)
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=300)
+        _ends_well(proc, err, sig, folder / "out")
+        assert proc.returncode == 128 + sig and err.strip() == f"nlo-lab: interrupted by {signal.Signals(sig).name}", \
+            (delay, proc.returncode, err)
+
+
+@pytest.mark.slow
+def test_a_sweep_of_instants_after_the_spawn(tmp_path, window):
+    """The console script signalled 0 to 300 ms after the spawn: once nlo_lab's first handler is in (read from
+    /proc before the signal is sent), the run is ours: 128 + N and at most one line. Before, the signal is
+    Python's (docs/DESIGN.md, "Signals"): death by the signal, or SIGINT's KeyboardInterrupt; nothing written."""
+    script = window.console_script(tmp_path)
+    ours = 0
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        for delay in (0.0, 0.005, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.08, 0.1, 0.15, 0.2, 0.3):
+            folder = tmp_path / f"{sig.name}-{delay}"
+            folder.mkdir()
+            start = time.monotonic()
+            proc = _start([script], folder)
+            time.sleep(max(0.0, delay - (time.monotonic() - start)))
+            handled = _handled(window, proc)
+            proc.send_signal(sig)
+            _, err = proc.communicate(timeout=300)
+            if handled:
+                ours += 1
+                _ends_well(proc, err, sig, folder / "out")
+                assert proc.returncode == 128 + sig, (delay, proc.returncode, err)
+            else:  # Python's, or ours if the handler went in while the signal was on its way
+                pythons = proc.returncode == -sig or (sig == signal.SIGINT and proc.returncode == 1
+                                                     and err.rstrip().endswith("KeyboardInterrupt"))
+                assert pythons or (proc.returncode == 128 + sig and len(err.splitlines()) <= 1), (delay, proc.returncode, err)
+                assert not (folder / "out").exists()
+    assert ours >= 2, "nlo_lab's handlers were never seen in 300 ms"

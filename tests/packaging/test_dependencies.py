@@ -79,3 +79,7 @@ def test_the_checks_see_what_they_look_for(arch, tmp_path):
 ])
 def test_stages(arch, module, before, after):
     assert arch.stage(before) < arch.stage(module) < arch.stage(after)
+
+
+def test_the_program_is_the_command_lines(arch):
+    assert arch.stage("nlo_lab.__main__") == arch.stage("nlo_lab.cli.program") > arch.stage("nlo_lab")
