@@ -19,6 +19,7 @@ session fixture that returns a function or a class, so a test asks for it by nam
 - ``assert_one_line_error``: what a command-line fault must look like; ``work``: a fresh current
   folder; ``demo_npz``: a small demonstration archive in it; ``others_folder``: a folder of
   another user; ``nan_loss``: the pipeline's optimisation made to end in a NaN loss.
+- ``checkout_script``: a script of ``tools/`` or ``benchmarks/`` imported by its path.
 - ``lab_browser``: JupyterLab driven in Debian's Chromium (``tools/lab_browser.py``, shared with
   ``benchmarks/viewer.py``). A test marked ``browser`` is skipped, with the reason, where that
   browser or playwright is missing.
@@ -143,24 +144,33 @@ def robot_data() -> Path:
     return folder
 
 
-# ----------------------------------------------------------------------------- the real browser
+# ----------------------------------------------------------------------------- the checkout's scripts
 @functools.cache
-def _lab_browser() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("nlo_lab_tools_lab_browser", ROOT / "tools" / "lab_browser.py")
+def _checkout_script(relative: str) -> ModuleType:
+    path = ROOT / relative
+    spec = importlib.util.spec_from_file_location("nlo_lab_" + "_".join(path.with_suffix("").parts[-2:]), path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
 @pytest.fixture(scope="session")
+def checkout_script() -> Callable[[str], ModuleType]:
+    """``checkout_script("tools/architecture.py")``: a script of the checkout (``tools/``, ``benchmarks/``) imported
+    by its path, once a session."""
+    return _checkout_script
+
+
+# ----------------------------------------------------------------------------- the real browser
+@pytest.fixture(scope="session")
 def lab_browser() -> ModuleType:
     """``tools/lab_browser.py``: ``Lab``, ``LabPage``, ``CHROMIUM``, ``CHROMIUM_ARGS``, ``hue_mask``, ``browser_missing``."""
-    return _lab_browser()
+    return _checkout_script("tools/lab_browser.py")
 
 
 def pytest_runtest_setup(item: pytest.Item) -> None:
     if item.get_closest_marker("browser") is not None:
-        missing = _lab_browser().browser_missing()
+        missing = _checkout_script("tools/lab_browser.py").browser_missing()
         if missing:
             pytest.skip(missing)
 

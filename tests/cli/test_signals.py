@@ -10,7 +10,6 @@ absent. ``benchmarks/signals.py`` sweeps the instants from the first millisecond
 from __future__ import annotations
 
 import ast
-import importlib.util
 import os
 import signal
 import subprocess
@@ -197,12 +196,9 @@ def test_an_uncaught_bug_still_gives_a_traceback(tmp_path):
 
 # ----------------------------------------------------------------------------- the process's first instants
 @pytest.fixture(scope="module")
-def window():
+def window(checkout_script):
     """``benchmarks/signal_window.py``: the console script as installed, and a process's caught signals."""
-    spec = importlib.util.spec_from_file_location("nlo_lab_benchmark_signal_window", REPO / "benchmarks" / "signal_window.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return checkout_script("benchmarks/signal_window.py")
 
 
 def _handled(window, proc: subprocess.Popen) -> bool:

@@ -5,7 +5,6 @@ is the code's. ``tools/architecture.py`` holds the order and reads the imports w
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import pytest
@@ -14,11 +13,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
-def arch():
-    spec = importlib.util.spec_from_file_location("nlo_lab_tools_architecture", ROOT / "tools" / "architecture.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def arch(checkout_script):
+    return checkout_script("tools/architecture.py")
 
 
 def test_every_module_has_a_stage(arch):
