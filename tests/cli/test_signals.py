@@ -275,8 +275,8 @@ def test_a_sweep_of_instants_after_the_spawn(tmp_path, window):
                 _ends_well(proc, err, sig, folder / "out")
                 assert proc.returncode == 128 + sig, (delay, proc.returncode, err)
             else:  # Python's, or ours if the handler went in while the signal was on its way
-                pythons = proc.returncode == -sig or (sig == signal.SIGINT and proc.returncode == 1
-                                                     and err.rstrip().endswith("KeyboardInterrupt"))
+                # (SIGINT inside `site` can fail the interpreter's start: "Fatal Python error", exit 1)
+                pythons = proc.returncode == -sig or (sig == signal.SIGINT and proc.returncode == 1 and "KeyboardInterrupt" in err)
                 assert pythons or (proc.returncode == 128 + sig and len(err.splitlines()) <= 1), (delay, proc.returncode, err)
                 assert not (folder / "out").exists()
     assert ours >= 2, "nlo_lab's handlers were never seen in 300 ms"
