@@ -43,7 +43,8 @@ def fit(name: str) -> dict:
                 {s: robot.arm(s).wrist for s in ("left", "right")})
     default = json.loads(path.read_text(encoding="utf-8"))["collision_margin"]["default"]
     draft = draft_collision(robot.model, robot.tree, robot.neutral_q.double().numpy(),
-                            robot.lower_limits.double().numpy(), robot.upper_limits.double().numpy(), arms, default)
+                            robot.lower_limits.double().numpy(), robot.upper_limits.double().numpy(), arms, default,
+                            thinning="least")  # the shipped checkpoints were trained with the least thinning
     print(f"{name}: {len(draft.capsules)} capsules, {len(draft.pairs)} pairs ({draft.thinned} thinned, "
           f"{draft.far} never near, {len(draft.touching)} link pairs touching at rest)")
     capsules = [{"name": c.name, "link": c.link, "p0": list(c.p0), "p1": list(c.p1), "radius": c.radius} for c in draft.capsules]
@@ -55,7 +56,8 @@ def fit(name: str) -> dict:
     return {
         "capsules": capsules,
         "collision_pairs": pairs,
-        "collision_margin": {"default": default, **{f"{a}/{b}": THUMB_MARGIN for a, b in contact}},
+        "collision_margin": {"default": default, **{f"{a}/{b}": m for (a, b), m in draft.margins.items() if [a, b] in pairs},
+                             **{f"{a}/{b}": THUMB_MARGIN for a, b in contact}},
     }
 
 

@@ -22,11 +22,27 @@ of the robot meets the hand's envelope. Of those:
 * pairs whose link *geometry* touches at the rest pose are left out (the self-collision check
   by the URDF's geometry, :mod:`~nlo_lab.robot.geometry_collision`, leaves them out alike);
 * pairs closer than their margin at rest though the geometry does not touch (a capsule is fatter
-  than a box, overshoots a cylinder's flat end, holds YuMi's joint housings loosely) are checked
-  with **thinned** copies (named ``CAPSULE~Nmm``, thinner by N mm): together just enough to clear
-  each other at rest by the margin, half each (:func:`_thinning`), at most three quarters of a
-  radius each; a pair that would need more is
-  left unchecked, and the draft says so;
+  than a box, overshoots a cylinder's flat end, holds YuMi's joint housings loosely) are tested
+  against their geometry in :data:`GEOMETRY_SAMPLES` random poses of the joints between the two
+  links (and the corners of those joints' limits; the rest of the robot does not move them
+  relative to each other), the test that decides, since a thinned capsule no longer holds all of
+  its geometry (TIAGo's fingers closed 1.4 mm into the palm past capsules thinned by 8 mm each):
+
+  - geometry that overlaps in none of those poses: the pair is not checked (never in collision);
+  - otherwise the pair is checked with **thinned** copies (named ``CAPSULE~Nmm``, thinner by N mm),
+    half each (:func:`_thinning`), at most three quarters of a radius each, thinned together at
+    most :func:`_thinning_bound` (less :data:`THIN_SAFETY`): the most that still lets the thinned
+    capsules overlap in every sampled pose where their geometry does. Within that, ``thinning="most"``
+    (the default) thins as far as it allows (the pair blocks the least motion: Talos's upper arm and
+    forearm, thinned just enough to clear the margin at rest, kept its elbow from bending past 40
+    degrees), ``"least"`` just enough to clear the margin at rest and :data:`INNER_CLEARANCE` (the
+    bundled specs, whose checkpoints were trained with it);
+  - a pair that cannot clear the margin at rest within that bound gets a **narrower margin** (what is
+    left at rest), or, when it cannot even clear 0, first its capsules cut finer
+    (:func:`_refine`, ``"most"`` only); a pair still *blind* after that (its capsules overlap more
+    at rest than where the geometry collides: TIAGo's left thumb, whose links' shapes are 0.2 mm
+    apart at rest) is thinned to clear the margin at rest as before, and the draft says so; a pair
+    that needs more than the radii allow is left unchecked, and the draft says so;
 * pairs between the two arms (everything from one shoulder down against everything from the
   other) are always checked, even when they touch at rest (YuMi's zero pose crosses the
   forearms: such a robot needs a ``neutral_pose`` in its spec; the draft reports them).
@@ -34,13 +50,14 @@ of the robot meets the hand's envelope. Of those:
 
 from __future__ import annotations
 
+import itertools
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 
-from nlo_lab.robot.capsule_fit import Piece, fit_link_capsules
+from nlo_lab.robot.capsule_fit import Piece, cuts, fit_link_capsules
 from nlo_lab.robot.collision import segment_closest_points
 from nlo_lab.robot.geometry import link_shapes, shape_mesh
 from nlo_lab.robot.geometry_collision import DEPTH_TOLERANCE, overlap_depth, polytope
@@ -49,6 +66,7 @@ from nlo_lab.robot.spec import CapsuleSpec
 __all__ = [
     "REACH",
     "REACH_SAMPLES",
+    "GEOMETRY_SAMPLES",
     "ENVELOPE_SAMPLES",
     "Arms",
     "CapsuleDraft",
@@ -57,6 +75,9 @@ __all__ = [
 ]
 
 REACH_SAMPLES = 4000  # random poses within the limits of the reach test
+GEOMETRY_SAMPLES = 512  # random poses of the joints between a thinned pair's links (and their limits' corners)
+THIN_SAFETY = 0.001  # [m] a thinning stops this short of letting the sampled geometry overlap unseen
+REFINE_CUTS = 4  # a blind pair's capsules are cut in two at most this many times
 REACH = 0.05  # [m] a pair whose capsules never come this close (nor closer than their radii) in those poses is not checked
 ENVELOPE_SAMPLES = 64  # random finger poses (and open, closed, rest) a hand's envelope holds
 PALM_SAMPLES = 256  # random finger poses (and open, closed) in which a finger may meet its own palm's geometry
@@ -93,6 +114,12 @@ class CapsuleDraft:
             capsules would need thinning by more than half a radius (not checked; a warning says so).
         thinned: pairs checked with thinned copies of their capsules.
         far: capsule pairs left out because they never came within :data:`REACH`.
+        apart: capsule pairs near at rest left out because the geometry they hold never overlaps in
+            :data:`GEOMETRY_SAMPLES` poses of the joints between them.
+        margins: checked pairs whose margin is narrower than the default (thinning that would clear it
+            at rest would let their geometry overlap unseen): pair -> its margin d_min [m].
+        blind: link pairs thinned to clear the margin at rest although the geometry they hold overlaps in a
+            sampled pose where the thinned capsules do not (capsules this loose cannot tell the two apart).
     """
 
     capsules: list[CapsuleSpec]
@@ -102,6 +129,9 @@ class CapsuleDraft:
     unchecked: list[tuple[str, str]] = field(default_factory=list)
     thinned: int = 0
     far: int = 0
+    apart: int = 0
+    margins: dict[tuple[str, str], float] = field(default_factory=dict)
+    blind: list[tuple[str, str]] = field(default_factory=list)
 
 
 def _link_hulls(model) -> dict[str, list]:
@@ -286,6 +316,108 @@ def _thinning(a: Piece, b: Piece, rest_gap: float, margin: float) -> tuple[float
     return first, second
 
 
+def _path_joints(tree, la: str, lb: str) -> tuple[int, ...]:
+    """The actuated joints (indices into ``q``) that move link ``lb`` relative to link ``la``: the moving
+    joints between their bodies (for a mimic joint, its source)."""
+
+    def up(body: int) -> list[int]:  # the body and its ancestors, the root body (0) left out
+        out = []
+        while body > 0:
+            out.append(body)
+            body = tree.moving_parent[body - 1] + 1
+        return out
+
+    a, b = up(tree.link_body[tree.link_index[la]]), up(tree.link_body[tree.link_index[lb]])
+    common = set(a) & set(b)
+    return tuple(sorted({tree.moving_source[k - 1] for k in a + b if k not in common}))
+
+
+def _path_poses(tree, joints: tuple[int, ...], rest_q, lower, upper, seed: int) -> np.ndarray:
+    """``(S, L, 4, 4)`` link poses in :data:`GEOMETRY_SAMPLES` random poses of ``joints`` (the others at rest)
+    and at every corner of their limits (collisions often sit at a limit: an elbow bent all the way)."""
+    q = _random_poses(rest_q, lower, upper, GEOMETRY_SAMPLES, seed, joints)
+    idx = list(joints)
+    if len(idx) <= 6:
+        corners = np.repeat(np.asarray(rest_q, dtype=np.float64)[None], 2 ** len(idx), 0)
+        for c in range(len(corners)):
+            corners[c, idx] = [(upper if (c >> k) & 1 else lower)[i] for k, i in enumerate(idx)]
+        q = np.concatenate([q, corners])
+    with torch.no_grad():
+        return tree.forward(torch.as_tensor(q)).numpy()
+
+
+def _thinning_bound(tree, T: np.ndarray, a: Piece, b: Piece) -> float:
+    """The most thinning [m], summed over both capsules, that still lets capsules ``a`` and ``b`` overlap in
+    every pose of ``T (S, L, 4, 4)`` where the geometry they hold overlaps (deeper than ``DEPTH_TOLERANCE``);
+    ``inf`` when it overlaps in none. Thinned further, the collision term would let that geometry into each
+    other unseen (TIAGo's fingers closed 1.4 mm into the palm past capsules thinned by 16 mm)."""
+    ia, ib = tree.link_index[a.link], tree.link_index[b.link]
+    ends = np.stack([np.einsum("sij,kj->ski", T[:, i, :3, :3], np.array([p.p0, p.p1])) + T[:, i, None, :3, 3]
+                     for i, p in ((ia, a), (ib, b))], 1).reshape(len(T), 4, 3)  # (S, 4, 3): a's ends, b's ends
+    gaps = segment_closest_points(np.ascontiguousarray(ends.transpose(1, 2, 0)))[3] - a.radius - b.radius
+    pa, pb = polytope(a.link, a.hull), polytope(b.link, b.hull)
+    for s in np.argsort(-gaps):  # the largest capsule gap first: where thinning lets the geometry in first
+        if gaps[s] >= 0:
+            continue  # the capsules hold the geometry: apart capsules, apart geometry
+        if overlap_depth(pa, T[s, ia], pb, T[s, ib]) > DEPTH_TOLERANCE:
+            return float(-gaps[s])
+    return float("inf")
+
+
+def _allowed(bound: float) -> float:
+    """The thinning [m] (both capsules together, an even number of :data:`THIN_STEP`) a pair may have given its
+    :func:`_thinning_bound`: :data:`THIN_SAFETY` short of it."""
+    return float(np.floor((bound - THIN_SAFETY) / (2 * THIN_STEP) + 1e-9) * 2 * THIN_STEP)
+
+
+def _rest_slack(tree, a: Piece, b: Piece, poses: dict, T: np.ndarray, margin: float) -> float:
+    """For capsules ``a`` and ``b`` near at rest (``poses``): how far apart at rest they stay, less the clearance,
+    when thinned as far as the geometry they hold allows in the poses ``T`` (:func:`_thinning_bound`); < 0 for
+    a *blind* pair (the capsules cannot tell the rest pose from a collision); ``inf`` for a pair that is not
+    near at rest, touches at rest or never meets."""
+    gap = float(capsule_gaps([a, b], poses, [(0, 1)])[0])
+    if gap > margin + INNER_CLEARANCE:
+        return float("inf")
+    if overlap_depth(polytope(a.link, a.hull), poses[a.link], polytope(b.link, b.hull), poses[b.link]) > DEPTH_TOLERANCE:
+        return float("inf")
+    return gap + _allowed(_thinning_bound(tree, T, a, b)) - INNER_CLEARANCE - 2e-4
+
+
+def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, poses: dict, path_poses, margin: float) -> None:
+    """Cut in two (:func:`~nlo_lab.robot.capsule_fit.cuts`) the capsules of *blind* pairs, in place: the piece of
+    the pair, or both, across the axes whose halves leave the most room at rest, while that helps, up to :data:`REFINE_CUTS` times
+    per pair (TIAGo's finger: a 13 mm ball round its first phalanx overlapped the palm's at rest by more than
+    the finger can close into the palm; two 9 mm capsules do not)."""
+    for ga, gb in key_pairs:
+        if ENVELOPE in ga + gb or _between_arms(side_of, ga, gb):
+            continue
+        T = None
+        for _ in range(REFINE_CUTS):
+            worst = None
+            for u, pa in enumerate(pieces[ga]):
+                for v, pb in enumerate(pieces[gb]):
+                    if capsule_gaps([pa, pb], poses, [(0, 1)])[0] > margin + INNER_CLEARANCE:
+                        continue
+                    T = path_poses(pa.link, pb.link) if T is None else T
+                    slack = _rest_slack(tree, pa, pb, poses, T, margin)
+                    if slack < 0 and (worst is None or slack < worst[0]):
+                        worst = (slack, u, v)
+            if worst is None:
+                break
+            slack, u, v = worst
+            best = None
+            for na, nb in itertools.product([[pieces[ga][u]], *cuts(pieces[ga][u])], [[pieces[gb][v]], *cuts(pieces[gb][v])]):
+                if len(na) + len(nb) == 2:
+                    continue  # no cut
+                after = min(_rest_slack(tree, x, y, poses, T, margin) for x in na for y in nb)
+                if after > slack and (best is None or after > best[0]):
+                    best = (after, na, nb)
+            if best is None:
+                break  # cutting does not help: the pair stays blind
+            pieces[ga] = pieces[ga][:u] + best[1] + pieces[ga][u + 1:]
+            pieces[gb] = pieces[gb][:v] + best[2] + pieces[gb][v + 1:]
+
+
 def _between_arms(side_of: dict, a: str, b: str) -> bool:
     """Are groups ``a`` and ``b`` on different arms?"""
     return None not in (side_of.get(a), side_of.get(b)) and side_of[a] != side_of[b]
@@ -303,7 +435,7 @@ def _names(pieces: dict[str, list[Piece]]) -> list[CapsuleSpec]:
 
 
 def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float, samples: int = REACH_SAMPLES, seed: int = 0,
-                    disabled: set | frozenset = frozenset()) -> CapsuleDraft:
+                    disabled: set | frozenset = frozenset(), thinning: str = "most") -> CapsuleDraft:
     """Capsules and checked pairs of a robot (see the module docstring).
 
     Args:
@@ -315,7 +447,12 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
         samples: random poses of the reach test (0: no reach test); seed: their generator's seed.
         disabled: link pairs an SRDF disables; two groups of capsules are not paired when every
             link pair between them is disabled.
+        thinning: ``"most"`` (default): a pair near at rest is thinned as far as its sampled geometry allows
+            (it blocks the least motion: Talos's elbow); ``"least"``: just enough to clear the margin at rest
+            (the bundled specs, whose checkpoints were trained with it).
     """
+    if thinning not in ("most", "least"):
+        raise ValueError(f"thinning must be 'most' or 'least', not {thinning!r}")
     rest_q = np.asarray(rest_q, dtype=np.float64)
     hulls, seat = _body_hulls(model, tree)
     pieces = {link: fit_link_capsules(seat[link], items) for link, items in hulls.items()}
@@ -328,20 +465,30 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
             keys[wrist + ENVELOPE] = wrist
     side_of = {link: side for side, links in arms.links.items() for link in links}
     side_of.update({key: side_of.get(link) for key, link in keys.items()})
-    capsules = _names(pieces)
-    flat = [p for key in pieces for p in pieces[key]]
-    group = [key for key in pieces for _ in pieces[key]]
-    start = {key: group.index(key) for key in pieces}
     members = {key: {keys[key] if key.endswith(ENVELOPE) else key} for key in keys}  # the links whose geometry a group holds
     key_pairs = [(a, b) for a, b in _key_pairs(tree, keys, hand)
                  if not all(frozenset((x, y)) in disabled for x in members[a] for y in members[b])]  # the SRDF says never
     palm = [(a, b) for a, b in key_pairs if {hand.get(a, (None, ""))[1], hand.get(b, (None, ""))[1]} == {"finger", "palm"}]
     reached = _palm_reached(tree, hulls, keys, palm, hand, rest_q, lower, upper, seed)
     key_pairs = [p for p in key_pairs if p not in palm or p in reached]
-    pairs = [(start[a] + u, start[b] + v) for a, b in key_pairs for u in range(len(pieces[a])) for v in range(len(pieces[b]))]
     with torch.no_grad():
         T = tree.forward(torch.as_tensor(rest_q))
     poses = {n: T[i].numpy() for i, n in enumerate(tree.link_names)}
+    sampled: dict[tuple[int, ...], np.ndarray] = {}  # path joints -> link poses
+
+    def path_poses(la: str, lb: str) -> np.ndarray:
+        joints = _path_joints(tree, la, lb)
+        if joints not in sampled:
+            sampled[joints] = _path_poses(tree, joints, rest_q, lower, upper, seed)
+        return sampled[joints]
+
+    if thinning == "most":
+        _refine(tree, pieces, key_pairs, side_of, poses, path_poses, margin)
+    capsules = _names(pieces)
+    flat = [p for key in pieces for p in pieces[key]]
+    group = [key for key in pieces for _ in pieces[key]]
+    start = {key: group.index(key) for key in pieces}
+    pairs = [(start[a] + u, start[b] + v) for a, b in key_pairs for u in range(len(pieces[a])) for v in range(len(pieces[b]))]
     gaps = capsule_gaps(flat, poses, pairs)
     reach = _reach(tree, flat, pairs, _random_poses(rest_q, lower, upper, samples, seed)) if samples else np.full(len(pairs), -np.inf)
     touching = set()  # link pairs whose geometry touches at rest (an envelope counts as touching)
@@ -354,7 +501,9 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
             ):
                 touching.add((ga, gb))
     checked, arms_touching, unchecked, inner = [], [], set(), {}
-    far, thinned = 0, 0
+    far, thinned, apart = 0, 0, 0
+    margins: dict[tuple[str, str], float] = {}
+    blind: set[tuple[str, str]] = set()
     for (i, j), gap, near in zip(pairs, gaps, reach, strict=True):
         a, b = capsules[i], capsules[j]
         arms = _between_arms(side_of, group[i], group[j])
@@ -367,7 +516,25 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
             if gap <= 0:
                 arms_touching.append(checked[-1])
             continue
-        thin = _thinning(flat[i], flat[j], gap, margin)
+        bound = _thinning_bound(tree, path_poses(flat[i].link, flat[j].link), flat[i], flat[j])
+        if bound == float("inf"):
+            apart += 1  # their geometry overlaps in no pose of the joints between them: never in collision
+            continue
+        allowed = _allowed(bound)
+        need = margin + INNER_CLEARANCE - gap  # clears the margin at rest
+        pair_margin = margin
+        if need <= allowed:  # "most": as far as the geometry allows (and the radii), so the pair blocks the least
+            most = sum(float(np.floor(INNER_MAX_THIN * c.radius / THIN_STEP) * THIN_STEP) for c in (flat[i], flat[j]))
+            target = max(need, min(allowed, most)) if thinning == "most" else need
+            thin = _thinning(flat[i], flat[j], gap, target + gap - INNER_CLEARANCE)
+        elif gap + allowed - INNER_CLEARANCE - 2e-4 >= 0:  # clearing the margin would hide a collision: thin only so far,
+            thin = _thinning(flat[i], flat[j], gap, allowed + gap - INNER_CLEARANCE)  # and narrow the pair's margin
+            if thin is not None:  # to what is left at rest (the radii's rounding: 0.2 mm)
+                pair_margin = max(0.0, float(np.floor((gap + sum(thin) - INNER_CLEARANCE - 2e-4) * 1e4) / 1e4))
+        else:  # not even touching at rest: these capsules cannot tell the rest pose from a collision
+            thin = _thinning(flat[i], flat[j], gap, margin)
+            if thin is not None:
+                blind.add((group[i], group[j]))
         if thin is None:
             unchecked.add((group[i], group[j]))
             continue
@@ -381,7 +548,10 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
             names.append(copy.name)
         checked.append(tuple(names))
         thinned += 1
+        if pair_margin < margin:
+            margins[checked[-1]] = pair_margin
     if unchecked:
         warnings.warn(f"capsules of {len(unchecked)} link pairs touch at the rest pose though their geometry does not; "
                       f"those pairs are not checked: {sorted(unchecked)}", stacklevel=2)
-    return CapsuleDraft(capsules + list(inner.values()), checked, sorted(touching), arms_touching, sorted(unchecked), thinned, far)
+    return CapsuleDraft(capsules + list(inner.values()), checked, sorted(touching), arms_touching, sorted(unchecked), thinned, far,
+                        apart, margins, sorted(blind))

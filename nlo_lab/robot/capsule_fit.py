@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MERGE_RATIO", "CUT_RATIO", "MAX_PER_LINK", "MIN_RADIUS", "MIN_CUT_EXCESS", "fit_capsule", "capsule_volume", "Piece", "fit_link_capsules"]
+__all__ = ["MERGE_RATIO", "CUT_RATIO", "MAX_PER_LINK", "MIN_RADIUS", "MIN_CUT_EXCESS", "fit_capsule", "capsule_volume", "Piece", "fit_link_capsules", "cuts", "halves"]
 
 _SHRINK_STEPS = 24  # segment lengths tried per axis
 
@@ -160,22 +160,27 @@ def _merged(link: str, hulls: list) -> list[Piece]:
     return pieces
 
 
-def _halves(piece: Piece) -> list[Piece] | None:
-    """The piece cut in two across the principal axis of its hull that leaves the least capsule volume."""
+def cuts(piece: Piece) -> list[list[Piece]]:
+    """The piece cut in two across each principal axis of its hull (the cuts that leave two solid halves)."""
     v = np.asarray(piece.hull.vertices, dtype=np.float64)
-    best = None
+    out = []
     for axis in np.linalg.svd(v - v.mean(0), full_matrices=False)[2]:
         along = v @ axis
         middle = 0.5 * (along.min() + along.max()) * axis  # a point of the cutting plane
-        halves = []
+        parts = []
         for normal in (axis, -axis):
             half = piece.hull.slice_plane(middle, normal, cap=True)
             if half is None or len(half.faces) < 4 or not half.is_volume:
                 break
-            halves.append(Piece.around(piece.link, half.convex_hull))
-        if len(halves) == 2 and (best is None or sum(h.volume for h in halves) < sum(h.volume for h in best)):
-            best = halves
-    return best
+            parts.append(Piece.around(piece.link, half.convex_hull))
+        if len(parts) == 2:
+            out.append(parts)
+    return out
+
+
+def halves(piece: Piece) -> list[Piece] | None:
+    """The :func:`cuts` of the piece that leaves the least capsule volume (None: it cannot be cut)."""
+    return min(cuts(piece), key=lambda parts: sum(h.volume for h in parts), default=None)
 
 
 def fit_link_capsules(link: str, hulls: list) -> list[Piece]:
@@ -193,9 +198,9 @@ def fit_link_capsules(link: str, hulls: list) -> list[Piece]:
         for worst in sorted(pieces, key=lambda p: -excess[id(p)]):  # the loosest first
             if worst.excess <= CUT_RATIO or excess[id(worst)] < MIN_CUT_EXCESS:
                 continue
-            halves = _halves(worst)
-            if halves is not None and sum(h.volume for h in halves) <= 0.9 * worst.volume:
-                pieces = [p for p in pieces if p is not worst] + halves
+            cut = halves(worst)
+            if cut is not None and sum(h.volume for h in cut) <= 0.9 * worst.volume:
+                pieces = [p for p in pieces if p is not worst] + cut
                 break
         else:
             return pieces

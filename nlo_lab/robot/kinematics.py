@@ -111,6 +111,7 @@ class KinematicTree:
         self.moving_parent = [new_pos[parent_moving[i]] if parent_moving[i] >= 0 else -1 for i in order]
         self.moving_pre = np.stack([pre[i] for i in order]) if moving else np.zeros((0, 4, 4))  # (M, 4, 4)
         rules = [resolve(moving[i]) for i in order]
+        self.moving_source = tuple(r[0] for r in rules)  # the actuated joint (index into q) that drives each moving joint
         levels = [depth[i] for i in order]
         self.level_slices: list[tuple[int, int]] = []
         for d in sorted(set(levels)):

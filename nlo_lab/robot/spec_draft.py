@@ -33,7 +33,7 @@ import numpy as np
 from nlo_lab.errors import RobotDescriptionError, escape
 from nlo_lab.human.demonstration import FINGERS, SIDES
 from nlo_lab.robot.arm_finder import ArmChain, find_arms, find_fingers
-from nlo_lab.robot.capsule_draft import Arms, CapsuleDraft, draft_collision
+from nlo_lab.robot.capsule_draft import REACH_SAMPLES, Arms, CapsuleDraft, draft_collision
 from nlo_lab.robot.robot import Robot, closest
 from nlo_lab.robot.spec import FINGER_ALIASES, ArmSpec, CapsuleSpec, RobotSpec
 from nlo_lab.robot.srdf import disabled_pairs
@@ -305,16 +305,18 @@ def draft_spec(urdf, out, *, left_arm=None, right_arm=None, left_hand=None, righ
     length = float(np.mean([sum(robot.zero_pose_lengths(s)) for s in SIDES]))
     margin = max(0.002, round(MARGIN * length / 0.52, 3))
     sides = {s: set(robot.model.subtree(arms[s].shoulder)) for s in SIDES}
-    kwargs = {} if samples is None else {"samples": samples}
     collision = draft_collision(robot.model, robot.tree, robot.reference_q.double().numpy(), robot.lower_limits.double().numpy(),
                                 robot.upper_limits.double().numpy(), Arms(sides, {s: arms[s].wrist for s in SIDES}), margin,
-                                disabled=disabled, **kwargs)
+                                samples=REACH_SAMPLES if samples is None else samples, disabled=disabled)
     data["capsules"] = [{"name": c.name, "link": c.link, "p0": list(c.p0), "p1": list(c.p1), "radius": c.radius} for c in collision.capsules]
     data["collision_pairs"] = [list(p) for p in collision.pairs]
-    data["collision_margin"] = {"default": margin}
+    data["collision_margin"] = {"default": margin, **{f"{a}/{b}": m for (a, b), m in collision.margins.items()}}
     if collision.arms_touching:
         notes.append(f"the arms touch at the rest pose ({len(collision.arms_touching)} capsule pairs, e.g. "
                      f"{collision.arms_touching[0][0]} / {collision.arms_touching[0][1]}): add a collision-free \"neutral_pose\"")
+    if collision.blind:
+        notes.append(f"capsules too loose to tell the rest pose from a collision of their geometry: {len(collision.blind)} link "
+                     f"pair(s), e.g. {collision.blind[0][0]} / {collision.blind[0][1]} (check the output with GeometryCollision)")
     if collision.unchecked:
         notes.append(f"{len(collision.unchecked)} link pairs are not checked: their capsules touch at rest though their geometry does not")
     if not math.isfinite(length) or length <= 0:
