@@ -24,7 +24,9 @@ Methods, on every hand-frame (one hand in one frame with its wrist frame and fiv
 
 One scorer for all: ``nlo_lab.evaluation.hands.hand_scores`` (our FK of YuMi; the measures and
 their definitions are in its docstring and in docs/RESULTS.md). Also: joint-limit violations of
-the hand joints (an angle outside its limits by more than 1e-6 rad), nlo_lab's velocity
+the hand joints (an angle outside its limits by more than 1e-6 rad), the hand-frames where the hand
+overlaps itself by the URDF's own collision geometry (``nlo_lab.robot.geometry_collision``: pairs of
+two links below one wrist, deeper than 0.1 mm; dex-retargeting does not avoid self-collision), nlo_lab's velocity
 violations after retiming, and time: nlo_lab's wall time per frame (both arms and both hands,
 ``summary["seconds"]``, after one untimed call that builds what is kept per robot), dex-retargeting's
 per hand-frame (each ``retarget`` call, its setup not counted).
@@ -57,6 +59,7 @@ from nlo_lab.model import load_pretrained  # noqa: E402
 from nlo_lab.objective import LossWeights, point_plan, targets_from_demonstration  # noqa: E402
 from nlo_lab.pipeline import RetargetConfig  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
+from nlo_lab.robot.geometry_collision import DEPTH_TOLERANCE, GeometryCollision  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_POSE = ROOT.parent / "shared" / "data" / "pose"
@@ -153,6 +156,27 @@ def limit_violations(robot, q: np.ndarray, rows_mask: np.ndarray) -> int:
     return out
 
 
+def own_hand_pairs(robot, geometry: GeometryCollision) -> dict[int, np.ndarray]:
+    """Per side, which of the geometry's checked element pairs join two links of that hand (below its wrist link)."""
+    out = {}
+    for s, side in enumerate(("left", "right")):
+        hand = set(robot.model.subtree(robot.arm(side).wrist))
+        out[s] = np.array([geometry.pieces[i].link in hand and geometry.pieces[j].link in hand for i, j in geometry.pairs], dtype=bool)
+    return out
+
+
+def hand_collisions(geometry: GeometryCollision, pairs: dict[int, np.ndarray], q: np.ndarray, rows_mask: np.ndarray) -> tuple[int, float]:
+    """Hand-frames whose hand overlaps itself by the URDF's collision geometry (deeper than DEPTH_TOLERANCE), and the deepest [m]."""
+    depths = geometry.depths(q)  # (T, P)
+    frames, deepest = 0, 0.0
+    for s, own in pairs.items():
+        d = depths[rows_mask[:, s]][:, own]
+        if d.size:
+            frames += int((d > DEPTH_TOLERANCE).any(1).sum())
+            deepest = max(deepest, float(d.max()))
+    return frames, deepest
+
+
 def fmt(v, unit="", digits=1) -> str:
     return "—" if v is None or (isinstance(v, float) and not np.isfinite(v)) else f"{v:.{digits}f}{unit}"
 
@@ -172,6 +196,15 @@ def main() -> None:
     weights = LossWeights()
     scores = {m: [] for m in METHODS}
     per_recording, nlo_seconds, nlo_frames, velocity, nlo_limits, nlo_hand_limits = [], 0.0, 0, 0, 0, 0
+    geometry = GeometryCollision(robot)  # the independent check: the URDF's own collision geometry
+    own = own_hand_pairs(robot, geometry)
+    collided = {m: [0, 0.0] for m in METHODS}
+
+    def count(method: str, q: np.ndarray, demo) -> None:
+        frames, deepest = hand_collisions(geometry, own, np.asarray(q, dtype=np.float64), hand_frames_mask(demo))
+        collided[method][0] += frames
+        collided[method][1] = max(collided[method][1], deepest)
+
     retarget = RetargetConfig(robot, model=model, weights=weights).build()
     # what the collision pairs between one hand's fingers cost the handshape (not robot-safe: no collision term)
     diagnostic = RetargetConfig(robot, model=model, weights=dataclasses.replace(weights, collision=0.0)).build()
@@ -180,8 +213,13 @@ def main() -> None:
         result = retarget(demo)
         q = result.trajectory.angles
         scores["nlo_lab"].append(hand_scores(robot, q, demo))
-        scores[NO_COLLISION].append(hand_scores(robot, diagnostic(demo).trajectory.angles, demo))
-        scores["open hand, not moving"].append(hand_scores(robot, np.tile(robot.neutral_q.numpy(), (len(demo), 1)), demo))
+        count("nlo_lab", q, demo)
+        q_diagnostic = diagnostic(demo).trajectory.angles
+        scores[NO_COLLISION].append(hand_scores(robot, q_diagnostic, demo))
+        count(NO_COLLISION, q_diagnostic, demo)
+        q_open = np.tile(robot.neutral_q.double().numpy(), (len(demo), 1))
+        scores["open hand, not moving"].append(hand_scores(robot, q_open, demo))
+        count("open hand, not moving", q_open, demo)
         nlo_seconds += result.summary["seconds"]
         nlo_frames += len(demo)
         velocity += result.summary["velocity_violations"]
@@ -199,6 +237,7 @@ def main() -> None:
                 q = full_angles(robot, demo, out[f"q_{variant}"], rows, data)
                 qs.append(hand_scores(robot, q, demo))
                 limits += limit_violations(robot, q, hand_frames_mask(demo))
+                count(method, q, demo)
             scores[method], dex_limits[method] = qs, limits
             dex_seconds[method] = out[f"seconds_{variant}"]
     else:
@@ -223,6 +262,8 @@ def main() -> None:
         rows.append(f"| {name} | " + " | ".join(vals) + " |")
     limits = {"nlo_lab": nlo_hand_limits, **dex_limits}
     rows.append("| joint-limit violations (hand joints) | " + " | ".join(str(limits[m]) if m in limits else "—" for m in shown) + " |")
+    rows.append("| hand-frames with the hand in self-collision by the URDF's geometry (deepest) | " + " | ".join(
+        f"{collided[m][0]} ({1000 * collided[m][1]:.1f} mm)" for m in shown) + " |")
     times = {"nlo_lab": f"{1000 * nlo_seconds / nlo_frames:.2f} ms per frame, arms and hands"}
     for m, sec in dex_seconds.items():
         times[m] = f"{1000 * sec.mean():.2f} ms per hand-frame (median {1000 * np.median(sec):.2f})"
@@ -259,7 +300,9 @@ def main() -> None:
                       "fingers seen); directions are unit vectors, an angle is averaged over the fingers (wrist→tip: five; thumb tip→tip: "
                       "the four others; base→tip: five, base = knuckle, thumb: its MCP joint), then over the hand-frames. Pinch: Pearson's "
                       "r of the thumb–index tip distance of human and robot, each in its own hand lengths (mean wrist→knuckle distance of "
-                      "the four fingers). One FK (nlo_lab's, of `yumi.urdf`) scores every method.", "",
+                      "the four fingers). One FK (nlo_lab's, of `yumi.urdf`) scores every method. Self-collision: the hand-frames where "
+                      "two links of that hand (below its wrist link) overlap by `yumi.urdf`'s collision geometry "
+                      f"(`nlo_lab.robot.geometry_collision`, deeper than {1000 * DEPTH_TOLERANCE:.1f} mm), whatever the method.", "",
                       table, "", "### Targets against the measurement", "", "\n".join(targets), "", "### Recordings", "", recs])
     print(body)
     if not args.no_write:

@@ -1,0 +1,60 @@
+"""benchmarks/hands.py's self-collision count: the hand-frames where a hand overlaps itself by yumi.urdf's
+collision geometry (dex-retargeting does not avoid it; the count is what makes the methods' figures comparable)."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nlo_lab.evaluation.hands import hand_joint_indices
+from nlo_lab.robot import load_robot
+from nlo_lab.robot.geometry_collision import GeometryCollision
+
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
+
+
+@pytest.fixture(scope="module")
+def hands():
+    sys.path.insert(0, str(BENCHMARKS))  # hands.py imports its neighbour results_doc
+    try:
+        spec = importlib.util.spec_from_file_location("hands_benchmark", BENCHMARKS / "hands.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(BENCHMARKS))
+    return module
+
+
+@pytest.fixture(scope="module")
+def yumi():
+    robot = load_robot("yumi")
+    return robot, GeometryCollision(robot)
+
+
+def test_own_hand_pairs_join_two_links_of_one_hand(hands, yumi):
+    robot, geometry = yumi
+    own = hands.own_hand_pairs(robot, geometry)
+    for s, side in enumerate(("left", "right")):
+        below = set(robot.model.subtree(robot.arm(side).wrist))
+        links = {geometry.pieces[k].link for pair in geometry.pairs[own[s]] for k in pair}
+        assert links and links <= below
+        assert any("thumb" in link for link in links) and any("index" in link for link in links)
+    assert not (own[0] & own[1]).any()
+
+
+def test_a_fist_with_the_thumb_across_counts_on_its_hand_only(hands, yumi):
+    robot, geometry = yumi
+    open_hand = robot.neutral_q.double().numpy()
+    fist = open_hand.copy()
+    left = hand_joint_indices(robot, "left")
+    fist[left] = robot.upper_limits.double().numpy()[left]  # every left finger and the thumb closed: the thumb goes through the index
+    q = np.stack([open_hand, fist])
+    both = np.ones((2, 2), dtype=bool)
+    frames, deepest = hands.hand_collisions(geometry, hands.own_hand_pairs(robot, geometry), q, both)
+    assert frames == 1 and deepest > 0.005
+    right_only = np.array([[False, True], [False, True]])
+    assert hands.hand_collisions(geometry, hands.own_hand_pairs(robot, geometry), q, right_only) == (0, 0.0)
