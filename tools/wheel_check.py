@@ -15,7 +15,8 @@ environment and work from another folder. This script proves that works:
 4. from an empty temporary folder, with the checkout out of reach: imports
    the package from site-packages, ``load_robot`` and ``load_pretrained`` for
    every robot, ``nlo-lab retarget demo:…``, ``nlo-lab demo``,
-   ``nlo-lab lab --copy-only``, and a damaged install (a checkpoint moved
+   ``nlo-lab lab --copy-only``, the console script at the declared entry point
+   (``nlo_lab.__main__:main``) and ``python -m nlo_lab``, and a damaged install (a checkpoint moved
    away) giving one error line that names the file and the repair.
 
 ``--lowest`` does the same in a second cached venv where every runtime
@@ -50,6 +51,12 @@ ROBOTS = ("nao", "pepper", "yumi")
 def fail(message: str) -> None:
     print(f"wheel-check: FAILED: {message}", file=sys.stderr)
     sys.exit(1)
+
+
+def outside_env() -> dict:
+    """The environment without Python's and nlo_lab's variables: a PYTHONPATH to a checkout (its ``nlo_lab.egg-info``)
+    would make pip see nlo_lab installed there, and skip the wheel."""
+    return {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV", "NLO_LAB"))}
 
 
 def run(cmd: list[str], cwd: Path | None = None, env: dict | None = None, expect: int = 0) -> subprocess.CompletedProcess:
@@ -134,8 +141,12 @@ def check_wheel_contents(wheel: Path) -> None:
         fail(f"the wheel carries the asset generator scripts {stray}")
 
 
-def venv_with_deps(wheel: Path, lowest: bool) -> Path:
-    """The cached venv, with the new wheel installed in place of the last one; returns its python."""
+def venv_with_deps(wheel: Path, lowest: bool, outside: Path) -> Path:
+    """The cached venv, with the new wheel installed in place of the last one; returns its python.
+
+    pip runs in ``outside`` (a folder of its own) with :func:`outside_env`: from the checkout (``python -m`` puts
+    the current folder first on sys.path) pip found the checkout's ``nlo_lab.egg-info``, "uninstalled" nothing
+    (outside the environment) and took the wheel as already installed: the venv kept an old nlo_lab."""
     kind = "lowest" if lowest else "latest"
     root = cache_root()
     venv = root / f"{kind}-{dependency_key(lowest)}"
@@ -148,14 +159,21 @@ def venv_with_deps(wheel: Path, lowest: bool) -> Path:
         shutil.rmtree(venv, ignore_errors=True)  # a half-made venv from an interrupted run
         t0 = time.perf_counter()
         run([sys.executable, "-m", "venv", "--clear", venv])
-        run([py, "-m", "pip", "install", "--quiet", TORCH])
-        run([py, "-m", "pip", "install", "--quiet", *pins, wheel])
+        run([py, "-m", "pip", "install", "--quiet", TORCH], cwd=outside, env=outside_env())
+        run([py, "-m", "pip", "install", "--quiet", *pins, wheel], cwd=outside, env=outside_env())
         (venv / ".ready").touch()
         print(f"wheel-check: created {venv} with the dependencies in {time.perf_counter() - t0:.0f} s (cached for later runs)")
     (venv / ".ready").touch()  # its time says when it was last used (see prune)
-    run([py, "-m", "pip", "uninstall", "--quiet", "--yes", "nlo_lab"])
-    run([py, "-m", "pip", "install", "--quiet", *pins, wheel])  # new dependencies, if any, come in here
-    run([py, "-m", "pip", "check"])
+    run([py, "-m", "pip", "uninstall", "--quiet", "--yes", "nlo_lab"], cwd=outside, env=outside_env())
+    run([py, "-m", "pip", "install", "--quiet", *pins, wheel], cwd=outside, env=outside_env())  # new dependencies, if any, come in here
+    run([py, "-m", "pip", "check"], cwd=outside, env=outside_env())
+    site = Path(run([py, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], cwd=outside,
+                    env=outside_env()).stdout.strip())
+    with zipfile.ZipFile(wheel) as zf:
+        packed = sorted(n for n in zf.namelist() if n.startswith("nlo_lab/") and n.endswith(".py"))
+    installed = sorted(p.relative_to(site).as_posix() for p in (site / "nlo_lab").rglob("*.py"))
+    if installed != packed:
+        fail(f"the venv's nlo_lab is not the wheel's: {sorted(set(packed) ^ set(installed))[:10]}")
     if lowest:  # pip installed exactly these (constraints are binding) or failed above
         print(f"wheel-check: lowest versions: {', '.join(lowest_constraints())} (torch: {TORCH})")
     return py
@@ -193,7 +211,7 @@ print(json.dumps(out))
 
 
 def smoke(py: Path, work: Path) -> None:
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV", "NLO_LAB"))}
+    env = outside_env()
     env["PATH"] = f"{py.parent}{os.pathsep}{env.get('PATH', '')}"
     env["HOME"] = str(work / "home")  # `nlo-lab lab`'s default folder lands here, not in the real home
     cli = py.parent / "nlo-lab"
@@ -213,6 +231,12 @@ def smoke(py: Path, work: Path) -> None:
     copied = sorted(p.name for p in Path(folder).glob("*.ipynb"))
     if len(copied) != len(list((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb"))) or not Path(folder).is_relative_to(work / "home"):
         fail(f"nlo-lab lab --copy-only copied {copied} to {folder}")
+    # The program's first lines take the signals (nlo_lab/__main__.py): the console script and `python -m nlo_lab` start there.
+    module, func = re.search(r'^nlo-lab = "(\S+):(\S+)"$', (ROOT / "pyproject.toml").read_text(), re.M).groups()
+    if f"from {module} import {func}" not in cli.read_text():
+        fail(f"the installed nlo-lab script does not start at the declared entry point {module}:{func}:\n{cli.read_text()}")
+    if "usage: nlo-lab" not in run([py, "-m", "nlo_lab", "--help"], cwd=work, env=env).stdout:
+        fail("python -m nlo_lab --help printed no usage")
     # `nlo-lab batch` without its extra (dask is not a core dependency): one line naming the extra, exit 2.
     sample = Path(info["assets"]) / "recordings" / "holistic_both_hands_47f.pose"
     err = run([cli, "batch", sample, "--robot", "nao", "--out", "batch_out", "--iters", "1"], cwd=work, env=env, expect=2).stderr
@@ -230,7 +254,7 @@ def smoke(py: Path, work: Path) -> None:
     if len(lines) != 1 or str(ckpt) not in lines[0] or "pip install --force-reinstall" not in lines[0]:
         fail(f"a missing bundled checkpoint gave:\n{err}")
     print(f"wheel-check: from {work}: nlo_lab {info['version']} imported from site-packages; load_robot + load_pretrained "
-          f"{', '.join(ROBOTS)}; PKChain; the .pose sample ({info['pose_frames']} frames); a plot; retarget (frechet {summary['frechet_m']:.3f} m); demo; lab --copy-only ({len(copied)} notebooks); "
+          f"{', '.join(ROBOTS)}; PKChain; the .pose sample ({info['pose_frames']} frames); a plot; retarget (frechet {summary['frechet_m']:.3f} m); demo; lab --copy-only ({len(copied)} notebooks); the script at {module}:{func}, python -m nlo_lab; "
           f"batch without its extra -> exit 2; damaged install -> exit 2 naming {ckpt.name} ({time.perf_counter() - t0:.0f} s)")  # fmt: skip
 
 
@@ -265,7 +289,7 @@ def main() -> int:
         (tmp / "work" / "home").mkdir(parents=True)
         wheel = build(tmp / "dist")
         check_wheel_contents(wheel)
-        py = venv_with_deps(wheel, lowest)
+        py = venv_with_deps(wheel, lowest, tmp / "work")
         smoke(py, tmp / "work")
     print(f"wheel-check{' --lowest' if lowest else ''}: OK")
     return 0
