@@ -1,6 +1,6 @@
 """Throughput of ``nlo-lab batch`` on the real recordings, and the targets of issue 29 (PASS/FAIL).
 
-    nice -n 10 python benchmarks/batch.py [--inputs 40] [--robot yumi] [--iters 100] [--no-write] [--keep DIR]
+    nice -n 10 python benchmarks/batch.py [--inputs 40] [--robot yumi] [--iters 100] [--rounds 2] [--no-write] [--keep DIR]
 
 The corpus: the real MediaPipe recordings (``../shared/data/pose/*.pose`` when present, and
 ``assets/recordings``: a ``.pose`` and the sample video), copied into numbered folders until there
@@ -10,7 +10,10 @@ and imports included):
 1. a plain loop over ``retarget`` in one process (one torch thread, the video's pose estimation on
    one core; the same files written): the engine's baseline;
 2. ``nlo-lab batch --workers 1`` and ``--workers 2`` (a LocalCluster), each into a fresh folder;
-3. the 2-worker run again over its finished folder (the resume);
+   these three timed runs are repeated ``--rounds`` times in alternating order (loop, 1, 2 workers;
+   then 2, 1, loop; ...) so that a load that comes or goes during the run weighs on each alike, and
+   the ratios are taken of their medians (each round's 2-worker speed-up is printed too);
+3. the last 2-worker run again over its finished folder (the resume);
 4. ``nlo-lab batch --scheduler`` on a separately started ``dask scheduler`` and two ``dask worker``
    processes over loopback, one of which is killed with SIGKILL mid-run.
 
@@ -257,12 +260,17 @@ def main() -> None:
     ap.add_argument("--inputs", type=int, default=40, help="at least this many inputs (copies of the recordings)")
     ap.add_argument("--robot", default="yumi")
     ap.add_argument("--iters", type=int, default=100)
+    ap.add_argument("--rounds", type=int, default=2,
+                    help="rounds of the three timed runs, in alternating order (loop, 1, 2 workers; then 2, 1, loop; ...): "
+                         "the ratios are taken of their medians")
     ap.add_argument("--no-write", action="store_true", help="print only; leave docs/RESULTS.md alone")
     ap.add_argument("--keep", type=Path, default=None, help="work in this folder and keep it (default: a temporary one)")
     ap.add_argument("--plain-loop", nargs=2, metavar=("CORPUS", "OUT"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.plain_loop:
         return plain_loop(Path(args.plain_loop[0]), Path(args.plain_loop[1]), args.robot, args.iters)
+    if args.rounds < 1:
+        ap.error("--rounds must be at least 1")
 
     work = args.keep or Path(tempfile.mkdtemp(prefix="nlo_lab_batch_bench_"))
     work.mkdir(parents=True, exist_ok=True)
@@ -275,40 +283,61 @@ def main() -> None:
     capacity = parallel_capacity()
     print(f"  the machine gives two processes at once {capacity:.2f}x the throughput of one (2.00 when idle): "
           "the ceiling of the 2-worker speed-up now")
-    results: list[tuple[str, float, float]] = []
+    runs = {"loop": "plain loop over retarget, one process", "w1": "nlo-lab batch --workers 1", "w2": "nlo-lab batch --workers 2"}
+    walls: dict[str, list[float]] = {k: [] for k in runs}
+    cpus: dict[str, list[float]] = {k: [] for k in runs}
+    codes: dict[str, list[int]] = {k: [] for k in runs}
+    local_sockets: set[str] = set()
+    local_ss: list[str] = []
     cpu_mark = [children_cpu()]
 
-    def report(label, seconds):
+    def run(kind: str, rnd: int) -> None:
+        out = work / f"{kind}_{rnd}"
+        if kind == "loop":
+            seconds, proc = timed([sys.executable, __file__, "--plain-loop", corpus, out, "--robot", args.robot, "--iters", args.iters])
+            if proc.returncode:
+                sys.exit(f"the plain loop failed:\n{proc.stderr[-3000:]}")
+            code = 0
+        else:
+            seconds, code, sockets, ss = run_watched(batch_cmd(corpus, out, args.robot, args.iters, "--workers", kind[1], "--quiet"))
+            local_sockets.update(sockets)
+            local_ss[:] = ss or local_ss
         cpu = children_cpu() - cpu_mark[0]  # the run's processes, all of them (they have ended)
         cpu_mark[0] += cpu
-        results.append((label, seconds, cpu))
-        print(f"  {label:<44} {seconds:8.1f} s  {len(files) / seconds:6.2f} inputs/s  CPU {cpu:7.1f} s  "
+        walls[kind].append(seconds)
+        cpus[kind].append(cpu)
+        codes[kind].append(code)
+        print(f"  round {rnd + 1}: {runs[kind]:<40} {seconds:8.1f} s  {len(files) / seconds:6.2f} inputs/s  CPU {cpu:7.1f} s  "
               f"(load {os.getloadavg()[0]:.1f})", flush=True)
 
-    loop_s, proc = timed([sys.executable, __file__, "--plain-loop", corpus, work / "loop", "--robot", args.robot, "--iters", args.iters])
-    if proc.returncode:
-        sys.exit(f"the plain loop failed:\n{proc.stderr[-3000:]}")
-    report("plain loop over retarget, one process", loop_s)
-    w1_s, code1, _, _ = run_watched(batch_cmd(corpus, work / "w1", args.robot, args.iters, "--workers", "1", "--quiet"))
-    report("nlo-lab batch --workers 1", w1_s)
-    w2_s, code2, local_sockets, local_ss = run_watched(batch_cmd(corpus, work / "w2", args.robot, args.iters, "--workers", "2", "--quiet"))
-    report("nlo-lab batch --workers 2", w2_s)
-    first_rows = {"1 worker": rows(work / "w1"), "2 workers": rows(work / "w2")}  # before the resume rewrites w2's table
-    resume_s, resume_proc = timed(batch_cmd(corpus, work / "w2", args.robot, args.iters, "--workers", "2", "--quiet"))
-    resumed = rows(work / "w2")
-    print(f"  {'nlo-lab batch --workers 2, resumed':<44} {resume_s:8.2f} s  "
+    for rnd in range(args.rounds):  # alternating order: a load that comes or goes during the run weighs on each alike
+        for kind in (runs if rnd % 2 == 0 else reversed(list(runs))):
+            run(kind, rnd)
+    med = {k: float(np.median(v)) for k, v in walls.items()}
+    med_cpu = {k: float(np.median(v)) for k, v in cpus.items()}
+    last_w2 = work / f"w2_{args.rounds - 1}"
+    first_rows = {"1 worker": rows(work / "w1_0"), "2 workers": rows(work / "w2_0")}
+    resume_s, resume_proc = timed(batch_cmd(corpus, last_w2, args.robot, args.iters, "--workers", "2", "--quiet"))
+    resumed = rows(last_w2)
+    print(f"  {'nlo-lab batch --workers 2, resumed':<49} {resume_s:8.2f} s  "
           f"({sum(r['status'] == 'skipped' for r in resumed)} skipped, exit {resume_proc.returncode})")
     ext = external_cluster(corpus, work / "ext", args.robot, args.iters, work)
     ext_ok = sum(r["status"] == "ok" for r in ext["rows"])
-    print(f"  {'dask scheduler + 2 dask workers, one kill -9':<44} {ext['seconds']:8.1f} s  {ext_ok}/{len(ext['rows'])} ok, "
+    print(f"  {'dask scheduler + 2 dask workers, one kill -9':<49} {ext['seconds']:8.1f} s  {ext_ok}/{len(ext['rows'])} ok, "
           f"exit {ext['exit']}, killed after {ext['killed_after']} rows; workers left {ext['workers_left']}")
 
     names = [r["output"] for r in first_rows["1 worker"]]
-    all_ok = all(r["status"] == "ok" for v in first_rows.values() for r in v) and code1 == code2 == 0
-    same, same_note = same_results(work / "w1", work / "w2", names)
-    same_loop, _ = same_results(work / "w1", work / "loop", names)
+    all_ok = all(r["status"] == "ok" for v in first_rows.values() for r in v) and all(c == 0 for k in ("w1", "w2") for c in codes[k])
+    same, same_note = same_results(work / "w1_0", work / "w2_0", names)
+    for rnd in range(1, args.rounds):  # every round's outputs too
+        for kind in ("w1", "w2"):
+            again, note = same_results(work / "w1_0", work / f"{kind}_{rnd}", names)
+            if not again:
+                same, same_note = False, f"round {rnd + 1}, {runs[kind]}: {note}"
+    same_loop, _ = same_results(work / "w1_0", work / "loop_0", names)
     sockets = local_sockets | ext["sockets"]
-    speedup, overhead, resume_share = w1_s / w2_s, w1_s / loop_s - 1, resume_s / w2_s
+    speedup, overhead, resume_share = med["w1"] / med["w2"], med["w1"] / med["loop"] - 1, resume_s / med["w2"]
+    per_round = [w1 / w2 for w1, w2 in zip(walls["w1"], walls["w2"], strict=True)]
     uptime_end = uptime()
     busy = None if load_start <= QUIET_LOAD else f"PROVISIONAL (load {load_start:.1f} on {os.cpu_count()} cores at the start)"
     speed_mark = verdict(speedup >= TARGET_SPEEDUP, busy)
@@ -317,21 +346,23 @@ def main() -> None:
                       f"show {TARGET_SPEEDUP}x here)")
     ext_pass = (ext["exit"] == 0 and ext_ok == len(files) == len(ext["rows"]) and ext["killed_after"] is not None
                 and ext["workers_left"] == 1 and ext["scheduler_alive"] and not leftovers(work / "ext"))
+    rounds_text = f"median of {args.rounds} rounds" if args.rounds > 1 else "one round"
     targets = [
         (speed_mark,
-         f"2 workers vs 1: {speedup:.2f}x the throughput (target >= {TARGET_SPEEDUP}x; the machine gave two plain processes "
+         f"2 workers vs 1: {speedup:.2f}x the throughput ({rounds_text}; each round's: "
+         f"{', '.join(f'{r:.2f}x' for r in per_round)}; target >= {TARGET_SPEEDUP}x; the machine gave two plain processes "
          f"{capacity:.2f}x one's, so the workers reached {speedup / capacity:.0%} of what it gave)"),
         (verdict(overhead <= TARGET_OVERHEAD, busy),
-         f"1 worker vs the plain loop: {overhead * 100:+.1f} % time (target within {TARGET_OVERHEAD:.0%}; "
-         f"CPU seconds of all processes: {(results[1][2] / results[0][2] - 1) * 100:+.1f} %)"),
+         f"1 worker vs the plain loop: {overhead * 100:+.1f} % time ({rounds_text}; target within {TARGET_OVERHEAD:.0%}; "
+         f"CPU seconds of all processes: {(med_cpu['w1'] / med_cpu['loop'] - 1) * 100:+.1f} %)"),
         (verdict(resume_share < TARGET_RESUME and resume_proc.returncode == 0 and all(r["status"] == "skipped" for r in resumed)),
          f"resumed run over the finished corpus: {resume_share * 100:.1f} % of the first run's time (target < {TARGET_RESUME:.0%})"),
         (verdict(ext_pass), f"dask scheduler + 2 dask workers, kill -9 of one after {ext['killed_after']} rows: {ext_ok}/{len(files)} "
                             f"ok, exit {ext['exit']}, the cluster left running ({ext['workers_left']} worker), no half-written folder"),
-        (verdict(same and all_ok), f"results identical across 1 and 2 workers ({same_note}; every input ok: {all_ok}); "
+        (verdict(same and all_ok), f"results identical across 1 and 2 workers ({same_note}, every round; every input ok: {all_ok}); "
                                    f"equal to the plain loop's too: {same_loop}"),
         (verdict(bool(sockets) and all(s.startswith("127.0.0.1:") for s in sockets)),
-         f"listening on 127.0.0.1 only: {len(local_sockets)} sockets of the LocalCluster run, {len(ext['sockets'])} of the "
+         f"listening on 127.0.0.1 only: {len(local_sockets)} sockets of the LocalCluster runs, {len(ext['sockets'])} of the "
          f"dask scheduler and workers"),
     ]
     print(f"\nuptime at the start: {uptime_start}\nuptime at the end:   {uptime_end}")
@@ -348,6 +379,9 @@ def main() -> None:
     if args.no_write:
         return
 
+    def spread(values: list[float]) -> str:
+        return f"{min(values):.1f}-{max(values):.1f}" if len(values) > 1 else f"{values[0]:.1f}"
+
     lines = [
         "## Batch: a corpus on dask.distributed (`nlo-lab batch`)",
         "",
@@ -360,12 +394,14 @@ def main() -> None:
         f"- calibration: the machine gave two CPU-bound processes at once {capacity:.2f}x the throughput of one (2.00 on an "
         "idle 2-core machine): the ceiling of the 2-worker speed-up during this run",
         f"- corpus: {len(files)} inputs, copies of {', '.join(s.name for s in sources())}; robot {args.robot}, {args.iters} iterations",
+        f"- {args.rounds} round(s) of the three timed runs, each a fresh process, in alternating order (plain loop, 1 worker, "
+        "2 workers; then the reverse): a load that comes or goes weighs on each alike; the figures are medians over the rounds",
         "",
-        "| run (a fresh process each) | wall [s] | inputs/s | CPU [s] (all its processes) |",
-        "|---|---:|---:|---:|",
-        *(f"| {label} | {s:.1f} | {len(files) / s:.2f} | {cpu:.1f} |" for label, s, cpu in results),
-        f"| nlo-lab batch --workers 2, resumed (all skipped) | {resume_s:.2f} | |",
-        f"| dask scheduler + 2 dask workers over loopback, one killed -9 | {ext['seconds']:.1f} | {len(files) / ext['seconds']:.2f} |",
+        "| run (a fresh process each) | wall [s] (median) | wall [s] (each round) | inputs/s | CPU [s] (all its processes) |",
+        "|---|---:|---:|---:|---:|",
+        *(f"| {label} | {med[k]:.1f} | {spread(walls[k])} | {len(files) / med[k]:.2f} | {med_cpu[k]:.1f} |" for k, label in runs.items()),
+        f"| nlo-lab batch --workers 2, resumed (all skipped) | {resume_s:.2f} | | | |",
+        f"| dask scheduler + 2 dask workers over loopback, one killed -9 | {ext['seconds']:.1f} | | {len(files) / ext['seconds']:.2f} | |",
         "",
         *(f"- **{mark}** {text}" for mark, text in targets),
     ]

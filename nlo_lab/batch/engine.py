@@ -207,7 +207,7 @@ def _run(client, jobs, table: ResultsTable, progress: Progress, on_row) -> None:
         pending[future.key] = (kind, job)
         queue.add(future)
 
-    for job in jobs:
+    for job in _longest_first(jobs):
         if job.item.is_video:
             submit("plan", job, tasks.video_segments, str(job.item.path), priority=VIDEO_PRIORITY)
         else:
@@ -237,6 +237,21 @@ def _run(client, jobs, table: ResultsTable, progress: Progress, on_row) -> None:
     except BaseException:
         client.cancel(list(queue.futures))
         raise
+
+
+def _longest_first(jobs: list) -> list:
+    """The jobs in the order to submit them: videos first (their segments spread over every worker), then the
+    other inputs, each kind largest file first. dask starts tasks of equal priority in the order they came, so
+    the longest inputs start early and the run does not end on one of them while the other workers wait; the
+    file's size stands for its length (frames) without reading it."""
+
+    def size(job) -> int:
+        try:
+            return job.item.path.stat().st_size
+        except OSError:
+            return 0  # gone since it was hashed: its task says so
+
+    return sorted(jobs, key=lambda job: (not job.item.is_video, -size(job)))
 
 
 def _lost_text(exc: BaseException, path) -> str:

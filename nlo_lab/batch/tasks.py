@@ -127,13 +127,20 @@ def video_segments(path: str) -> list[tuple[int, int | None]] | Failure:
         return Failure(failure_text(exc, path))
 
 
-def video_segment(path: str, first: int, end: int | None):
-    """MediaPipe Holistic on frames ``[first, end)`` of a video (:func:`nlo_lab.human.readers.video.estimate_segment`)."""
+def video_segment(path: str, first: int, end: int | None) -> tuple | Failure:
+    """MediaPipe Holistic on frames ``[first, end)`` of a video (:func:`nlo_lab.human.readers.video.estimate_segment`).
+
+    Returns ``(segment,)``: the :class:`~nlo_lab.human.readers.video.SegmentPose` in a tuple, or a
+    :class:`Failure`. The value stays on the workers (the input's retarget task takes it), but dask
+    tells the client the type of every result it holds a future of, and the client unpickles that
+    type: ``SegmentPose`` would import ``nlo_lab.human`` and so torch there, 1.4 s of CPU taken from
+    the workers; a tuple costs nothing.
+    """
     # lazy: mediapipe (the video extra): only for videos
     from nlo_lab.human.readers import estimate_segment
 
     try:
-        return estimate_segment(path, first, end)
+        return (estimate_segment(path, first, end),)
     except Exception as exc:  # noqa: BLE001
         return Failure(failure_text(exc, path))
 
@@ -149,7 +156,7 @@ def _read(job: Job, segments) -> tuple:
     from nlo_lab.human import pose_to_demonstration
     from nlo_lab.human.readers import join_segments
 
-    video = join_segments(job.item.path, segments or [])
+    video = join_segments(job.item.path, [segment for (segment,) in segments or ()])
     return pose_to_demonstration(video), video.seconds
 
 

@@ -3,6 +3,10 @@ the same landmarks, frame for frame, as the whole video read in one go; damaged 
 
 from __future__ import annotations
 
+import os
+import threading
+import time
+
 import numpy as np
 import pytest
 
@@ -52,3 +56,49 @@ def test_a_truncated_video_fails_in_the_range_that_misses_frames(tmp_path):
     not_a_video.write_bytes(b"hello")
     with pytest.raises(DemonstrationError, match="not a video"):
         segment_bounds(not_a_video)
+
+
+def _threads_at_work(run) -> tuple[list[float], object]:
+    """CPU seconds of each thread that ``run()`` started and that worked (at least a quarter of the CPU the new
+    threads took), sampled every 5 ms while it runs; and run's value."""
+    psutil = pytest.importorskip("psutil")
+    me = psutil.Process()
+    before = {t.id for t in me.threads()}
+    seen: dict[int, float] = {}
+    done = threading.Event()
+
+    def watch():
+        while not done.is_set():
+            seen.update((t.id, t.user_time + t.system_time) for t in me.threads() if t.id not in before)
+            time.sleep(0.005)
+
+    watcher = threading.Thread(target=watch)
+    watcher.start()
+    try:
+        value = run()
+    finally:
+        done.set()
+        watcher.join()
+    seen.pop(watcher.native_id, None)
+    total = sum(seen.values())
+    return sorted(c for c in seen.values() if c >= total / 4), value
+
+
+@pytest.mark.slow
+def test_each_holistic_instance_runs_on_one_thread_with_the_landmarks_of_mediapipes_default(monkeypatch):
+    """MediaPipe would run a Holistic graph on min(cores, nodes) threads (two here); the reader asks for one
+    (holistic_loader): one thread does the work of a segment, and the landmarks are those of MediaPipe's own pool."""
+    from pose_format.utils import holistic
+
+    estimate_segment(SAMPLE, 0, 30)  # loads the models, imports everything
+    workers, ours = _threads_at_work(lambda: estimate_segment(SAMPLE, 0, 30))
+    assert len(workers) == 1, f"CPU seconds of the threads at work: {workers}"
+
+    monkeypatch.setattr(holistic, "mp_holistic", holistic.mp_holistic._module)  # MediaPipe's Holistic as it is
+    monkeypatch.setattr("nlo_lab.human.readers.video.holistic_loader", lambda path: holistic.load_holistic)
+    pooled, theirs = _threads_at_work(lambda: estimate_segment(SAMPLE, 0, 30))
+    if (os.cpu_count() or 1) > 1:
+        assert len(pooled) > 1, f"MediaPipe's default pool: {pooled}"  # what the test guards against
+    np.testing.assert_array_equal(ours.pose.body.data.data, theirs.pose.body.data.data)
+    np.testing.assert_array_equal(np.ma.getmaskarray(ours.pose.body.data), np.ma.getmaskarray(theirs.pose.body.data))
+    np.testing.assert_array_equal(ours.pose.body.confidence, theirs.pose.body.confidence)

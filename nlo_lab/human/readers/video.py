@@ -40,7 +40,9 @@ Threads: the video is cut into segments of :data:`SEGMENT_FRAMES` consecutive fr
 and each segment goes to a fresh Holistic instance that tracks through it (MediaPipe
 tracks a person from frame to frame and smooths the landmarks; each segment starts
 that anew from a detection). ``workers`` instances run side by side, one segment each,
-each keeping about one core busy. Because the cut does not depend on the number of
+each on one core: MediaPipe would run each instance's graph on a pool of as many threads as
+the machine has cores (blind to CPU affinity and to a cluster job's share), so it is told to
+use one (:func:`holistic_loader`; the landmarks are the same). Because the cut does not depend on the number of
 workers, the landmarks, and so the demonstration, are the same for any number of
 workers, frame by frame, in the video's order. The number of workers
 (:func:`pose_workers`) is the cores this process may use (``os.sched_getaffinity``,
@@ -62,6 +64,7 @@ import importlib
 import os
 import sys
 import tempfile
+import threading
 import time
 import warnings
 from collections.abc import Iterator
@@ -98,6 +101,7 @@ __all__ = [
     "video_info",
     "read_video_frames",
     "native_output_silenced",
+    "holistic_loader",
     "pose_workers",
     "estimate_pose",
     "segment_bounds",
@@ -327,6 +331,58 @@ def native_output_silenced():
 # mediapipe 0.10.21 ships pose_landmark_full.tflite only: complexity 1. Complexity 0 (lite) and
 # 2 (heavy) would be downloaded on first use, which library code must never do.
 MODEL_COMPLEXITY = 1
+_HOLISTIC_LOCK = threading.Lock()
+
+
+class _OneThreadSolutions:
+    """``mediapipe.solutions.holistic`` as pose-format sees it, with a ``Holistic`` whose graph runs on one thread."""
+
+    def __init__(self, module, holistic) -> None:
+        self._module, self.Holistic = module, holistic
+
+    def __getattr__(self, name: str):
+        return getattr(self._module, name)
+
+
+def holistic_loader(path):
+    """pose-format's ``load_holistic``, its Holistic instances running their MediaPipe graph on one thread.
+
+    MediaPipe runs a graph's calculators on a pool of min(cores, nodes) threads, the cores being
+    every core of the machine (``sysconf(_SC_NPROCESSORS_ONLN)``: blind to CPU affinity, to a
+    cluster job's share and to the other instances running beside it). One Holistic instance ran
+    on 1.4 cores here (4 segments of the sample video: 4.1 s of CPU in 3.0 s), so two of them, or
+    two batch workers, asked for 4 threads of 2 cores. Our parallelism is by segments, one instance per core
+    (:func:`estimate_pose`, ``nlo-lab batch``'s workers), so each instance's default executor gets one
+    thread. Only the instances pose-format creates are concerned (its handle on MediaPipe's holistic
+    module is swapped for one whose ``Holistic`` does this; MediaPipe itself is left as it is); the
+    landmarks are the same, bit for bit (tested).
+
+    Raises:
+        DemonstrationError: the video extra is missing (naming ``path``).
+    """
+    module = video_extra(path, "pose_format.utils.holistic")
+    with _HOLISTIC_LOCK:
+        if not isinstance(module.mp_holistic, _OneThreadSolutions):
+            framework = video_extra(path, "mediapipe.framework.thread_pool_executor_pb2")
+            module.mp_holistic = _OneThreadSolutions(module.mp_holistic, _one_thread_holistic(module.mp_holistic.Holistic, framework))
+    return module.load_holistic
+
+
+def _one_thread_holistic(holistic, framework):
+    """A subclass of MediaPipe's ``Holistic`` whose graph's default executor has one thread."""
+    options = framework.ThreadPoolExecutorOptions.ext
+
+    class OneThreadHolistic(holistic):
+        def _initialize_graph_interface(self, *args, **kwargs):  # SolutionBase's: the graph's config, before the graph is made
+            config = super()._initialize_graph_interface(*args, **kwargs)
+            default = [e for e in config.executor if not e.name] or [config.executor.add()]
+            if not default[0].type:  # a thread pool of MediaPipe's choosing (not a given executor type)
+                default[0].options.Extensions[options].num_threads = 1
+            return config
+
+    return OneThreadHolistic
+
+
 # Frames per segment of the pose estimation (see the module docstring): long enough that
 # tracking restarts rarely (once a second at 30 fps), short enough that the 58-frame sample
 # already has two segments for two cores.
@@ -468,7 +524,7 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
     path = as_path(path)
     info = open_video(path)
     workers = min(pose_workers(threads, info.frames), _workers_in_memory(info))
-    load_holistic = video_extra(path, "pose_format.utils.holistic").load_holistic
+    load_holistic = holistic_loader(path)
     frames = VideoFrames(path, info, max_side=MAX_ESTIMATION_SIDE)
 
     def segment_pose(segment: list[np.ndarray]):
@@ -554,7 +610,7 @@ def estimate_segment(path, first: int = 0, end: int | None = None) -> SegmentPos
     """
     path = as_path(path)
     info = open_video(path)
-    load_holistic = video_extra(path, "pose_format.utils.holistic").load_holistic
+    load_holistic = holistic_loader(path)
     frames = VideoFrames(path, info, max_side=MAX_ESTIMATION_SIDE, first=first, count=None if end is None else end - first)
     start = time.perf_counter()
     with native_output_silenced():
