@@ -3,10 +3,6 @@ collision geometry (dex-retargeting does not avoid it; the count is what makes t
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -14,19 +10,10 @@ from nlo_lab.evaluation.hands import hand_joint_indices
 from nlo_lab.robot import load_robot
 from nlo_lab.robot.geometry_collision import GeometryCollision
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
-
 
 @pytest.fixture(scope="module")
-def hands():
-    sys.path.insert(0, str(BENCHMARKS))  # hands.py imports its neighbour results_doc
-    try:
-        spec = importlib.util.spec_from_file_location("hands_benchmark", BENCHMARKS / "hands.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-    return module
+def hands(checkout_script):
+    return checkout_script("benchmarks/hands.py")
 
 
 @pytest.fixture(scope="module")
