@@ -8,7 +8,9 @@ measures the window). This module's first act, before any other import, is to ta
 SIGHUP and SIGINT: until the entry point puts in the handlers of the run
 (:func:`nlo_lab.cli.program.main`, once its modules are imported, a few milliseconds later), a
 signal ends the process at once with status 128 + N and the one line ``nlo-lab: interrupted by
-SIGx``: nothing has been read or written yet, so there is nothing to clean up.
+SIGx``: nothing has been read or written yet, so there is nothing to clean up. A signal the
+program was started with ignored (``nohup nlo-lab ...`` ignores SIGHUP) stays ignored, here and in
+the run.
 
 Only the program imports this module: importing it takes the signals of the process.
 """
@@ -26,7 +28,8 @@ def _interrupted(signum, frame):
 
 
 for _name in ("SIGTERM", "SIGHUP", "SIGINT"):  # nlo_lab.cli.run_guard.TERMINATING, not imported yet
-    if hasattr(signal, _name):
+    # one ignored when the program starts stays ignored (`nohup nlo-lab ...`: SIGHUP; `nlo-lab ... &` in a script: SIGINT)
+    if hasattr(signal, _name) and signal.getsignal(getattr(signal, _name)) is not signal.SIG_IGN:
         signal.signal(getattr(signal, _name), _interrupted)
 
 import sys  # noqa: E402  (after the handlers: every import below is inside the covered window)

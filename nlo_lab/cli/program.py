@@ -30,7 +30,7 @@ def _exit_now(signum, frame):
 
 def _install(handler) -> None:
     for name in TERMINATING:
-        if hasattr(signal, name):
+        if hasattr(signal, name) and signal.getsignal(getattr(signal, name)) is not signal.SIG_IGN:  # nohup's SIGHUP stays ignored
             signal.signal(getattr(signal, name), handler)
 
 

@@ -137,7 +137,7 @@ def raise_pending_signal() -> None:
 
 @contextlib.contextmanager
 def signals_raise():
-    """SIGTERM, SIGHUP and SIGINT raise :class:`Interrupted` (so ``finally`` blocks clean up)."""
+    """SIGTERM, SIGHUP and SIGINT raise :class:`Interrupted` (so ``finally`` blocks clean up); an ignored one stays ignored."""
     if threading.current_thread() is not threading.main_thread():  # handlers only install there
         yield
         return
@@ -145,13 +145,15 @@ def signals_raise():
     for name in TERMINATING:
         if hasattr(signal, name):
             sig = getattr(signal, name)
-            previous[sig] = signal.signal(sig, on_signal)
-    if previous.get(signal.SIGINT) is not on_signal:  # a run of its own (not under main's program handlers)
+            if signal.getsignal(sig) is not signal.SIG_IGN:  # one the process was told to ignore (nohup's SIGHUP) stays so
+                previous[sig] = signal.signal(sig, on_signal)
+    own_run = on_signal not in previous.values()  # not under the program's handlers (nlo_lab.cli.program)
+    if own_run:
         _pending.clear()
     try:
         yield
     finally:
-        if previous.get(signal.SIGINT) is not on_signal:  # a run of its own: its retry and hook end with it
+        if own_run:  # its retry and hook end with it
             cancel_retry()
             _release_swallowed()
         for sig, handler in previous.items():

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ast
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -280,3 +281,29 @@ def test_a_sweep_of_instants_after_the_spawn(tmp_path, window):
                 assert pythons or (proc.returncode == 128 + sig and len(err.splitlines()) <= 1), (delay, proc.returncode, err)
                 assert not (folder / "out").exists()
     assert ours >= 2, "nlo_lab's handlers were never seen in 300 ms"
+
+
+@pytest.mark.slow
+def test_a_signal_ignored_at_the_start_stays_ignored(tmp_path, window):
+    """``nohup nlo-lab ...`` starts the program with SIGHUP ignored: a SIGHUP, from the first handler's instant to the
+    run, leaves it running (the shell that hung up is not the user's wish to stop); SIGTERM still ends it, with its line."""
+    nohup = shutil.which("nohup")
+    if nohup is None:
+        pytest.skip("no nohup on this machine")
+    long = _long_recording(tmp_path / "long.npz", frames=1000)
+    proc = subprocess.Popen([nohup, window.console_script(tmp_path), "retarget", long, "--robot", "nao", "--json", "--out", "out"],
+                            cwd=tmp_path, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    while not _handled(window, proc) and proc.poll() is None:
+        pass
+    assert not window.caught(proc.pid) >> (signal.SIGHUP - 1) & 1, "SIGHUP is caught, not ignored"
+    proc.send_signal(signal.SIGHUP)  # the first lines' handlers
+    start = time.monotonic()
+    while _cpu_seconds(proc.pid) < 2.5 and proc.poll() is None and time.monotonic() - start < 120:
+        time.sleep(0.1)  # the imports take about 1.5 s of CPU: then in the run
+    proc.send_signal(signal.SIGHUP)  # the run's
+    time.sleep(0.5)
+    assert proc.poll() is None, proc.communicate()
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=300)
+    _ends_well(proc, err, signal.SIGTERM, tmp_path / "out")
+    assert proc.returncode == 143 and err.strip() == "nlo-lab: interrupted by SIGTERM", (proc.returncode, err)
