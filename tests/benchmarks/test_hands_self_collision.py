@@ -45,3 +45,31 @@ def test_a_fist_with_the_thumb_across_counts_on_its_hand_only(hands, yumi):
     assert frames == 1 and deepest > 0.005
     right_only = np.array([[False, True], [False, True]])
     assert hands.hand_collisions(geometry, hands.own_hand_pairs(robot, geometry), q, right_only) == (0, 0.0)
+
+
+def test_the_hand_refinement_moves_only_the_hand_joints_within_their_limits_and_lowers_the_objective(hands, yumi):
+    import torch
+
+    from nlo_lab.human import load_demonstration
+    from nlo_lab.inference import smoothness_term
+    from nlo_lab.objective import LossWeights, Objective, targets_from_demonstration
+
+    robot, _ = yumi
+    demo = load_demonstration(hands.RECORDINGS / "holistic_both_hands_47f.pose").slice(10, 16)
+    q = np.tile(robot.neutral_q.double().numpy(), (len(demo), 1))  # an open hand: far from the signer's
+    weights = LossWeights()
+    refined = hands.refine_hands(robot, q, demo, weights)
+    hand = [i for side in ("left", "right") for i in hand_joint_indices(robot, side)]
+    arms = np.setdiff1d(np.arange(robot.n_joints), hand)
+    assert np.allclose(refined[:, arms], q[:, arms], atol=1e-6)  # float32 round trip
+    assert np.abs(refined[:, hand] - q[:, hand]).max() > 0.05
+    lo, hi = robot.lower_limits.double().numpy(), robot.upper_limits.double().numpy()
+    assert ((refined >= lo - 1e-6) & (refined <= hi + 1e-6)).all()
+    targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype)
+    loss, smooth = Objective(robot, targets, weights), smoothness_term(robot, targets, weights)
+
+    def total(x):
+        x = torch.as_tensor(x, dtype=robot.lower_limits.dtype)
+        return float((loss(x)[0] + smooth(x)).sum())
+
+    assert total(refined) < 0.9 * total(q)
