@@ -78,6 +78,8 @@ REACH_SAMPLES = 4000  # random poses within the limits of the reach test
 GEOMETRY_SAMPLES = 512  # random poses of the joints between a thinned pair's links (and their limits' corners)
 THIN_SAFETY = 0.001  # [m] a thinning stops this short of letting the sampled geometry overlap unseen
 REFINE_CUTS = 4  # a blind pair's capsules are cut in two at most this many times
+BOUNDARY_SEEDS = 4  # overlapping poses (and free neighbours of each) between which a thinning bound is bisected ...
+BOUNDARY_STEPS = 8  # ... in this many halvings
 REACH = 0.05  # [m] a pair whose capsules never come this close (nor closer than their radii) in those poses is not checked
 ENVELOPE_SAMPLES = 64  # random finger poses (and open, closed, rest) a hand's envelope holds
 PALM_SAMPLES = 256  # random finger poses (and open, closed) in which a finger may meet its own palm's geometry
@@ -332,9 +334,10 @@ def _path_joints(tree, la: str, lb: str) -> tuple[int, ...]:
     return tuple(sorted({tree.moving_source[k - 1] for k in a + b if k not in common}))
 
 
-def _path_poses(tree, joints: tuple[int, ...], rest_q, lower, upper, seed: int) -> np.ndarray:
-    """``(S, L, 4, 4)`` link poses in :data:`GEOMETRY_SAMPLES` random poses of ``joints`` (the others at rest)
-    and at every corner of their limits (collisions often sit at a limit: an elbow bent all the way)."""
+def _path_poses(tree, joints: tuple[int, ...], rest_q, lower, upper, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(q (S, n), T (S, L, 4, 4))``: :data:`GEOMETRY_SAMPLES` random poses of ``joints`` (the others at rest)
+    and every corner of their limits (collisions often sit at a limit: an elbow bent all the way), with the
+    link poses."""
     q = _random_poses(rest_q, lower, upper, GEOMETRY_SAMPLES, seed, joints)
     idx = list(joints)
     if len(idx) <= 6:
@@ -343,25 +346,68 @@ def _path_poses(tree, joints: tuple[int, ...], rest_q, lower, upper, seed: int) 
             corners[c, idx] = [(upper if (c >> k) & 1 else lower)[i] for k, i in enumerate(idx)]
         q = np.concatenate([q, corners])
     with torch.no_grad():
-        return tree.forward(torch.as_tensor(q)).numpy()
+        return q, tree.forward(torch.as_tensor(q)).numpy()
 
 
-def _thinning_bound(tree, T: np.ndarray, a: Piece, b: Piece) -> float:
-    """The most thinning [m], summed over both capsules, that still lets capsules ``a`` and ``b`` overlap in
-    every pose of ``T (S, L, 4, 4)`` where the geometry they hold overlaps (deeper than ``DEPTH_TOLERANCE``);
-    ``inf`` when it overlaps in none. Thinned further, the collision term would let that geometry into each
-    other unseen (TIAGo's fingers closed 1.4 mm into the palm past capsules thinned by 16 mm)."""
-    ia, ib = tree.link_index[a.link], tree.link_index[b.link]
+def _pair_gaps(T: np.ndarray, ia: int, a: Piece, ib: int, b: Piece) -> np.ndarray:
+    """``(S,)`` surface distance [m] of capsules ``a`` (on link ``ia``) and ``b`` in the link poses ``T (S, L, 4, 4)``."""
     ends = np.stack([np.einsum("sij,kj->ski", T[:, i, :3, :3], np.array([p.p0, p.p1])) + T[:, i, None, :3, 3]
                      for i, p in ((ia, a), (ib, b))], 1).reshape(len(T), 4, 3)  # (S, 4, 3): a's ends, b's ends
-    gaps = segment_closest_points(np.ascontiguousarray(ends.transpose(1, 2, 0)))[3] - a.radius - b.radius
+    return segment_closest_points(np.ascontiguousarray(ends.transpose(1, 2, 0)))[3] - a.radius - b.radius
+
+
+def _thinning_bound(tree, sample: tuple[np.ndarray, np.ndarray], a: Piece, b: Piece) -> float:
+    """The most thinning [m], summed over both capsules, that still lets capsules ``a`` and ``b`` overlap wherever
+    the geometry they hold overlaps (deeper than ``DEPTH_TOLERANCE``), in the poses ``sample = (q, T)``
+    (:func:`_path_poses`) and on the way out of the overlap from the :data:`BOUNDARY_SEEDS` overlapping
+    poses where the capsules overlap least toward their nearest poses without overlap
+    (:data:`BOUNDARY_STEPS` halvings: the overlap's edge, where capsules overlap least, falls between
+    samples; NAO's torso and upper arm overlapped 1.7 mm past a bound that only the samples set);
+    ``inf`` when the geometry overlaps in none. Thinned further, the collision term would let that
+    geometry into each other unseen (TIAGo's fingers closed 1.4 mm into the palm past capsules thinned
+    by 16 mm)."""
+    q, T = sample
+    ia, ib = tree.link_index[a.link], tree.link_index[b.link]
     pa, pb = polytope(a.link, a.hull), polytope(b.link, b.hull)
+
+    def overlaps(Tk: np.ndarray) -> bool:
+        return overlap_depth(pa, Tk[ia], pb, Tk[ib]) > DEPTH_TOLERANCE
+
+    gaps = _pair_gaps(T, ia, a, ib, b)
+    free = gaps >= 0  # the capsules hold the geometry: apart capsules, apart geometry
+    hit: list[int] = []
     for s in np.argsort(-gaps):  # the largest capsule gap first: where thinning lets the geometry in first
-        if gaps[s] >= 0:
-            continue  # the capsules hold the geometry: apart capsules, apart geometry
-        if overlap_depth(pa, T[s, ia], pb, T[s, ib]) > DEPTH_TOLERANCE:
-            return float(-gaps[s])
-    return float("inf")
+        if gaps[s] < 0:
+            if overlaps(T[s]):
+                hit.append(int(s))
+                if len(hit) == BOUNDARY_SEEDS:
+                    break
+            else:
+                free[s] = True
+    if not hit:
+        return float("inf")
+    best = float(gaps[hit[0]])  # the largest capsule gap where the geometry overlaps
+    known = np.nonzero(free)[0]
+    if len(known):
+        span = np.where(np.ptp(q, 0) > 0, np.ptp(q, 0), 1.0)
+        inside, outside = [], []  # the ends of each way out: overlapping, free
+        for s in hit:
+            near = known[np.argsort(np.abs((q[known] - q[s]) / span).sum(1))[:BOUNDARY_SEEDS]]
+            inside += [q[s]] * len(near)
+            outside += [q[n] for n in near]
+        lo, hi = np.array(inside), np.array(outside)
+        for _ in range(BOUNDARY_STEPS):
+            mid = 0.5 * (lo + hi)
+            with torch.no_grad():
+                Tm = tree.forward(torch.as_tensor(mid)).numpy()
+            gm = _pair_gaps(Tm, ia, a, ib, b)
+            for k in range(len(mid)):
+                if gm[k] < 0 and overlaps(Tm[k]):
+                    lo[k] = mid[k]
+                    best = max(best, float(gm[k]))
+                else:
+                    hi[k] = mid[k]
+    return -best
 
 
 def _allowed(bound: float) -> float:
@@ -370,9 +416,9 @@ def _allowed(bound: float) -> float:
     return float(np.floor((bound - THIN_SAFETY) / (2 * THIN_STEP) + 1e-9) * 2 * THIN_STEP)
 
 
-def _rest_slack(tree, a: Piece, b: Piece, poses: dict, T: np.ndarray, margin: float) -> float:
+def _rest_slack(tree, a: Piece, b: Piece, poses: dict, sample: tuple[np.ndarray, np.ndarray], margin: float) -> float:
     """For capsules ``a`` and ``b`` near at rest (``poses``): how far apart at rest they stay, less the clearance,
-    when thinned as far as the geometry they hold allows in the poses ``T`` (:func:`_thinning_bound`); < 0 for
+    when thinned as far as the geometry they hold allows in the poses ``sample`` (:func:`_thinning_bound`); < 0 for
     a *blind* pair (the capsules cannot tell the rest pose from a collision); ``inf`` for a pair that is not
     near at rest, touches at rest or never meets."""
     gap = float(capsule_gaps([a, b], poses, [(0, 1)])[0])
@@ -380,7 +426,7 @@ def _rest_slack(tree, a: Piece, b: Piece, poses: dict, T: np.ndarray, margin: fl
         return float("inf")
     if overlap_depth(polytope(a.link, a.hull), poses[a.link], polytope(b.link, b.hull), poses[b.link]) > DEPTH_TOLERANCE:
         return float("inf")
-    return gap + _allowed(_thinning_bound(tree, T, a, b)) - INNER_CLEARANCE - 2e-4
+    return gap + _allowed(_thinning_bound(tree, sample, a, b)) - INNER_CLEARANCE - 2e-4
 
 
 def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, poses: dict, path_poses, margin: float) -> None:
@@ -391,15 +437,15 @@ def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, pose
     for ga, gb in key_pairs:
         if ENVELOPE in ga + gb or _between_arms(side_of, ga, gb):
             continue
-        T = None
+        sample = None
         for _ in range(REFINE_CUTS):
             worst = None
             for u, pa in enumerate(pieces[ga]):
                 for v, pb in enumerate(pieces[gb]):
                     if capsule_gaps([pa, pb], poses, [(0, 1)])[0] > margin + INNER_CLEARANCE:
                         continue
-                    T = path_poses(pa.link, pb.link) if T is None else T
-                    slack = _rest_slack(tree, pa, pb, poses, T, margin)
+                    sample = path_poses(pa.link, pb.link) if sample is None else sample
+                    slack = _rest_slack(tree, pa, pb, poses, sample, margin)
                     if slack < 0 and (worst is None or slack < worst[0]):
                         worst = (slack, u, v)
             if worst is None:
@@ -409,7 +455,7 @@ def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, pose
             for na, nb in itertools.product([[pieces[ga][u]], *cuts(pieces[ga][u])], [[pieces[gb][v]], *cuts(pieces[gb][v])]):
                 if len(na) + len(nb) == 2:
                     continue  # no cut
-                after = min(_rest_slack(tree, x, y, poses, T, margin) for x in na for y in nb)
+                after = min(_rest_slack(tree, x, y, poses, sample, margin) for x in na for y in nb)
                 if after > slack and (best is None or after > best[0]):
                     best = (after, na, nb)
             if best is None:
@@ -474,9 +520,9 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
     with torch.no_grad():
         T = tree.forward(torch.as_tensor(rest_q))
     poses = {n: T[i].numpy() for i, n in enumerate(tree.link_names)}
-    sampled: dict[tuple[int, ...], np.ndarray] = {}  # path joints -> link poses
+    sampled: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}  # path joints -> (q, link poses)
 
-    def path_poses(la: str, lb: str) -> np.ndarray:
+    def path_poses(la: str, lb: str) -> tuple[np.ndarray, np.ndarray]:
         joints = _path_joints(tree, la, lb)
         if joints not in sampled:
             sampled[joints] = _path_poses(tree, joints, rest_q, lower, upper, seed)
