@@ -337,6 +337,11 @@ def main() -> None:
                       "the four fingers). One FK (nlo_lab's, of `yumi.urdf`) scores every method. Self-collision: the hand-frames where "
                       "two links of that hand (below its wrist link) overlap by `yumi.urdf`'s collision geometry "
                       f"(`nlo_lab.robot.geometry_collision`, deeper than {1000 * DEPTH_TOLERANCE:.1f} mm), whatever the method.", "",
+                      "Diagnostics, not methods: nlo_lab with the collision weight 0 (what the self-collision pairs cost the "
+                      f"handshape); nlo_lab's output with its hand joints alone then optimised in joint space ({REFINE_STEPS} Adam "
+                      f"steps of {REFINE_LR} rad, patience 5, the arms kept, the limits by clamping) on the same objective, collision "
+                      "and smoothness included (what the objective asks of the hands, against where the latent optimisation "
+                      "leaves them).", "",
                       table, "", "### Targets against the measurement", "", "\n".join(targets), "", "### Recordings", "", recs])
     print(body)
     if not args.no_write:
