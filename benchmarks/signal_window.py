@@ -124,8 +124,8 @@ def report(found: dict[str, list[tuple[float, float]]], runs: int) -> list[str]:
         ours = statistics.median(b for _, b in script) * 1000
         least = statistics.median(b for _, b in floor) * 1000
         lines += ["", f"The console script takes the signals {ours:.1f} ms after the spawn (median); a Python program whose "
-                  f"first statement takes them, {least:.1f} ms: nlo_lab adds {ours - least:.1f} ms (the console script's "
-                  "`import sys`, `nlo_lab/__init__.py`, `import signal`), the rest is the interpreter's own start with "
+                  f"first statement takes them, {least:.1f} ms: the script adds {ours - least:.1f} ms (the installer's lines: "
+                  "`import sys`, and `re` in older pips'; `nlo_lab/__init__.py`, `import signal`), the rest is the interpreter's own start with "
                   "`site` and the installed packages' `.pth` files, which runs before any code of a program."]
     return lines
 
