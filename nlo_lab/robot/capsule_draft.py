@@ -76,8 +76,9 @@ __all__ = [
 
 REACH_SAMPLES = 4000  # random poses within the limits of the reach test
 GEOMETRY_SAMPLES = 512  # random poses of the joints between a thinned pair's links (and their limits' corners)
-THIN_SAFETY = 0.001  # [m] a thinning stops this short of letting the sampled geometry overlap unseen
-REFINE_CUTS = 4  # a blind pair's capsules are cut in two at most this many times
+THIN_SAFETY = 0.0005  # [m] a thinning stops this short of letting the sampled geometry overlap unseen
+ROUNDING = 0.0003  # [m] what the radii's rounding to 0.1 mm (up, and down when thinned) may take from a gap, and some
+REFINE_CUTS = 6  # a blind pair's capsules are cut in two at most this many times
 BOUNDARY_SEEDS = 4  # overlapping poses (and free neighbours of each) between which a thinning bound is bisected ...
 BOUNDARY_STEPS = 8  # ... in this many halvings
 REACH = 0.05  # [m] a pair whose capsules never come this close (nor closer than their radii) in those poses is not checked
@@ -411,9 +412,21 @@ def _thinning_bound(tree, sample: tuple[np.ndarray, np.ndarray], a: Piece, b: Pi
 
 
 def _allowed(bound: float) -> float:
-    """The thinning [m] (both capsules together, an even number of :data:`THIN_STEP`) a pair may have given its
+    """The thinning [m] (both capsules together, on the :data:`THIN_STEP` grid) a pair may have given its
     :func:`_thinning_bound`: :data:`THIN_SAFETY` short of it."""
-    return float(np.floor((bound - THIN_SAFETY) / (2 * THIN_STEP) + 1e-9) * 2 * THIN_STEP)
+    return float(np.floor((bound - THIN_SAFETY) / THIN_STEP + 1e-9) * THIN_STEP)
+
+
+def _split(a: Piece, b: Piece, total: float) -> tuple[float, float] | None:
+    """``total`` thinning [m] (on the :data:`THIN_STEP` grid) split between capsules ``a`` and ``b``: half each (``a``
+    the larger half), at most :data:`INNER_MAX_THIN` of a radius each, the other taking what one cannot; None
+    when that is not enough."""
+    most = [float(np.floor(INNER_MAX_THIN * c.radius / THIN_STEP) * THIN_STEP) for c in (a, b)]
+    first = min(float(np.ceil(total / 2 / THIN_STEP - 1e-9) * THIN_STEP), most[0])
+    second = total - first
+    if second > most[1] + 1e-9:
+        first, second = total - most[1], most[1]
+    return (first, second) if first <= most[0] + 1e-9 and min(first, second) >= -1e-9 else None
 
 
 def _rest_slack(tree, a: Piece, b: Piece, poses: dict, sample: tuple[np.ndarray, np.ndarray], margin: float) -> float:
@@ -426,12 +439,20 @@ def _rest_slack(tree, a: Piece, b: Piece, poses: dict, sample: tuple[np.ndarray,
         return float("inf")
     if overlap_depth(polytope(a.link, a.hull), poses[a.link], polytope(b.link, b.hull), poses[b.link]) > DEPTH_TOLERANCE:
         return float("inf")
-    return gap + _allowed(_thinning_bound(tree, sample, a, b)) - INNER_CLEARANCE - 2e-4
+    return gap + _allowed(_thinning_bound(tree, sample, a, b)) - ROUNDING
+
+
+def _toward(a: Piece, b: Piece, poses: dict) -> np.ndarray:
+    """The direction from capsule ``a``'s middle to ``b``'s at rest, in ``a``'s link frame."""
+    Ta, Tb = poses[a.link], poses[b.link]
+    mid_b = Tb[:3, :3] @ (0.5 * (np.asarray(b.p0) + np.asarray(b.p1))) + Tb[:3, 3]
+    return Ta[:3, :3].T @ (mid_b - Ta[:3, 3]) - 0.5 * (np.asarray(a.p0) + np.asarray(a.p1))
 
 
 def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, poses: dict, path_poses, margin: float) -> None:
-    """Cut in two (:func:`~nlo_lab.robot.capsule_fit.cuts`) the capsules of *blind* pairs, in place: the piece of
-    the pair, or both, across the axes whose halves leave the most room at rest, while that helps, up to :data:`REFINE_CUTS` times
+    """Cut in two (:func:`~nlo_lab.robot.capsule_fit.cuts`: across the principal axes, or across the direction to the
+    other capsule) the capsules of *blind* pairs, in place: the piece of the pair, or both, with the cut whose
+    halves leave the most room at rest, while that helps, up to :data:`REFINE_CUTS` times
     per pair (TIAGo's finger: a 13 mm ball round its first phalanx overlapped the palm's at rest by more than
     the finger can close into the palm; two 9 mm capsules do not)."""
     for ga, gb in key_pairs:
@@ -452,7 +473,8 @@ def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, pose
                 break
             slack, u, v = worst
             best = None
-            for na, nb in itertools.product([[pieces[ga][u]], *cuts(pieces[ga][u])], [[pieces[gb][v]], *cuts(pieces[gb][v])]):
+            pa, pb = pieces[ga][u], pieces[gb][v]
+            for na, nb in itertools.product([[pa], *cuts(pa, _toward(pa, pb, poses))], [[pb], *cuts(pb, _toward(pb, pa, poses))]):
                 if len(na) + len(nb) == 2:
                     continue  # no cut
                 after = min(_rest_slack(tree, x, y, poses, sample, margin) for x in na for y in nb)
@@ -569,14 +591,15 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
         allowed = _allowed(bound)
         need = margin + INNER_CLEARANCE - gap  # clears the margin at rest
         pair_margin = margin
-        if need <= allowed:  # "most": as far as the geometry allows (and the radii), so the pair blocks the least
+        if need <= allowed and thinning == "least":
+            thin = _thinning(flat[i], flat[j], gap, margin)
+        elif need <= allowed:  # "most": as far as the geometry allows (and the radii), so the pair blocks the least
             most = sum(float(np.floor(INNER_MAX_THIN * c.radius / THIN_STEP) * THIN_STEP) for c in (flat[i], flat[j]))
-            target = max(need, min(allowed, most)) if thinning == "most" else need
-            thin = _thinning(flat[i], flat[j], gap, target + gap - INNER_CLEARANCE)
-        elif gap + allowed - INNER_CLEARANCE - 2e-4 >= 0:  # clearing the margin would hide a collision: thin only so far,
-            thin = _thinning(flat[i], flat[j], gap, allowed + gap - INNER_CLEARANCE)  # and narrow the pair's margin
-            if thin is not None:  # to what is left at rest (the radii's rounding: 0.2 mm)
-                pair_margin = max(0.0, float(np.floor((gap + sum(thin) - INNER_CLEARANCE - 2e-4) * 1e4) / 1e4))
+            thin = _split(flat[i], flat[j], max(float(np.ceil(need / THIN_STEP - 1e-9) * THIN_STEP), min(allowed, most)))
+        elif gap + allowed - ROUNDING >= 0:  # clearing the margin would hide a collision: thin only so far,
+            thin = _split(flat[i], flat[j], allowed)  # and narrow the pair's margin to what is left at rest
+            if thin is not None:
+                pair_margin = max(0.0, float(np.floor((gap + sum(thin) - ROUNDING) * 1e4) / 1e4))
         else:  # not even touching at rest: these capsules cannot tell the rest pose from a collision
             thin = _thinning(flat[i], flat[j], gap, margin)
             if thin is not None:

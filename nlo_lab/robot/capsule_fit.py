@@ -160,22 +160,31 @@ def _merged(link: str, hulls: list) -> list[Piece]:
     return pieces
 
 
-def cuts(piece: Piece) -> list[list[Piece]]:
-    """The piece cut in two across each principal axis of its hull (the cuts that leave two solid halves)."""
+def _cut(piece: Piece, point: np.ndarray, normal: np.ndarray) -> list[Piece] | None:
+    """The piece's hull cut by the plane through ``point`` square to ``normal``: a capsule round each half, or None."""
+    parts = []
+    for n in (normal, -normal):
+        half = piece.hull.slice_plane(point, n, cap=True)
+        if half is None or len(half.faces) < 4 or not half.is_volume:
+            return None
+        parts.append(Piece.around(piece.link, half.convex_hull))
+    return parts
+
+
+def cuts(piece: Piece, toward=None) -> list[list[Piece]]:
+    """The piece cut in two across each principal axis of its hull, through the middle; and, given a direction
+    ``toward`` (link frame: where another part sits), across it at 0.2 to 0.8 of the hull's extent (its end near
+    that part gets a capsule of its own). Only cuts that leave two solid halves."""
     v = np.asarray(piece.hull.vertices, dtype=np.float64)
-    out = []
+    planes = []
     for axis in np.linalg.svd(v - v.mean(0), full_matrices=False)[2]:
         along = v @ axis
-        middle = 0.5 * (along.min() + along.max()) * axis  # a point of the cutting plane
-        parts = []
-        for normal in (axis, -axis):
-            half = piece.hull.slice_plane(middle, normal, cap=True)
-            if half is None or len(half.faces) < 4 or not half.is_volume:
-                break
-            parts.append(Piece.around(piece.link, half.convex_hull))
-        if len(parts) == 2:
-            out.append(parts)
-    return out
+        planes.append((0.5 * (along.min() + along.max()) * axis, axis))
+    if toward is not None and np.linalg.norm(toward) > 1e-12:
+        d = np.asarray(toward, dtype=np.float64) / np.linalg.norm(toward)
+        along = v @ d
+        planes += [((along.min() + f * (along.max() - along.min())) * d, d) for f in (0.2, 0.35, 0.5, 0.65, 0.8)]
+    return [parts for point, normal in planes if (parts := _cut(piece, point, normal)) is not None]
 
 
 def halves(piece: Piece) -> list[Piece] | None:
