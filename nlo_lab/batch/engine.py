@@ -130,6 +130,9 @@ def _cluster(client, scheduler: str | None, workers: int | None):
     environ = dict(os.environ)  # dask's nanny writes its workers' variables into this process's environment
     try:
         try:
+            # lazy: the batch extra (dask), like every import of this function
+            from nlo_lab.batch.quick_exit import QuickExit
+
             with importlib.import_module("dask").config.set(LOCAL_CLUSTER_CONFIG):  # read when the servers start
                 cluster = distributed.LocalCluster(
                     n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
@@ -137,6 +140,7 @@ def _cluster(client, scheduler: str | None, workers: int | None):
                     # no dashboard, and the scheduler's HTTP routes (health, metrics) on a free loopback port, not 8787
                     scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
                     env={"NLO_LAB_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"},  # torch: one thread per worker
+                    plugins={QuickExit()},
                 )
         except Exception as exc:  # noqa: BLE001 - most often a script without a __main__ guard
             raise SchedulerError(f"the local dask cluster did not start ({type(exc).__name__}: {exc}); a script that calls "

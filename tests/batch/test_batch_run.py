@@ -202,6 +202,22 @@ def test_our_local_cluster_has_single_threaded_workers_on_the_loopback():
         # torch, its BLAS and our own thread setting: one thread in every worker process
         threads = client.run(lambda: (__import__("torch").get_num_threads(), __import__("os").environ.get("NLO_LAB_THREADS")))
         assert sorted(threads.values()) == [(1, "1"), (1, "1")]
+        # each worker freezes its objects when it closes, so that its process ends at once (nlo_lab.batch.quick_exit)
+        plugins = client.run(lambda dask_worker: sorted(dask_worker.plugins))
+        assert all("nlo-lab-quick-exit" in names for names in plugins.values()), plugins
+
+
+def test_a_closing_worker_hands_its_objects_to_gc_freeze():
+    import gc
+
+    from nlo_lab.batch.quick_exit import QuickExit
+
+    assert gc.get_freeze_count() == 0
+    try:
+        QuickExit().teardown(worker=None)
+        assert gc.get_freeze_count() > 1000  # this process's objects, torch's among them
+    finally:
+        gc.unfreeze()
 
 
 def test_each_worker_builds_the_retargeter_once_per_settings(monkeypatch):
