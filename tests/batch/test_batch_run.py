@@ -234,3 +234,21 @@ def test_each_worker_builds_the_retargeter_once_per_settings(monkeypatch):
     for i in range(10):  # a notebook trying many settings keeps a few models, not all
         tasks.cached_retargeter(BatchSettings("nao", iterations=10 + i))
     assert len(tasks._CACHE) == tasks._CACHE_SIZE
+
+
+def test_videos_go_first_then_the_largest_files(tmp_path):
+    """dask starts tasks of equal priority in the order they came: the longest inputs must come first, so that no
+    worker waits at the end of the run for one long input."""
+    from nlo_lab.batch import BatchSettings
+    from nlo_lab.batch.inputs import BatchInput
+    from nlo_lab.batch.tasks import Job
+
+    sizes = {"small.pose": 10, "large.pose": 1000, "clip.mp4": 5, "medium.npz": 100, "gone.pose": None}
+    jobs = []
+    for name, size in sizes.items():
+        path = tmp_path / name
+        if size is not None:
+            path.write_bytes(b"x" * size)
+        jobs.append(Job(BatchInput(path, path.stem), str(tmp_path / path.stem), "0" * 64, BatchSettings("yumi"), "f" * 16, {}))
+    order = [job.item.path.name for job in batch_engine._longest_first(jobs)]
+    assert order == ["clip.mp4", "large.pose", "medium.npz", "small.pose", "gone.pose"]
