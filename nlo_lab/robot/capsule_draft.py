@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import itertools
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -503,7 +504,8 @@ def _names(pieces: dict[str, list[Piece]]) -> list[CapsuleSpec]:
 
 
 def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float, samples: int = REACH_SAMPLES, seed: int = 0,
-                    disabled: set | frozenset = frozenset(), thinning: str = "most") -> CapsuleDraft:
+                    disabled: set | frozenset = frozenset(), thinning: str = "most",
+                    fit: Callable[[str, str, list], list[Piece]] | None = None) -> CapsuleDraft:
     """Capsules and checked pairs of a robot (see the module docstring).
 
     Args:
@@ -518,12 +520,16 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
         thinning: ``"most"`` (default): a pair near at rest is thinned as far as its sampled geometry allows
             (it blocks the least motion: Talos's elbow); ``"least"``: just enough to clear the margin at rest
             (the bundled specs, whose checkpoints were trained with it).
+        fit: ``fit(link, seat, hulls)`` -> the capsules (on ``seat``) holding a link's geometry
+            ``hulls``; default :func:`~nlo_lab.robot.capsule_fit.fit_link_capsules` on every link
+            (a bundled robot's generator may fit some links more tightly: ``assets/robots/fit_capsules.py``).
     """
     if thinning not in ("most", "least"):
         raise ValueError(f"thinning must be 'most' or 'least', not {thinning!r}")
     rest_q = np.asarray(rest_q, dtype=np.float64)
     hulls, seat = _body_hulls(model, tree)
-    pieces = {link: fit_link_capsules(seat[link], items) for link, items in hulls.items()}
+    pieces = {link: fit(link, seat[link], items) if fit is not None else fit_link_capsules(seat[link], items)
+              for link, items in hulls.items()}
     keys = dict(seat)  # group -> the link its capsules sit on
     hand = _hands(tree, arms)
     for side, wrist in arms.wrists.items():

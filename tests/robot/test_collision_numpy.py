@@ -13,7 +13,8 @@ from nlo_lab.robot import collision
 def test_collision_numpy_equals_torch(name, robot64, monkeypatch):
     robot = robot64(name)
     g = torch.Generator().manual_seed(5)
-    q = robot.lower_limits + torch.rand(5, robot.n_joints, generator=g, dtype=torch.float64) * (robot.upper_limits - robot.lower_limits)
+    frames = min(5, collision.NUMPY_MAX_PAIRS // len(robot.pair_capsules))  # few enough pairs for numpy (YuMi: 873 per frame)
+    q = robot.lower_limits + torch.rand(frames, robot.n_joints, generator=g, dtype=torch.float64) * (robot.upper_limits - robot.lower_limits)
 
     def value_and_grad():
         x = q.clone().requires_grad_(True)
