@@ -86,8 +86,9 @@ def _threads_at_work(run) -> tuple[list[float], object]:
 
 @pytest.mark.slow
 def test_each_holistic_instance_runs_on_one_thread_with_the_landmarks_of_mediapipes_default(monkeypatch):
-    """MediaPipe would run a Holistic graph on min(cores, nodes) threads (two here); the reader asks for one
-    (holistic_loader): one thread does the work of a segment, and the landmarks are those of MediaPipe's own pool."""
+    """MediaPipe would run a Holistic graph on min(cores, nodes) threads (two here); a segment estimated apart
+    (a batch worker's) asks for one (holistic_loader): one thread does its work, and the landmarks are those of
+    MediaPipe's own pool."""
     from pose_format.utils import holistic
 
     estimate_segment(SAMPLE, 0, 30)  # loads the models, imports everything
@@ -96,9 +97,32 @@ def test_each_holistic_instance_runs_on_one_thread_with_the_landmarks_of_mediapi
 
     monkeypatch.setattr(holistic, "mp_holistic", holistic.mp_holistic._module)  # MediaPipe's Holistic as it is
     monkeypatch.setattr("nlo_lab.human.readers.video.holistic_loader", lambda path: holistic.load_holistic)
+    monkeypatch.setattr("nlo_lab.human.readers.video.holistic_config", lambda graph_threads: {"model_complexity": 1})
     pooled, theirs = _threads_at_work(lambda: estimate_segment(SAMPLE, 0, 30))
     if (os.cpu_count() or 1) > 1:
         assert len(pooled) > 1, f"MediaPipe's default pool: {pooled}"  # what the test guards against
     np.testing.assert_array_equal(ours.pose.body.data.data, theirs.pose.body.data.data)
     np.testing.assert_array_equal(np.ma.getmaskarray(ours.pose.body.data), np.ma.getmaskarray(theirs.pose.body.data))
     np.testing.assert_array_equal(ours.pose.body.confidence, theirs.pose.body.confidence)
+
+
+@pytest.mark.slow
+def test_the_instances_share_the_cores_allowed(monkeypatch):
+    """estimate_pose gives each Holistic instance the cores allowed over the instances: one each when there are
+    as many segments as cores, more when there are fewer segments; ``threads=1``: one."""
+    import nlo_lab.human.readers.video as video
+
+    asked = []
+    real = video._holistic
+
+    def recording(load_holistic, segment, info, graph_threads=1):
+        asked.append(graph_threads)
+        return real(load_holistic, segment, info, graph_threads)
+
+    monkeypatch.setattr(video, "_holistic", recording)
+    monkeypatch.setattr(video, "_available_cores", lambda: 4)
+    monkeypatch.delenv("NLO_LAB_THREADS", raising=False)
+    for threads, expected in ((None, [2, 2]), (1, [1, 1]), (3, [1, 1])):  # the sample: 2 segments
+        asked.clear()
+        video.estimate_pose(SAMPLE, threads=threads)
+        assert asked == expected, (threads, asked)

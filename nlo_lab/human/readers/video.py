@@ -40,9 +40,10 @@ Threads: the video is cut into segments of :data:`SEGMENT_FRAMES` consecutive fr
 and each segment goes to a fresh Holistic instance that tracks through it (MediaPipe
 tracks a person from frame to frame and smooths the landmarks; each segment starts
 that anew from a detection). ``workers`` instances run side by side, one segment each,
-each on one core: MediaPipe would run each instance's graph on a pool of as many threads as
-the machine has cores (blind to CPU affinity and to a cluster job's share), so it is told to
-use one (:func:`holistic_loader`; the landmarks are the same). Because the cut does not depend on the number of
+each on its share of the cores: MediaPipe would run each instance's graph on a pool of as many
+threads as the machine has cores (blind to CPU affinity and to a cluster job's share), so it is
+told how many to use (:func:`holistic_loader`: the cores allowed over the instances, at least one;
+one for :func:`estimate_segment`; the landmarks are the same). Because the cut does not depend on the number of
 workers, the landmarks, and so the demonstration, are the same for any number of
 workers, frame by frame, in the video's order. The number of workers
 (:func:`pose_workers`) is the cores this process may use (``os.sched_getaffinity``,
@@ -102,6 +103,7 @@ __all__ = [
     "read_video_frames",
     "native_output_silenced",
     "holistic_loader",
+    "holistic_config",
     "pose_workers",
     "estimate_pose",
     "segment_bounds",
@@ -334,8 +336,8 @@ MODEL_COMPLEXITY = 1
 _HOLISTIC_LOCK = threading.Lock()
 
 
-class _OneThreadSolutions:
-    """``mediapipe.solutions.holistic`` as pose-format sees it, with a ``Holistic`` whose graph runs on one thread."""
+class _SolutionsWithThreads:
+    """``mediapipe.solutions.holistic`` as pose-format sees it, with a ``Holistic`` whose graph's thread count is ours."""
 
     def __init__(self, module, holistic) -> None:
         self._module, self.Holistic = module, holistic
@@ -345,42 +347,53 @@ class _OneThreadSolutions:
 
 
 def holistic_loader(path):
-    """pose-format's ``load_holistic``, its Holistic instances running their MediaPipe graph on one thread.
+    """pose-format's ``load_holistic``, whose Holistic instances run their MediaPipe graph on as many threads
+    as the Holistic config's ``graph_threads`` says (:func:`holistic_config`; 1 if it says nothing).
 
     MediaPipe runs a graph's calculators on a pool of min(cores, nodes) threads, the cores being
     every core of the machine (``sysconf(_SC_NPROCESSORS_ONLN)``: blind to CPU affinity, to a
     cluster job's share and to the other instances running beside it). One Holistic instance ran
-    on 1.4 cores here (4 segments of the sample video: 4.1 s of CPU in 3.0 s), so two of them, or
-    two batch workers, asked for 4 threads of 2 cores. Our parallelism is by segments, one instance per core
-    (:func:`estimate_pose`, ``nlo-lab batch``'s workers), so each instance's default executor gets one
-    thread. Only the instances pose-format creates are concerned (its handle on MediaPipe's holistic
-    module is swapped for one whose ``Holistic`` does this; MediaPipe itself is left as it is); the
-    landmarks are the same, bit for bit (tested).
+    on 1.4 cores here (4 segments of the sample video: 4.1 s of CPU in 3.0 s; docs/RESULTS.md's video
+    section measured 1.43 for one worker), so two of them, or two batch workers, asked for 4 threads
+    of 2 cores. Our parallelism is by segments (:func:`estimate_pose`'s instances, ``nlo-lab batch``'s
+    workers), so each instance gets its share of the cores it may use. Only the instances pose-format
+    creates are concerned (its handle on MediaPipe's holistic module is swapped for one whose
+    ``Holistic`` does this; MediaPipe itself is left as it is); the landmarks are the same, bit for
+    bit, whatever the threads (tested).
 
     Raises:
         DemonstrationError: the video extra is missing (naming ``path``).
     """
     module = video_extra(path, "pose_format.utils.holistic")
     with _HOLISTIC_LOCK:
-        if not isinstance(module.mp_holistic, _OneThreadSolutions):
+        if not isinstance(module.mp_holistic, _SolutionsWithThreads):
             framework = video_extra(path, "mediapipe.framework.thread_pool_executor_pb2")
-            module.mp_holistic = _OneThreadSolutions(module.mp_holistic, _one_thread_holistic(module.mp_holistic.Holistic, framework))
+            module.mp_holistic = _SolutionsWithThreads(module.mp_holistic, _holistic_with_threads(module.mp_holistic.Holistic, framework))
     return module.load_holistic
 
 
-def _one_thread_holistic(holistic, framework):
-    """A subclass of MediaPipe's ``Holistic`` whose graph's default executor has one thread."""
+def holistic_config(graph_threads: int = 1) -> dict:
+    """The Holistic settings every estimation uses (:data:`MODEL_COMPLEXITY`), its graph on ``graph_threads`` threads."""
+    return {"model_complexity": MODEL_COMPLEXITY, "graph_threads": int(graph_threads)}
+
+
+def _holistic_with_threads(holistic, framework):
+    """A subclass of MediaPipe's ``Holistic`` taking ``graph_threads``: its graph's default executor's thread count."""
     options = framework.ThreadPoolExecutorOptions.ext
 
-    class OneThreadHolistic(holistic):
+    class HolisticWithThreads(holistic):
+        def __init__(self, *args, graph_threads: int = 1, **kwargs) -> None:
+            self._graph_threads = max(1, int(graph_threads))
+            super().__init__(*args, **kwargs)
+
         def _initialize_graph_interface(self, *args, **kwargs):  # SolutionBase's: the graph's config, before the graph is made
             config = super()._initialize_graph_interface(*args, **kwargs)
             default = [e for e in config.executor if not e.name] or [config.executor.add()]
             if not default[0].type:  # a thread pool of MediaPipe's choosing (not a given executor type)
-                default[0].options.Extensions[options].num_threads = 1
+                default[0].options.Extensions[options].num_threads = self._graph_threads
             return config
 
-    return OneThreadHolistic
+    return HolisticWithThreads
 
 
 # Frames per segment of the pose estimation (see the module docstring): long enough that
@@ -497,10 +510,10 @@ def _join(poses: list):
     return Pose(poses[0].header, NumPyPoseBody(poses[0].body.fps, data, confidence))
 
 
-def _holistic(load_holistic, segment: list[np.ndarray], info):
+def _holistic(load_holistic, segment: list[np.ndarray], info, graph_threads: int = 1):
     """One segment's landmarks, by a fresh Holistic instance (reuse=False): it starts from a detection, whoever runs it."""
     return load_holistic(segment, fps=info.fps, width=info.width, height=info.height, progress=False,
-                         additional_holistic_config={"model_complexity": MODEL_COMPLEXITY}, pose_workers=1, reuse=False)
+                         additional_holistic_config=holistic_config(graph_threads), pose_workers=1, reuse=False)
 
 
 def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -> VideoPose:
@@ -527,8 +540,10 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
     load_holistic = holistic_loader(path)
     frames = VideoFrames(path, info, max_side=MAX_ESTIMATION_SIDE)
 
+    graph_threads = max(1, pose_workers(threads) // workers)  # the cores allowed, shared by the instances (fewer segments: more each)
+
     def segment_pose(segment: list[np.ndarray]):
-        return _holistic(load_holistic, segment, info)
+        return _holistic(load_holistic, segment, info, graph_threads)
 
     start = time.perf_counter()
     bar_stream = _stderr_stream() if progress else None
