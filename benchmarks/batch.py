@@ -415,8 +415,8 @@ def main() -> None:
         "## Batch: a corpus on dask.distributed (`nlo-lab batch`)",
         "",
         stamp().rstrip(),
-        f"- run as: `{COMMAND}` (the stamp's command without the `nice`); the coordinator's re-run on a quiet machine is the "
-        "one to quote",
+        "- run as: the stamp's command with `nice -n 10` in front (e.g. `" + COMMAND + "`); the coordinator's re-run on a "
+        "quiet machine is the one to quote",
         f"- `uptime` at the start: {uptime_start}; at the end: {uptime_end}",
         f"- a load at the start above {QUIET_LOAD:g} means other work shared the cores: the two timing ratios are then marked "
         "PROVISIONAL, and the 2-worker speed-up NOT JUDGED when the calibration is below its target",

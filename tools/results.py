@@ -78,7 +78,7 @@ STEPS: tuple[Step, ...] = (
     Step("long:yumi", "benchmarks/long_recording.py", "--robot yumi", "--robot yumi --frames 200 400", minutes=4),
     Step("video", "benchmarks/video.py", "", "--repeats 1 --no-cli --workers 1", needs="video", minutes=5),
     Step("live", "benchmarks/live.py", "", "--passes 1", needs="video", minutes=2),
-    Step("batch", "benchmarks/batch.py", "", "--inputs 10 --iters 10", needs="video", minutes=6),
+    Step("batch", "benchmarks/batch.py", "", "--inputs 10 --iters 10 --rounds 1", needs="video", minutes=8),
     Step("reliability", "benchmarks/reliability.py", "", "--frames 2000 --points 1", minutes=8),
     Step("signals", "benchmarks/signals.py", "", "--points 2", minutes=5),
     Step("signal-window", "benchmarks/signal_window.py", "", "--runs 3", minutes=0.5),
