@@ -45,8 +45,9 @@ def _relative(robot, q):
 # refined in e509c20 and ff9fafd: 13 capsules and 45 pairs became 50 capsules and 304 pairs) while the shipped
 # yumi.pt is still the checkpoint trained with the old capsules: from the encoder's guess the collision term holds
 # the arms in a local minimum (median wrist error 0.085-0.128 of the arm length on 2026-11-26; 0.037 with the
-# collision term off; 0.066 once the body's boxes were tiled with capsules, assets/robots/YUMI.md: the encoder's
-# guesses still start deep in the new capsules, and the results end on a wrist branch that joint 5's pair blocks). A retrain on the fitted capsules has not yet given a checkpoint that beats the shipped one
+# collision term off; 0.066 once the body's boxes were tiled with capsules, assets/robots/YUMI.md, and 0.149 with
+# the hand weights of 33b4ab5: the encoder's guesses start deep in the capsules, and the results end on a wrist
+# branch that joint 5's pair blocks; a retrain on the tiled capsules ends at 0.060, elbow 0.140: not shipped). A retrain on the fitted capsules has not yet given a checkpoint that beats the shipped one
 # (assets/checkpoints/README.md). strict: the day a checkpoint recovers the poses, this case fails and must be
 # turned back into a plain test.
 YUMI_KNOWN_FAILURE = pytest.mark.xfail(
