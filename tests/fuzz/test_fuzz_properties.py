@@ -25,7 +25,8 @@ from hypothesis.extra import numpy as hnp
 from nlo_lab.errors import NloLabError
 
 PROFILE = settings(max_examples=60, deadline=None, derandomize=True, database=None,
-                   suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture, HealthCheck.data_too_large])
+                   suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture, HealthCheck.data_too_large,
+                                          HealthCheck.filter_too_much])  # most generated demonstrations are refused by design
 
 
 def only_nlo_lab_errors(call, *args, **kwargs):
