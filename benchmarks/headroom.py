@@ -80,7 +80,7 @@ def objective_optimum(robot, demo, q0: np.ndarray, steps: int) -> np.ndarray:
     lo = robot.lower_limits
     targets = targets_from_demonstration(demo, dtype=lo.dtype)
     r = optimize_joints(robot, targets, JointOptimizeSettings(iterations=steps, patience=steps + 1, lr=LR), q0=torch.as_tensor(q0, dtype=lo.dtype), fast=True,
-                        weights=LossWeights(smooth=0.0))
+                        weights=LossWeights.paper())
     return r.q.detach().cpu().double().numpy()
 
 

@@ -134,7 +134,7 @@ class BaselineSettings:
         """The objective's weights: ``weights``, else the mode's (paper: no smoothness term, no hand terms)."""
         if self.weights is not None:
             return self.weights
-        return LossWeights(smooth=0.0, tip=0.0, thumb=0.0, pinch=0.0) if self.mode == "paper" else LossWeights()
+        return LossWeights.paper() if self.mode == "paper" else LossWeights()
 
     @property
     def retime(self) -> bool:

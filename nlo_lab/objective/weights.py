@@ -80,6 +80,13 @@ class LossWeights:
         validate_fields(self, lambda name, v: check_range(name, v, *WEIGHT_RANGE), prefix="loss weight ")
 
     @classmethod
+    def paper(cls) -> LossWeights:
+        """The paper's objective: its five terms and the latent prior, frames independent (``smooth=0``) and
+        without our hand terms (``tip``, ``thumb``, ``pinch`` = 0). Table I's paper mode, Table II, III, the
+        departures and the headroom benchmark optimise and train on it."""
+        return cls(smooth=0.0, **{name: 0.0 for name in HAND_TERMS})
+
+    @classmethod
     def from_string(cls, text: str) -> LossWeights:
         """Parse ``"ee=1000,ori=100"``; unnamed weights keep their defaults.
 

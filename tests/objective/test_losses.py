@@ -51,6 +51,14 @@ def test_loss_weights_defaults_are_the_papers():
     assert (w.ee, w.ori, w.elbow, w.finger, w.collision, w.latent) == (1000, 100, 100, 100, 1000, 1)
 
 
+def test_the_papers_objective_keeps_its_terms_and_drops_ours():
+    paper, ours = LossWeights.paper(), LossWeights()
+    assert (paper.smooth, paper.tip, paper.thumb, paper.pinch) == (0, 0, 0, 0)  # not in the paper
+    assert ours.smooth > 0 and ours.tip > 0 and ours.thumb > 0 and ours.pinch > 0
+    for name in ("ee", "ori", "elbow", "finger", "collision", "latent"):  # the paper's terms, the paper's weights
+        assert getattr(paper, name) == getattr(ours, name)
+
+
 @pytest.mark.parametrize("bad", [-1.0, math.nan, math.inf, "abc", None])
 def test_loss_weights_reject_bad_values(bad):
     with pytest.raises(SettingsError, match="ori"):
