@@ -204,7 +204,7 @@ def table3(robot, demos, train_steps: int, iterations: int):
     results, trained = {}, {}
     for name, kind, objective in VARIANTS:
         print(f"Table III: training {name} ({kind}, {objective}) for {train_steps} steps ...", file=sys.stderr)
-        model, secs, steps = train_variant(robot, name, data, labels, steps=train_steps, val_data=val)
+        model, secs, steps = train_variant(robot, name, data, labels, steps=train_steps, val_data=val, weights=PAPER)
         trained[name] = (secs, steps)
         per = {"Init": {}, "Optim": {}}
         for demo in demos:

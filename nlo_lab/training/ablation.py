@@ -22,6 +22,7 @@ from nlo_lab.training.supervised import train_supervised_model
 from nlo_lab.training.train import TrainSettings, new_model, train_model
 
 if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.objective import LossWeights
     from nlo_lab.robot import Robot
 
 __all__ = ["VARIANTS", "train_variant"]
@@ -35,7 +36,8 @@ VARIANTS = {  # Table III of the paper: name -> (model kind, training objective)
 
 
 def train_variant(robot: Robot, name: str, data: RetargetInputs, labels: torch.Tensor | None, seconds: float | None = None, *,
-                  val_data: RetargetInputs | None = None, seed: int = 0, steps: int | None = None, activation: str = DEFAULT_ACTIVATION):
+                  val_data: RetargetInputs | None = None, seed: int = 0, steps: int | None = None, activation: str = DEFAULT_ACTIVATION,
+                  weights: LossWeights | None = None):
     """Train one Table III variant for a budget of optimiser steps or of wall-clock time.
 
     Args:
@@ -50,6 +52,8 @@ def train_variant(robot: Robot, name: str, data: RetargetInputs, labels: torch.T
         steps: optimiser steps (batch 64); None: no step limit. Give ``steps`` or ``seconds``
             (the same for every variant makes them comparable; steps also on a busy machine).
         activation: the networks' message activation (:data:`~nlo_lab.model.ACTIVATIONS`).
+        weights: the training objective of the FK variants (None: :class:`LossWeights` defaults;
+            the paper's Table III: ``LossWeights.paper()``). The supervised variants learn their labels.
 
     Returns:
         ``(model, seconds, steps)``: the model in eval mode, in the robot's dtype.
@@ -65,7 +69,7 @@ def train_variant(robot: Robot, name: str, data: RetargetInputs, labels: torch.T
         val = val_data if val_data is not None else data
         settings = TrainSettings(kind=kind, epochs=EPOCHS_RANGE[1], max_seconds=max_seconds, max_steps=steps, val_every=100,
                                  val_frames=min(600, len(val)), seed=seed, progress=False, activation=activation)
-        r = train_model(robot, settings, train_data=data, val_data=val)
+        r = train_model(robot, settings, train_data=data, val_data=val, weights=weights)
         model, taken = r.model, r.steps
     else:
         if labels is None:

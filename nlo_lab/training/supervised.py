@@ -138,7 +138,7 @@ def supervised_labels(robot: Robot, targets: Targets, iterations: int, *, progre
     chunk = 2048  # bounded memory; frames are independent
     starts = range(0, len(targets), chunk)
     out = []
-    per_frame = LossWeights(smooth=0.0)
+    per_frame = LossWeights.paper()  # frames independent, no hand terms of ours
     with tqdm(total=len(starts) * (iterations + 1), desc=f"labels {robot.name}", unit="step", disable=not progress) as bar:
         for i in starts:
             settings = JointOptimizeSettings(iterations=iterations, patience=iterations + 1)
@@ -239,8 +239,9 @@ def _cache_key(robot, settings: SupervisedSettings, data: RetargetInputs) -> str
         "settings": asdict(settings),
         # 2: labels from the neutral start with the fixed-shoulder end-effector term; 3: frames
         # labelled independently (no smoothness term between unrelated sample frames). Bump on
-        # any change to the objective or to optimize_joints, or stale labels are reused
-        "version": 3,
+        # any change to the objective or to optimize_joints, or stale labels are reused. 4: the paper's
+        # objective without our hand terms (LossWeights.paper(); version 3 labelled YuMi's fingers with them)
+        "version": 4,
     }
     return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:16]
 

@@ -13,6 +13,7 @@ from nlo_lab.evaluation import METHODS, BaselineSettings, ik_wrists, run_method,
 from nlo_lab.inference import RetargetInputs
 from nlo_lab.metrics import limit_violations
 from nlo_lab.model import encoder_input
+from nlo_lab.objective import LossWeights
 from nlo_lab.robot import load_robot
 from nlo_lab.training import SupervisedSettings, new_model, train_supervised_model, train_supervised_net
 
@@ -132,6 +133,9 @@ def test_table3_variants_train_and_stay_inside_the_limits(demonstration_from_rob
         assert steps >= 1 and seconds > 0
         out = model.decode(model.encode(data.encoder.node_features, data.encoder.edge_features))
         assert limit_violations(robot, out.detach().numpy()) == 0
+    paper = LossWeights.paper()  # Table III trains the FK variants on the paper's objective
+    model, _, _ = train_variant(robot, "GAE+FK", data, q, steps=2, weights=paper)
+    assert model.train_info["weights"] == paper.as_dict() != LossWeights().as_dict()
     with pytest.raises(SettingsError, match="unknown variant"):
         train_variant(robot, "VAE", data, q, 0.1)
     with pytest.raises(SettingsError, match="needs labels"):
