@@ -13,7 +13,7 @@
    retargeting, over the video's duration; and the whole command
    ``nlo-lab retarget VIDEO --json`` as a user runs it (interpreter start and imports included).
 4. The cost of the segments that let workers share a video: the sample estimated as one
-   segment (pure tracking, ``SEGMENT_FRAMES`` raised above the frame count) against the
+   segment (pure tracking, ``estimate_pose(..., segment_frames=<its frame count>)``) against the
    default segments, both retargeted with the default settings (``--no-segments`` skips it).
 
 Medians of ``--repeats`` runs; rewrites the ``video`` section of docs/RESULTS.md
@@ -191,12 +191,8 @@ def reading(rows, identical: bool) -> list[str]:
 
 def segment_cost(segmented, robot, model) -> list[str]:
     """Retarget the sample from its default segments and from one segment (pure tracking); compare."""
-    saved = video_reader.SEGMENT_FRAMES
-    video_reader.SEGMENT_FRAMES = 10**6  # one segment: Holistic tracks the whole video
-    try:
-        whole = estimate_pose(SAMPLE, threads=1)
-    finally:
-        video_reader.SEGMENT_FRAMES = saved
+    cut = video_reader.SEGMENT_FRAMES
+    whole = estimate_pose(SAMPLE, threads=1, segment_frames=video_info(SAMPLE)["frames"])  # one segment: Holistic tracks it all
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the sample's left hand is never seen: known
         demos = {"segments": pose_to_demonstration(segmented), "one segment": pose_to_demonstration(whole)}
@@ -215,14 +211,14 @@ def segment_cost(segmented, robot, model) -> list[str]:
 
     return [
         "",
-        f"### Cost of the {saved}-frame segments",
+        f"### Cost of the {cut}-frame segments",
         "",
         f"Tracking restarts at frame(s) {restarts}. The sample estimated as one segment (pure tracking) and as the "
         "default segments, each retargeted with the default settings:",
         "",
         "| landmarks | Fréchet [m] | slowdown | violations |",
         "|---|---|---|---|",
-        f"| {saved}-frame segments (default) | {sa['frechet_m']:.4f} | {sa['slowdown']:.3f} | {violations(sa)} |",
+        f"| {cut}-frame segments (default) | {sa['frechet_m']:.4f} | {sa['slowdown']:.3f} | {violations(sa)} |",
         f"| one segment | {sb['frechet_m']:.4f} | {sb['slowdown']:.3f} | {violations(sb)} |",
         "",
         f"- Fréchet with segments over one segment: {sa['frechet_m'] / sb['frechet_m'] - 1:+.1%}",

@@ -188,6 +188,32 @@ def test_a_short_clip_gets_one_worker_and_every_frame(tmp_path):
     assert len(video) == 6 and video.workers == 1  # one segment: a second worker would have nothing to do
 
 
+def test_segment_frames_sets_where_tracking_restarts(sample, monkeypatch):
+    """``segment_frames=`` (benchmarks/video.py's one-segment run): the sample as one segment is tracked from frame 0
+    like the default cut up to the default's first restart, then keeps tracking where the default starts anew."""
+    from pose_format import Pose
+
+    from nlo_lab.human.readers import video as pose_estimation
+
+    _, pose_file, _ = sample  # the default cut (segments of SEGMENT_FRAMES), one worker
+    monkeypatch.setattr(pose_estimation, "_available_cores", lambda: 4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", VideoWarning)
+        whole = estimate_pose(SAMPLE, threads=4, segment_frames=SAMPLE_FRAMES)
+    assert whole.workers == 1 and len(whole) == SAMPLE_FRAMES  # one segment: one Holistic instance
+    cut = pose_estimation.SEGMENT_FRAMES
+    default = Pose.read(pose_file.read_bytes()).body
+    ours = Pose.read(whole.to_bytes()).body  # as written to a .pose (float32), like the fixture's
+    np.testing.assert_array_equal(ours.confidence[:cut], default.confidence[:cut])  # the same instance's history ...
+    np.testing.assert_array_equal(np.ma.getdata(ours.data)[:cut], np.ma.getdata(default.data)[:cut])
+    assert not np.array_equal(np.ma.getdata(ours.data)[cut:], np.ma.getdata(default.data)[cut:])  # ... until the default restarts
+    for bad in (0, -3, 2.5, True, "30"):
+        with pytest.raises(SettingsError, match="segment_frames"):
+            estimate_pose(SAMPLE, segment_frames=bad)
+    assert pose_workers(8, frames=SAMPLE_FRAMES, segment_frames=10) == 4  # 6 segments of 10, capped by the 4 cores
+    assert pose_workers(8, frames=SAMPLE_FRAMES, segment_frames=SAMPLE_FRAMES) == 1
+
+
 # ----------------------------------------------------------------------------- bad input
 @pytest.fixture()
 def bad_files(tmp_path):

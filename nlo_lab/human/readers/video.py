@@ -78,6 +78,7 @@ from nlo_lab.errors import DemonstrationError
 from nlo_lab.files import as_path, format_size, open_input
 from nlo_lab.human.demonstration import MAX_FRAMES, Demonstration
 from nlo_lab.human.readers.pose import load_pose
+from nlo_lab.settings import check_int
 from nlo_lab.threads import check_threads, env_threads
 
 __all__ = [
@@ -415,13 +416,14 @@ def _available_cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def pose_workers(threads: int | None = None, frames: int = 0) -> int:
+def pose_workers(threads: int | None = None, frames: int = 0, segment_frames: int = SEGMENT_FRAMES) -> int:
     """Holistic instances to run side by side.
 
     Args:
         threads: the most the caller allows, 1..256; None: ``NLO_LAB_THREADS`` if set, else no limit.
         frames: the video's frame count (0: unknown): no more workers than it has segments of
-            :data:`SEGMENT_FRAMES`.
+            ``segment_frames`` (default :data:`SEGMENT_FRAMES`).
+        segment_frames: the frames of a segment (as :func:`estimate_pose`'s).
 
     Returns:
         ``min(threads, cores available, segments)``, at least 1.
@@ -432,14 +434,20 @@ def pose_workers(threads: int | None = None, frames: int = 0) -> int:
     asked = env_threads() if threads is None else check_threads("threads", threads)
     workers = _available_cores() if asked is None else min(asked, _available_cores())
     if frames > 0:
-        workers = min(workers, -(-int(frames) // SEGMENT_FRAMES))
+        workers = min(workers, -(-int(frames) // _check_segment_frames(segment_frames)))
     return max(1, workers)
 
 
-def _workers_in_memory(info) -> int:
+def _check_segment_frames(value) -> int:
+    """``segment_frames`` checked: a whole number >= 1 (any number above a video's frame count makes one segment of it)."""
+    return check_int("segment_frames", value, 1)
+
+
+def _workers_in_memory(info, segment_frames: int = SEGMENT_FRAMES) -> int:
     """The most workers whose segments fit in :data:`IN_FLIGHT_BYTES` (each worker's, one waiting, one being decoded)."""
     scale = min(1.0, MAX_ESTIMATION_SIDE / max(info.width, info.height, 1))
-    segment = SEGMENT_FRAMES * 3 * max(1, round(info.width * scale)) * max(1, round(info.height * scale))
+    frames = min(segment_frames, info.frames or segment_frames)  # a segment holds at most the whole video
+    segment = frames * 3 * max(1, round(info.width * scale)) * max(1, round(info.height * scale))
     return max(1, IN_FLIGHT_BYTES // segment - 2)
 
 
@@ -516,7 +524,8 @@ def _holistic(load_holistic, segment: list[np.ndarray], info, graph_threads: int
                          additional_holistic_config=holistic_config(graph_threads), pose_workers=1, reuse=False)
 
 
-def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -> VideoPose:
+def estimate_pose(path, *, threads: int | None = None, progress: bool = False,
+                  segment_frames: int = SEGMENT_FRAMES) -> VideoPose:
     """MediaPipe Holistic on every frame of a video, through pose-format.
 
     Args:
@@ -524,6 +533,10 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
         threads: the most Holistic instances to run side by side (:func:`pose_workers`;
             default: every core available). The result does not depend on it.
         progress: a progress bar over the frames on stderr (in a notebook: below the cell).
+        segment_frames: frames per segment, each tracked by a fresh Holistic instance (default
+            :data:`SEGMENT_FRAMES`; more than the video's frames: one segment, pure tracking, one worker).
+            The landmarks depend on it (tracking restarts at every segment's first frame);
+            :func:`segment_bounds`, :func:`estimate_segment` and ``nlo-lab batch`` cut at :data:`SEGMENT_FRAMES`.
 
     Returns:
         A :class:`VideoPose`.
@@ -531,12 +544,14 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
     Raises:
         DemonstrationError: the file is missing, empty, not a video, undecodable or
             truncated, or no person is found in any frame.
+        SettingsError: ``threads`` or ``segment_frames`` out of range (or not whole numbers).
     """
     from concurrent.futures import ThreadPoolExecutor
 
+    segment_frames = _check_segment_frames(segment_frames)
     path = as_path(path)
     info = open_video(path)
-    workers = min(pose_workers(threads, info.frames), _workers_in_memory(info))
+    workers = min(pose_workers(threads, info.frames, segment_frames), _workers_in_memory(info, segment_frames))
     load_holistic = holistic_loader(path)
     frames = VideoFrames(path, info, max_side=MAX_ESTIMATION_SIDE)
 
@@ -560,7 +575,7 @@ def estimate_pose(path, *, threads: int | None = None, progress: bool = False) -
                               file=bar_stream or sys.stderr, leave=False, dynamic_ncols=True, mininterval=0)
             try:
                 pending = []  # futures in the video's order; at most `workers` ahead of decoding (bounded memory)
-                for segment in _segments(source, SEGMENT_FRAMES):
+                for segment in _segments(source, segment_frames):
                     pending.append(pool.submit(segment_pose, segment))
                     if len(pending) > workers:
                         poses.append(pending.pop(0).result())
