@@ -9,7 +9,9 @@ Data: every real recording we have (``../shared/data/pose/*.pose`` when that fol
 Methods, on every hand-frame (one hand in one frame with its wrist frame and five fingers seen):
 
 * **nlo_lab**: ``nlo_lab.pipeline.retarget`` with the shipped YuMi checkpoint and the default
-  weights (both arms and both hands together, smoothness, retiming);
+  weights and settings (both arms and both hands together, smoothness, the latent optimisation,
+  then the hand stage: the hand joints alone on the same objective, ``nlo_lab.inference.hand_stage``;
+  retiming);
 * **dex, filtered** and **dex, unfiltered**: dex-retargeting 0.5 vector retargeting with our
   configs and hand-only URDFs (``benchmarks/hands/``), with and without its low-pass filter. It
   needs numpy >= 2, which mediapipe (and so this environment) cannot have: it runs in
@@ -18,13 +20,15 @@ Methods, on every hand-frame (one hand in one frame with its wrist frame and fiv
   fingertip vectors in the robot's wrist-link frame, scaled by robot hand length / human hand length
   (the scale nlo_lab's terms use); mimic joints are expanded as the URDF says (both tools agree).
 * **open hand, not moving**: the hands at their neutral (open) pose, for scale.
+* **nlo_lab without the hand stage** (a diagnostic): ``OptimizeSettings(hand_iterations=0)``, the
+  latent optimisation's hands (what the stage adds);
 * **nlo_lab without the collision term** (a diagnostic, not a robot-safe method): what the
   self-collision pairs cost the handshape (YuMi's spec pairs the thumb with the fingers of its
   own hand at a 1 mm margin: a pinch may touch, the thumb may not go through a finger).
 * **nlo_lab, then its hand joints alone optimised** (a diagnostic): nlo_lab's output with the hand
-  joints moved by 100 Adam steps in joint space on the same objective (collision and smoothness
+  joints moved by 100 more Adam steps in joint space on the same objective (collision and smoothness
   included, the arms kept, the limits by clamping): what the objective asks of the hands, against
-  where the latent optimisation leaves them.
+  where the pipeline's hand stage (30 steps) leaves them.
 
 One scorer for all: ``nlo_lab.evaluation.hands.hand_scores`` (our FK of YuMi; the measures and
 their definitions are in its docstring and in docs/RESULTS.md). Also: joint-limit violations of
@@ -59,7 +63,12 @@ from results_doc import stamp, update_section  # noqa: E402
 
 from nlo_lab.evaluation.hands import HandScores, hand_frames_mask, hand_joint_indices, hand_scores  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
-from nlo_lab.inference import FastPaths, descend, smoothness_term  # noqa: E402
+from nlo_lab.inference import (  # noqa: E402
+    FastPaths,
+    OptimizeSettings,  # noqa: E402
+    descend,
+    smoothness_term,
+)
 from nlo_lab.model import load_pretrained  # noqa: E402
 from nlo_lab.objective import LossWeights, Objective, point_plan, targets_from_demonstration  # noqa: E402
 from nlo_lab.pipeline import RetargetConfig  # noqa: E402
@@ -73,9 +82,10 @@ VIDEO = RECORDINGS / "signer_webcam_58f.mp4"
 RUNNER = Path(__file__).resolve().parent / "hands" / "dex_runner.py"
 DEX_PYTHON = ROOT / ".venv-bench" / "bin" / "python"
 TIPS = (4, 8, 12, 16, 20)  # MediaPipe hand landmarks of the fingertips (0: the wrist)
+NO_STAGE = "nlo_lab without the hand stage (diagnostic)"
 NO_COLLISION = "nlo_lab without the collision term (diagnostic)"
 REFINED = "nlo_lab, then its hand joints alone optimised on the same objective (diagnostic)"
-METHODS = ("nlo_lab", "dex, filtered", "dex, unfiltered", "open hand, not moving", NO_COLLISION, REFINED)
+METHODS = ("nlo_lab", "dex, filtered", "dex, unfiltered", "open hand, not moving", NO_STAGE, NO_COLLISION, REFINED)
 REFINE_STEPS, REFINE_LR = 100, 0.02  # [rad] Adam on the hand joints of REFINED (patience 5, as the pipeline's)
 DEX = {"dex, filtered": "filtered", "dex, unfiltered": "unfiltered"}
 
@@ -238,12 +248,16 @@ def main() -> None:
     retarget = RetargetConfig(robot, model=model, weights=weights).build()
     # what the collision pairs between one hand's fingers cost the handshape (not robot-safe: no collision term)
     diagnostic = RetargetConfig(robot, model=model, weights=dataclasses.replace(weights, collision=0.0)).build()
+    no_stage = RetargetConfig(robot, OptimizeSettings(hand_iterations=0), model=model, weights=weights).build()
     retarget(items[0][1].slice(0, min(5, len(items[0][1]))))  # once untimed: the robot's point plan and pinch floor
     for label, demo in items:
         result = retarget(demo)
         q = result.trajectory.angles
         scores["nlo_lab"].append(hand_scores(robot, q, demo))
         count("nlo_lab", q, demo)
+        q_no_stage = no_stage(demo).trajectory.angles
+        scores[NO_STAGE].append(hand_scores(robot, q_no_stage, demo))
+        count(NO_STAGE, q_no_stage, demo)
         q_diagnostic = diagnostic(demo).trajectory.angles
         scores[NO_COLLISION].append(hand_scores(robot, q_diagnostic, demo))
         count(NO_COLLISION, q_diagnostic, demo)
@@ -280,7 +294,9 @@ def main() -> None:
     # ------------------------------------------------------------------ tables
     hand_frames = pooled["nlo_lab"]["hand_frames"]
     lines = [f"- data: {len(items)} recordings ({', '.join(label for label, _ in items)}), {hand_frames} hand-frames",
-             f"- nlo_lab: shipped checkpoint `assets/checkpoints/yumi.pt`, default weights ({weights.as_dict()})",
+             f"- nlo_lab: shipped checkpoint `assets/checkpoints/yumi.pt`, default weights ({weights.as_dict()}; the latent "
+             f"optimisation without `tip_dir`, `finger_dir`), then the hand stage ({OptimizeSettings().hand_iterations} Adam steps "
+             f"of {OptimizeSettings().hand_lr} rad on the hand joints, same weights)",
              "- dex-retargeting 0.5, vector retargeting, our configs `benchmarks/hands/inspire_{left,right}.yml` on "
              "`benchmarks/hands/yumi_hand_{left,right}.urdf`, run in `.venv-bench`" if have_dex else "- dex-retargeting: not run",
              ""]
@@ -337,11 +353,11 @@ def main() -> None:
                       "the four fingers). One FK (nlo_lab's, of `yumi.urdf`) scores every method. Self-collision: the hand-frames where "
                       "two links of that hand (below its wrist link) overlap by `yumi.urdf`'s collision geometry "
                       f"(`nlo_lab.robot.geometry_collision`, deeper than {1000 * DEPTH_TOLERANCE:.1f} mm), whatever the method.", "",
-                      "Diagnostics, not methods: nlo_lab with the collision weight 0 (what the self-collision pairs cost the "
-                      f"handshape); nlo_lab's output with its hand joints alone then optimised in joint space ({REFINE_STEPS} Adam "
-                      f"steps of {REFINE_LR} rad, patience 5, the arms kept, the limits by clamping) on the same objective, collision "
-                      "and smoothness included (what the objective asks of the hands, against where the latent optimisation "
-                      "leaves them).", "",
+                      "Diagnostics, not methods: nlo_lab without its hand stage (the latent optimisation's hands); nlo_lab with "
+                      "the collision weight 0 (what the self-collision pairs cost the handshape); nlo_lab's output with its hand "
+                      f"joints alone then optimised further in joint space ({REFINE_STEPS} Adam steps of {REFINE_LR} rad, patience 5, "
+                      "the arms kept, the limits by clamping) on the same objective, collision and smoothness included (what the "
+                      "objective asks of the hands, against where the pipeline leaves them).", "",
                       table, "", "### Targets against the measurement", "", "\n".join(targets), "", "### Recordings", "", recs])
     print(body)
     if not args.no_write:

@@ -33,6 +33,7 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.human import Demonstration
 from nlo_lab.inference.descent import OptimizeResult, join_results
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
+from nlo_lab.inference.hand_stage import hand_joint_mask, refine_hands
 from nlo_lab.inference.inputs import RetargetInputs
 from nlo_lab.inference.latent import initial_latent, optimize_latent
 from nlo_lab.inference.retime import retime_times
@@ -47,7 +48,7 @@ from nlo_lab.metrics import (
     velocity_violations,
 )
 from nlo_lab.model import load_pretrained
-from nlo_lab.objective import LossWeights, Targets
+from nlo_lab.objective import TERMS, LossWeights, Targets
 from nlo_lab.robot import Robot
 from nlo_lab.settings import COUNT_RANGE, check_bool, check_int, check_type
 from nlo_lab.threads import single_thread
@@ -157,6 +158,7 @@ class Retargeter:
     def __init__(self, config: RetargetConfig, model: RetargetModel, settings: OptimizeSettings, weights: LossWeights):
         self.config, self.robot, self.model = config, config.robot, model
         self.settings, self.weights = settings, weights
+        self.has_hand_joints = self.robot.has_fingers and bool(hand_joint_mask(self.robot).any())  # the hand stage: YuMi
 
     def inputs(self, demo: Demonstration) -> RetargetInputs:
         """The demonstration's targets (in the robot's dtype and device) and encoder input."""
@@ -167,13 +169,21 @@ class Retargeter:
         """``(T, N_r, k)`` start latents for ``settings.init`` (:func:`~nlo_lab.inference.initial_latent`)."""
         return initial_latent(self.model, inputs.encoder, self.settings)
 
-    def optimize(self, inputs: RetargetInputs, *, z0: torch.Tensor | None = None, callback=None) -> OptimizeResult:
-        """Latent optimisation of ``inputs``' frames, at most ``chunk_frames`` at once.
+    def optimize(self, inputs: RetargetInputs, *, z0: torch.Tensor | None = None, callback=None, hands: bool = True) -> OptimizeResult:
+        """Latent optimisation of ``inputs``' frames, at most ``chunk_frames`` at once, then the hand stage.
 
         Args:
             inputs: :meth:`inputs` of a demonstration, or some of its frames (``inputs.index``).
             z0: ``(T, N_r, k)`` start latents (a warm start); default :meth:`start`.
             callback: ``callback(iteration, mean_loss)`` after every evaluation of every chunk.
+            hands: after each chunk's latent optimisation, the hand stage
+                (:func:`~nlo_lab.inference.hand_stage.refine_hands`, ``settings.hand_iterations`` steps):
+                the hand joints alone on the same objective. ``q`` then holds its hands (``z`` still
+                decodes to the latent optimisation's), ``loss`` and ``terms`` are at ``q``, ``seconds``
+                counts both, ``extra["hand_steps"]`` says how many steps it took.
+
+        The latent optimisation runs ``weights.latent_stage()`` (the hand stage's direction terms,
+        ``tip_dir`` and ``finger_dir``, at 0); the hand stage runs ``weights``.
 
         Chunks after the first are anchored at the previous chunk's last angles (smoothness
         across the boundary); ``history`` is the frame-weighted mean over chunks (a chunk that
@@ -181,12 +191,12 @@ class Retargeter:
         Runs in :func:`~nlo_lab.threads.single_thread` (torch's and numpy's BLAS threads).
         """
         with single_thread():
-            return self._optimize_chunks(inputs, z0, callback)
+            return self._optimize_chunks(inputs, z0, callback, hands)
 
-    def _optimize_chunks(self, inputs: RetargetInputs, z0: torch.Tensor | None, callback) -> OptimizeResult:
+    def _optimize_chunks(self, inputs: RetargetInputs, z0: torch.Tensor | None, callback, hands: bool) -> OptimizeResult:
         bounds = self._bounds(len(inputs))
         if len(bounds) == 1:
-            return self._optimize(inputs.targets, z0=z0, encoder_input=inputs.encoder, callback=callback)
+            return self._optimize(inputs.targets, hands, z0=z0, encoder_input=inputs.encoder, callback=callback)
         # random starts are drawn for the whole recording at once: chunking leaves them unchanged
         if z0 is None and self.settings.init not in ("encoder", "zeros"):
             z0 = self.start(inputs)
@@ -195,22 +205,37 @@ class Retargeter:
             part = inputs.index(slice(a, b))
             anchor = parts[-1].q[-1] if parts else None
             start = self.start(part) if z0 is None else z0[a:b]
-            parts.append(self._optimize(part.targets, z0=start, callback=callback, anchor=anchor))
+            parts.append(self._optimize(part.targets, hands, z0=start, callback=callback, anchor=anchor))
         return join_results(parts, self.settings.init, sum(r.seconds for r in parts), frames_weighted=True)
 
     def optimize_frame(self, inputs: RetargetInputs, t: int, z0: torch.Tensor | None = None) -> OptimizeResult:
         """Frame ``t`` of ``inputs`` alone, from ``z0 (1, N_r, k)`` (e.g. its current latent: a warm
-        start) or from ``settings.init`` (the lab's panel re-optimising the frame a slider shows)."""
-        return self.optimize(inputs.index(slice(t, t + 1)), z0=z0)
+        start) or from ``settings.init`` (the lab's panel re-optimising the frame a slider shows, the
+        live stream). The latent optimisation only, without the hand stage: it stays interactive."""
+        return self.optimize(inputs.index(slice(t, t + 1)), z0=z0, hands=False)
 
     def fast_paths(self, frames: int) -> FastPaths:
         """The evaluations an optimisation of ``frames`` frames runs (the config's ``fast``):
         the one place the pipeline chooses them."""
         return fast_paths(self.config.fast, frames, self.robot.lower_limits.device)
 
-    def _optimize(self, targets: Targets, **options) -> OptimizeResult:
-        return optimize_latent(self.model, self.robot, targets, self.settings, weights=self.weights,
-                               fast=self.fast_paths(len(targets)), **options)
+    def _optimize(self, targets: Targets, hands: bool, **options) -> OptimizeResult:
+        fast = self.fast_paths(len(targets))
+        result = optimize_latent(self.model, self.robot, targets, self.settings, weights=self.weights.latent_stage(), fast=fast,
+                                 **options)
+        if not hands or self.settings.hand_iterations == 0 or len(targets) == 0 or not self.has_hand_joints:
+            return result
+        stage = refine_hands(self.robot, result.q, targets, self.weights, iterations=self.settings.hand_iterations,
+                             patience=self.settings.patience, lr=self.settings.hand_lr,
+                             collision_form=self.settings.collision_form, anchor=options.get("anchor"), fast=fast)
+        if result.z is not None:  # the latent term, as in the latent optimisation's loss
+            latent = result.z.detach().pow(2).flatten(1).sum(1).to(stage.loss.dtype)
+            stage.loss = stage.loss + self.weights.latent * latent
+        result.q, result.loss = stage.q, stage.loss
+        result.terms = dict(zip(TERMS, stage.terms.unbind(1), strict=True))
+        result.seconds += stage.seconds
+        result.extra["hand_steps"] = stage.steps
+        return result
 
     def _bounds(self, frames: int) -> list[tuple[int, int]]:
         """The ``(first, end)`` frame ranges :meth:`optimize` optimises together (one when ``frames`` is 0)."""

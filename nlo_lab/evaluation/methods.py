@@ -171,8 +171,11 @@ def _numpy(q: torch.Tensor) -> np.ndarray:
 def _latent(name: str, robot, demo, settings: BaselineSettings, model, init: str, iterations: int) -> MethodResult:
     """The retargeting pipeline's optimisation (:class:`~nlo_lab.pipeline.RetargetConfig`) with the
     evaluation's fixed budget and the mode's weights, the whole sequence as one batch; retimed
-    to the velocity limits in robot-ready mode (as :meth:`~nlo_lab.pipeline.Retargeter.__call__` does)."""
-    opt = OptimizeSettings(init=init, iterations=iterations, patience=settings.patience, latent_sigma=settings.random_sigma, seed=settings.seed)
+    to the velocity limits in robot-ready mode (as :meth:`~nlo_lab.pipeline.Retargeter.__call__` does). The
+    pipeline's hand stage runs in robot-ready mode after an optimisation (not in paper mode, not for 'Init')."""
+    hand = OptimizeSettings.hand_iterations if settings.mode == "robot-ready" and iterations > 0 else 0
+    opt = OptimizeSettings(init=init, iterations=iterations, patience=settings.patience, latent_sigma=settings.random_sigma, seed=settings.seed,
+                           hand_iterations=hand)
     retargeter = RetargetConfig(robot, opt, settings.loss_weights, model=model, chunk_frames=None, retime=settings.retime).build()
     start = time.perf_counter()
     r = retargeter.optimize(retargeter.inputs(demo))

@@ -58,6 +58,10 @@ class OptimizeSettings:
             latent from in :func:`~nlo_lab.inference.sequence_start` (0 = its own only).
         seed: seed of the random initialisations.
         collision_form: ``"hinge"`` or ``"paper"`` (see :func:`nlo_lab.objective.collision_loss`).
+        hand_iterations: Adam steps of the hand stage after the latent optimisation of a recording
+            (:func:`~nlo_lab.inference.hand_stage.refine_hands`: the hand joints alone on the same
+            objective; 0 = none; robots without hand joints skip it).
+        hand_lr: its step [rad].
     """
 
     init: str = "encoder"
@@ -69,6 +73,8 @@ class OptimizeSettings:
     warm_window: int = 2
     seed: int = 0
     collision_form: str = "hinge"
+    hand_iterations: int = 30
+    hand_lr: float = 0.05
 
     def __post_init__(self) -> None:
         if self.init not in INITS:
@@ -77,6 +83,8 @@ class OptimizeSettings:
         check_int("patience", self.patience, *PATIENCE_RANGE)
         check_int("seed", self.seed, *SEED_RANGE)
         check_int("warm_window", self.warm_window, 0, 1000)
+        check_int("hand_iterations", self.hand_iterations, *ITERATIONS_RANGE)
+        object.__setattr__(self, "hand_lr", check_range("hand_lr", self.hand_lr, *RATE_RANGE))
         if self.lr is not None:
             object.__setattr__(self, "lr", check_range("lr", self.lr, *RATE_RANGE))
         object.__setattr__(self, "latent_sigma", check_range("latent_sigma", self.latent_sigma, *RATE_RANGE))

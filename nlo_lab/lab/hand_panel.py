@@ -71,7 +71,7 @@ class HandPanel:
         self.base_weights = weights or LossWeights()
         style = {"description_width": "60px"}
         self.controls: dict[str, Any] = {
-            name: W.FloatLogSlider(value=max(getattr(self.base_weights, name), 0.1), base=10, min=-1, max=3.5, step=0.05,
+            name: W.FloatLogSlider(value=max(getattr(self.base_weights, name), 0.1), base=10, min=-1, max=4, step=0.05,
                                    description=name, style=style, continuous_update=False)
             for name in HAND_SLIDERS
         }

@@ -19,7 +19,9 @@ from nlo_lab.objective.terms import (
     collision_scale,
     elbow_loss,
     end_effector_loss,
+    finger_direction_loss,
     finger_loss,
+    fingertip_direction_loss,
     fingertip_loss,
     in_wrist_frame,
     latent_loss,
@@ -35,6 +37,7 @@ from nlo_lab.objective.total import Objective, objective
 from nlo_lab.objective.weights import (
     COLLISION_FORMS,
     CONTACT_SCALE,
+    HAND_STAGE_TERMS,
     HAND_TERMS,
     PINCH_OFF,
     PINCH_ON,
@@ -47,13 +50,13 @@ from nlo_lab.objective.weights import (
 
 __all__ = [
     # weights
-    "LossWeights", "TERMS", "HAND_TERMS", "COLLISION_FORMS", "SMOOTH_SPEED_CAP", "SMOOTH_MAX_STEP", "SMOOTH_STEP_WIDTH",
+    "LossWeights", "TERMS", "HAND_TERMS", "HAND_STAGE_TERMS", "COLLISION_FORMS", "SMOOTH_SPEED_CAP", "SMOOTH_MAX_STEP", "SMOOTH_STEP_WIDTH",
     "PINCH_ON", "PINCH_OFF", "CONTACT_SCALE",
     # targets, points
     "Targets", "targets_from_demonstration", "PointPlan", "point_plan", "RobotPoints", "robot_points",
     # terms
     "end_effector_loss", "orientation_loss", "elbow_loss", "finger_loss", "collision_loss", "collision_scale", "capsule_distances",
-    "fingertip_loss", "thumb_loss", "pinch_loss", "pinch_activation", "in_wrist_frame",
+    "fingertip_loss", "thumb_loss", "pinch_loss", "fingertip_direction_loss", "finger_direction_loss", "pinch_activation", "in_wrist_frame",
     "latent_loss", "smoothness_loss", "smoothness_scale", "step_cost", "UNIT_EPS",
     # the total, and the fast path kept beside it
     "Objective", "objective", "near_pair_distances", "CULL_SLACK",

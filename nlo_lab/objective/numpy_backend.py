@@ -90,12 +90,13 @@ def _add_rows(out: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
 
 
 class HandTerms:
-    """The hand terms (``tip``, ``thumb``, ``pinch``) in numpy, forward and backward, on the mapped points.
+    """The hand terms (``tip``, ``thumb``, ``pinch``, ``tip_dir``, ``finger_dir``) in numpy, forward and backward, on the mapped points.
 
-    Every wrist -> fingertip vector (``tip``) and thumb tip -> fingertip vector (``thumb``) is the
-    difference of two points, ``d = p_plus - p_minus``, seen in its wrist
+    Every wrist -> fingertip vector (``tip``, ``tip_dir``), finger base -> tip vector (``finger_dir``)
+    and thumb tip -> fingertip vector (``thumb``) is the difference of two points,
+    ``d = p_plus - p_minus``, seen in its wrist
     frame, ``v_i = a_i · d / l`` (``a_i``: the mapped wrist axes, ``l``: the robot's hand length);
-    ``tip`` compares the vectors, ``w = v``, ``thumb`` their directions, ``w = v / n``,
+    ``tip`` compares the vectors, ``w = v``, the others their directions, ``w = v / n``,
     ``n = sqrt(|v|² + ε)``; the term sums ``mask |w - ŵ|²`` per kind. The pinch reads the thumb
     vectors' lengths, ``δ = sqrt(|d|² + ε)/l``: ``active mask ((δ - goal)_+)²``. Backward:
     ``g_w = 2 mask (w - ŵ)``, ``g_v = g_w`` (vectors) or ``(g_w - w (w · g_w)) / n`` (directions),
@@ -105,13 +106,13 @@ class HandTerms:
 
     def __init__(self, plus, minus, axes, side, length, kind, v_hat, mask, pinch_goal, pinch_weight):
         self.plus, self.minus = np.asarray(plus, dtype=np.int64), np.asarray(minus, dtype=np.int64)  # d = p[plus] - p[minus]
-        self.items = len(self.plus)  # K fingertip vectors, then J thumb vectors
+        self.items = len(self.plus)  # K fingertip vectors, K fingertip directions, K finger directions, then J thumb vectors
         self.axes = np.asarray(axes, dtype=np.int64)  # (6,) the wrist axes' points, side-major
         self.side = np.asarray(side, dtype=np.int64)  # (M,)
         dtype = v_hat.dtype
         self.length = np.asarray(length, dtype=dtype)[:, None]  # (M, 1) the robot's hand length per item
-        self.kind = np.eye(2, dtype=dtype)[np.asarray(kind, dtype=np.int64)]  # (M, 2) tip / thumb
-        self.direction = self.kind[:, 1:2] > 0  # (M, 1) the items compared as directions (thumb)
+        self.kind = np.eye(4, dtype=dtype)[np.asarray(kind, dtype=np.int64)]  # (M, 4) tip / thumb / tip_dir / finger_dir
+        self.direction = self.kind[:, 1:].sum(1, keepdims=True) > 0  # (M, 1) the items compared as directions
         self.side_sum = np.eye(2, dtype=dtype)[self.side].T  # (2, M): sums the items of each side
         self.v_hat, self.mask = v_hat, mask[..., None]  # (T, M, 3), (T, M, 1)
         self.pinch_goal, self.pinch_weight = pinch_goal, pinch_weight  # (T, J): max(d̂, floor), activation x mask
@@ -128,35 +129,41 @@ class HandTerms:
         """The constants for ``plan``'s fingers and thumb pairs and the targets ``t`` (the human side)."""
         K_points = plan.vectors.shape[0]
         wrist, tips = range(*plan.rows["wrist"].indices(K_points)), range(*plan.rows["finger_tip"].indices(K_points))
+        bases = range(*plan.rows["finger_base"].indices(K_points))
         fingers, pairs = plan.finger_side.cpu(), plan.thumb_pairs.cpu()
         items = [(tips[k], wrist[int(s)], int(s), 0) for k, s in enumerate(fingers)]  # (plus, minus, side, kind)
+        items += [(tips[k], wrist[int(s)], int(s), 2) for k, s in enumerate(fingers)]
+        items += [(tips[k], bases[k], int(s), 3) for k, s in enumerate(fingers)]
         items += [(tips[int(f)], tips[int(th)], int(s), 1) for (th, f), s in zip(pairs, plan.pair_side.cpu(), strict=True)]
         side = [s for *_, s, _ in items]
         with torch.no_grad():
             sel = (slice(None), plan.finger_side, plan.finger_index)
             t_tip = t.finger_tip[sel]  # (T, K, 3): the human fingertips the robot has
+            to_tip = t_tip - t.wrist[:, plan.finger_side]
             j = plan.thumb_pairs
-            t_vec = torch.cat([t_tip - t.wrist[:, plan.finger_side], t_tip[:, j[:, 1]] - t_tip[:, j[:, 0]]], 1)
+            t_vec = torch.cat([to_tip, to_tip, t_tip - t.finger_base[sel], t_tip[:, j[:, 1]] - t_tip[:, j[:, 0]]], 1)
             v_hat = in_wrist_frame(t_vec, t.wrist_rotation, torch.as_tensor(side, dtype=torch.long), t.hand_length)
-            v_hat[:, len(fingers):] = unit(v_hat[:, len(fingers):])  # the thumb's: directions
+            v_hat[:, len(fingers):] = unit(v_hat[:, len(fingers):])  # all but the tip vectors: directions
             d_hat = (t_tip[:, j[:, 1]] - t_tip[:, j[:, 0]]).norm(dim=-1) / t.hand_length[:, plan.pair_side]
             goal, active = torch.maximum(d_hat, floor), pinch_activation(d_hat)
-            mask = torch.cat([tip_mask, pair_mask], 1)
+            mask = torch.cat([tip_mask, tip_mask, tip_mask, pair_mask], 1)
         return cls(
             [i[0] for i in items], [i[1] for i in items], np.arange(*plan.rows["wrist_axes"].indices(K_points)), side,
             plan.hand_length.cpu().numpy()[side], [k for *_, k in items], v_hat.cpu().numpy(), mask.cpu().numpy(), goal.cpu().numpy(),
             (active * pair_mask).cpu().numpy().astype(plan.hand_length.cpu().numpy().dtype),
         )
 
+    columns = [0, 1, 3, 4]  # the output columns of the kinds tip, thumb, tip_dir, finger_dir (HAND_TERMS order; 2: pinch)
+
     def forward(self, P: np.ndarray, out: np.ndarray):
-        """Writes the terms ``(B, 3)`` into ``out``; returns what the backward needs."""
+        """Writes the terms ``(B, 5)`` (``HAND_TERMS`` order) into ``out``; returns what the backward needs."""
         d = P[:, self.plus] - P[:, self.minus]  # (B, M, 3)
         A = P[:, self.axes].reshape(P.shape[0], 2, 3, 3)[:, self.side]  # (B, M, 3, 3): rows = the wrist axes a_i
         v = np.einsum("bmij,bmj->bmi", A, d) / self.length  # (B, M, 3); einsum: 2x np.matmul's stacked 3x3s
         n = np.where(self.direction, np.sqrt((v * v).sum(-1, keepdims=True) + UNIT_EPS), 1.0)  # (B, M, 1)
         w = v / n
         r = np.where(self.mask, w - self.v_hat, 0.0)
-        out[:, :2] = (r * r).sum(-1) @ self.kind
+        out[:, self.columns] = (r * r).sum(-1) @ self.kind
         gap = d[:, self.pairs]
         root = np.sqrt((gap * gap).sum(-1) + UNIT_EPS)  # (B, J)
         over = np.maximum(root / self.length[self.pairs, 0] - self.pinch_goal, 0.0)
@@ -164,9 +171,9 @@ class HandTerms:
         return d, A, r, root, over, w, n
 
     def backward(self, g: np.ndarray, saved, gP: np.ndarray) -> None:
-        """Adds the gradient of ``sum(g * terms)`` (``g (B, 3)``) with respect to the points to ``gP``."""
+        """Adds the gradient of ``sum(g * terms)`` (``g (B, 5)``) with respect to the points to ``gP``."""
         d, A, r, root, over, w, n = saved
-        g_w = 2.0 * r * (g[:, :2] @ self.kind.T)[..., None]  # (B, M, 3)
+        g_w = 2.0 * r * (g[:, self.columns] @ self.kind.T)[..., None]  # (B, M, 3)
         g_w = np.where(self.direction, (g_w - w * (w * g_w).sum(-1, keepdims=True)) / n, g_w)
         g_v = g_w / self.length  # with the 1/l of v
         g_d = np.einsum("bmi,bmij->bmj", g_v, A)  # Σ_i g_v,i a_i
@@ -274,7 +281,7 @@ class PointTerms:
         )
 
     def forward(self, P: np.ndarray):
-        """Terms ``(B, 8)`` (``TERMS`` order) and what the backward needs, for points ``P (B, K, 3)`` (B = T)."""
+        """Terms ``(B, len(TERMS))`` (``TERMS`` order) and what the backward needs, for points ``P (B, K, 3)`` (B = T)."""
         goal, mask = self.goal, self.mask
         v = _rows_times(self.rows, P)  # (B, V, 3)
         f = self.fingers

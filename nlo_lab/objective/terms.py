@@ -39,6 +39,8 @@ __all__ = [
     "fingertip_loss",
     "thumb_loss",
     "pinch_loss",
+    "fingertip_direction_loss",
+    "finger_direction_loss",
     "pinch_activation",
     "in_wrist_frame",
     "collision_loss",
@@ -204,6 +206,54 @@ def thumb_loss(rotation, tip, hand_length, t_rotation, t_tip, t_hand_length, pai
         return tip.new_zeros(tip.shape[0])
     u = unit(in_wrist_frame(tip[:, pairs[:, 1]] - tip[:, pairs[:, 0]], rotation, side, hand_length))
     u_hat = unit(in_wrist_frame(t_tip[:, pairs[:, 1]] - t_tip[:, pairs[:, 0]], t_rotation, side, t_hand_length))
+    return masked_sum((u - u_hat).pow(2).sum(-1), mask)
+
+
+@needs("wrist", "wrist_rotation", "finger_tip")
+def fingertip_direction_loss(wrist, rotation, tip, hand_length, t_wrist, t_rotation, t_tip, t_hand_length, side, mask) -> torch.Tensor:
+    """``L_tip_dir = sum_side sum_finger ||u(R_wᵀ(p_tip - p_w)) - u(R̂_wᵀ(p̂_tip - p̂_w))||²``, ``u(v) = v/|v|``.
+
+    The wrist -> fingertip *directions* in the wrist frame (``2 - 2 cos`` of the angle between
+    robot and human): where each fingertip points from the wrist, whatever the hands' sizes and
+    proportions; the measure ``benchmarks/hands.py`` scores. :func:`fingertip_loss` compares the
+    scaled vectors instead: a robot finger shorter or longer than the scaled human one there
+    trades direction for length (measured 2026-11-26, docs/RESULTS.md, "Handshapes").
+
+    Arguments as :func:`fingertip_loss` (the hand lengths scale both vectors, so they change only
+    the tiny ``UNIT_EPS`` of a zero-length vector; kept so the numpy form is the same arithmetic).
+
+    Returns:
+        ``(B,)``; exactly 0 when every fingertip points where the human's does.
+    """
+    if tip.shape[1] == 0:
+        return tip.new_zeros(tip.shape[0])
+    u = unit(in_wrist_frame(tip - wrist[:, side], rotation, side, hand_length))
+    u_hat = unit(in_wrist_frame(t_tip - t_wrist[:, side], t_rotation, side, t_hand_length))
+    return masked_sum((u - u_hat).pow(2).sum(-1), mask)
+
+
+@needs("wrist_rotation", "finger_base", "finger_tip")
+def finger_direction_loss(rotation, base, tip, hand_length, t_rotation, t_base, t_tip, t_hand_length, side, mask) -> torch.Tensor:
+    """``L_finger_dir = sum_side sum_finger ||u(R_wᵀ(p_tip - p_base)) - u(R̂_wᵀ(p̂_tip - p̂_base))||²``.
+
+    The finger base -> tip directions in the *wrist* frame: how each finger is bent, against the
+    hand. The paper's :func:`finger_loss` compares the same directions in the body frame, so
+    where the robot's wrist cannot turn as the human's does, it bends the fingers to make up for
+    the wrist; this term asks for the handshape.
+
+    Args:
+        rotation, t_rotation: ``(B, 2, 3, 3)`` the aligned wrist frames; base, tip: ``(B, K, 3)``
+            robot [m]; t_base, t_tip: the matching human fingers [m]; hand_length ``(2,)``,
+            t_hand_length ``(B, 2)`` [m] (as in :func:`fingertip_direction_loss`); side: ``(K,)``;
+            mask: ``(B, K)`` finger and wrist frame observed.
+
+    Returns:
+        ``(B,)``.
+    """
+    if tip.shape[1] == 0:
+        return tip.new_zeros(tip.shape[0])
+    u = unit(in_wrist_frame(tip - base, rotation, side, hand_length))
+    u_hat = unit(in_wrist_frame(t_tip - t_base, t_rotation, side, t_hand_length))
     return masked_sum((u - u_hat).pow(2).sum(-1), mask)
 
 

@@ -1,7 +1,7 @@
 """The retargeting objective ``L(D, K(q))``: the terms of :mod:`nlo_lab.objective.terms`, weighted and summed.
 
 ``L = w_ee L_ee + w_ori L_ori + w_elbow L_elbow + w_finger L_finger + w_col L_col``
-``  + w_tip L_tip + w_thumb L_thumb + w_pinch L_pinch``
+``  + w_tip L_tip + w_thumb L_thumb + w_pinch L_pinch + w_tip_dir L_tip_dir + w_finger_dir L_finger_dir``
 per frame (the paper's Eq. 5-9, then our hand terms; the latent term ``||z||²/σ²`` and the
 smoothness term are added where ``z`` and the whole sequence live: optimisation and training).
 """
@@ -22,7 +22,9 @@ from nlo_lab.objective.terms import (
     collision_loss,
     elbow_loss,
     end_effector_loss,
+    finger_direction_loss,
     finger_loss,
+    fingertip_direction_loss,
     fingertip_loss,
     orientation_loss,
     pinch_loss,
@@ -50,7 +52,7 @@ class Objective:
     that may be near (``cull``, :mod:`~nlo_lab.objective.near_pairs`), and the FK's
     gradient in closed form (``analytic_fk``). The pipeline chooses them by batch size
     (:class:`nlo_lab.inference.FastPaths`).
-    The hand terms (``tip``, ``thumb``, ``pinch``) run as written here (:meth:`hand_terms`); with
+    The hand terms (``tip``, ``thumb``, ``pinch``, ``tip_dir``, ``finger_dir``) run as written here (:meth:`hand_terms`); with
     ``fused`` their numpy form (:class:`~nlo_lab.objective.numpy_backend.HandTerms`) runs with the others.
 
     Args:
@@ -76,7 +78,7 @@ class Objective:
         self.cull, self.analytic_fk = bool(cull), bool(analytic_fk)
         device = t.shoulder.device
         self.plan = point_plan(robot, t.dtype, device)
-        self.weights = torch.tensor([getattr(weights, n) for n in TERMS], dtype=t.dtype, device=device)  # (8,)
+        self.weights = torch.tensor([getattr(weights, n) for n in TERMS], dtype=t.dtype, device=device)  # (len(TERMS),)
         am = t.arm_mask
         self.ee_mask, self.elbow_mask = am[..., 0] & am[..., 2], am[..., 1] & am[..., 2]  # (T, 2): both points observed
         fingers = (slice(None), self.plan.finger_side, self.plan.finger_index)  # the human fingers the robot has
@@ -92,7 +94,7 @@ class Objective:
         self.numpy_terms = PointTerms.build(plan, targets, collision_form, self.tip_mask, self.pair_mask, self.pinch_floor) if fused else None
 
     def __call__(self, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """``q (T, n)`` -> ``total (T,)`` and the unweighted terms ``(T, 8)`` in ``TERMS`` order."""
+        """``q (T, n)`` -> ``total (T,)`` and the unweighted terms ``(T, len(TERMS))`` in ``TERMS`` order."""
         if q.shape[0] != self.n_frames:
             raise SettingsError(f"q has {q.shape[0]} frames but the targets have {self.n_frames}")
         points = self.plan.map(q, self.analytic_fk)  # (T, k, 3): every point the terms need, one FK
@@ -103,7 +105,7 @@ class Objective:
         return terms @ self.weights, terms
 
     def hand_terms(self, p: RobotPoints) -> torch.Tensor:
-        """The unweighted hand terms ``(T, 3)`` (``HAND_TERMS`` order: tip, thumb, pinch) of ``p``."""
+        """The unweighted hand terms ``(T, 5)`` (``HAND_TERMS`` order: tip, thumb, pinch, tip_dir, finger_dir) of ``p``."""
         t, plan = self.targets, self.plan
         pairs, side = plan.thumb_pairs, plan.pair_side
         return torch.stack([
@@ -113,10 +115,14 @@ class Objective:
                        t.hand_length, pairs, side, self.pair_mask),
             pinch_loss(p.finger_tip, plan.hand_length, self.finger_tip, t.hand_length, pairs, side, self.pinch_floor,
                        self.pair_mask),
+            fingertip_direction_loss(p.wrist, p.wrist_rotation, p.finger_tip, plan.hand_length, t.wrist, t.wrist_rotation,
+                                     self.finger_tip, t.hand_length, plan.finger_side, self.tip_mask),
+            finger_direction_loss(p.wrist_rotation, p.finger_base, p.finger_tip, plan.hand_length, t.wrist_rotation,
+                                  self.finger_base, self.finger_tip, t.hand_length, plan.finger_side, self.tip_mask),
         ], dim=1)  # fmt: skip
 
     def terms(self, p: RobotPoints) -> torch.Tensor:
-        """The unweighted terms ``(T, 8)`` (``TERMS`` order) of the robot quantities ``p``, term by term."""
+        """The unweighted terms ``(T, len(TERMS))`` (``TERMS`` order) of the robot quantities ``p``, term by term."""
         t, plan = self.targets, self.plan
         if self.cull:
             distances = near_pair_distances(p.capsule_ends, plan.pair_radii, plan.margins)
@@ -150,7 +156,7 @@ def objective(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossWeig
 
     Returns:
         ``total (B,)`` and the unweighted terms ``{"ee", "ori", "elbow", "finger", "collision", "tip", "thumb",
-        "pinch"}`` (``TERMS``), each ``(B,)``.
+        "pinch", "tip_dir", "finger_dir"}`` (``TERMS``), each ``(B,)``.
     """
     if len(targets) != q.shape[0]:
         raise SettingsError(f"q has {q.shape[0]} frames but the targets have {len(targets)}")

@@ -18,12 +18,17 @@ __all__ = [
     "SMOOTH_MAX_STEP",
     "SMOOTH_STEP_WIDTH",
     "HAND_TERMS",
+    "HAND_STAGE_TERMS",
     "PINCH_ON",
     "PINCH_OFF",
 ]
 
-TERMS = ("ee", "ori", "elbow", "finger", "collision", "tip", "thumb", "pinch")  # the per-frame terms, in the order Objective returns them
-HAND_TERMS = ("tip", "thumb", "pinch")  # the handshape terms (issue 27): zero on a robot without fingers
+TERMS = ("ee", "ori", "elbow", "finger", "collision", "tip", "thumb", "pinch", "tip_dir", "finger_dir")  # the per-frame terms, in the order Objective returns them
+HAND_TERMS = ("tip", "thumb", "pinch", "tip_dir", "finger_dir")  # the handshape terms (issue 27): zero on a robot without fingers
+# The direction terms weigh the pipeline's hand stage (nlo_lab.inference.hand_stage), not its latent optimisation:
+# pulled through the decoder (whose hands move with the whole latent) they gave up the thumb and the pinch
+# (benchmarks/hands.py on the shipped yumi.pt, 2026-11-26: thumb 26.5 -> 31.9 deg, pinch r 0.787 -> 0.763).
+HAND_STAGE_TERMS = ("tip_dir", "finger_dir")
 COLLISION_FORMS = ("hinge", "paper")  # see nlo_lab.objective.terms.collision_loss
 # [m] the hinge's length unit for a capsule pair with margin 0 (contact allowed, penetration costs):
 # 1 mm of penetration costs what 1 mm inside a YuMi pair's 5 mm margin does
@@ -57,6 +62,10 @@ class LossWeights:
         thumb: thumb tip -> other fingertip directions in the wrist frame (:func:`~nlo_lab.objective.terms.thumb_loss`).
         pinch: a human pinch (thumb and fingertip touching) draws the robot's tips together
             (:func:`~nlo_lab.objective.terms.pinch_loss`).
+        tip_dir: wrist -> fingertip directions in the wrist frame (:func:`~nlo_lab.objective.terms.fingertip_direction_loss`).
+        finger_dir: finger base -> tip directions in the wrist frame (:func:`~nlo_lab.objective.terms.finger_direction_loss`).
+            ``tip_dir`` and ``finger_dir`` (``HAND_STAGE_TERMS``) weigh the pipeline's hand stage; its latent
+            optimisation runs :meth:`latent_stage` (them at 0). Called directly, ``Objective`` counts them.
         latent: weight of ``||z||²`` (``1/σ²``, σ = 1 in the paper).
         smooth: weight of the joint-speed term over consecutive frames
             (:func:`~nlo_lab.objective.terms.smoothness_loss`; not in the paper; 0 = frames independent).
@@ -75,6 +84,11 @@ class LossWeights:
     tip: float = 2000.0
     thumb: float = 500.0
     pinch: float = 300.0
+    # the direction terms' weights (the hand stage's), measured by benchmarks/hands.py (2026-11-26, shipped yumi.pt): with
+    # 30 hand-stage steps after the latent optimisation, wrist->tip 18.4 -> 17.4 deg, base->tip 37.8 -> 33.1 deg, thumb
+    # 26.6 -> 26.3 deg, pinch r 0.787 -> 0.785 (the same stage without them: 17.7 / 36.4 / 19.8 / 0.81 at 100 steps)
+    tip_dir: float = 4000.0
+    finger_dir: float = 1000.0
 
     def __post_init__(self) -> None:
         validate_fields(self, lambda name, v: check_range(name, v, *WEIGHT_RANGE), prefix="loss weight ")
@@ -82,7 +96,7 @@ class LossWeights:
     @classmethod
     def paper(cls) -> LossWeights:
         """The paper's objective: its five terms and the latent prior, frames independent (``smooth=0``) and
-        without our hand terms (``tip``, ``thumb``, ``pinch`` = 0). Table I's paper mode, Table II, III, the
+        without our hand terms (``HAND_TERMS`` = 0). Table I's paper mode, Table II, III, the
         departures and the headroom benchmark optimise and train on it."""
         return cls(smooth=0.0, **{name: 0.0 for name in HAND_TERMS})
 
@@ -111,6 +125,10 @@ class LossWeights:
             except ValueError:
                 raise SettingsError(f"weight {key}={raw.strip()!r} is not a number") from None
         return cls(**values)
+
+    def latent_stage(self) -> LossWeights:
+        """These weights without the hand stage's terms (``HAND_STAGE_TERMS`` at 0): what the pipeline's latent optimisation runs."""
+        return dataclasses.replace(self, **{name: 0.0 for name in HAND_STAGE_TERMS})
 
     def as_dict(self) -> dict[str, float]:
         """``{name: weight}``."""

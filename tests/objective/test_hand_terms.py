@@ -1,4 +1,5 @@
-"""The hand terms (issue 27): wrist -> fingertip vectors, thumb -> fingertip directions, pinch.
+"""The hand terms (issue 27): wrist -> fingertip vectors, thumb -> fingertip directions, pinch,
+wrist -> fingertip and finger base -> tip directions in the wrist frame.
 
 Each term: its gradient against finite differences (float64), exactly 0 at a perfect match and
 not 0 away from it, masks; a human pinch closes the robot's thumb and finger down to what the
@@ -19,6 +20,8 @@ from nlo_lab.objective import (
     TERMS,
     LossWeights,
     Objective,
+    finger_direction_loss,
+    fingertip_direction_loss,
     fingertip_loss,
     objective,
     pinch_activation,
@@ -88,7 +91,13 @@ def test_each_hand_term_gradient_matches_finite_differences_on_its_own():
         "tip": lambda w, R, p: fingertip_loss(w, R, p, x["length"], x["t_wrist"], x["t_rot"], x["t_tip"], x["t_length"], x["side"], mask10),
         "thumb": lambda w, R, p: thumb_loss(R, p, x["length"], x["t_rot"], x["t_tip"], x["t_length"], x["pairs"], x["pair_side"], mask8),
         "pinch": lambda w, R, p: pinch_loss(p, x["length"], x["t_tip"], x["t_length"], x["pairs"], x["pair_side"], floor, mask8),
+        "tip_dir": lambda w, R, p: fingertip_direction_loss(w, R, p, x["length"], x["t_wrist"], x["t_rot"], x["t_tip"], x["t_length"],
+                                                            x["side"], mask10),
+        # the wrist stands in for the finger bases (one base per side, broadcast to its five fingers)
+        "finger_dir": lambda w, R, p: finger_direction_loss(R, w[:, x["side"]], p, x["length"], x["t_rot"], x["t_wrist"][:, x["side"]], x["t_tip"],
+                                                            x["t_length"], x["side"], mask10),
     }
+    assert set(checks) == set(HAND_TERMS)
     inputs = (x["wrist"].requires_grad_(), x["rot"].requires_grad_(), x["tip"].requires_grad_())
     for name, fn in checks.items():
         assert float(fn(*inputs).detach().abs().max()) > 0, name
@@ -123,12 +132,14 @@ def test_hand_terms_are_zero_at_a_perfect_match_and_not_away_from_it(yumi, exact
     moved = q.clone()
     moved[:, hj] = torch.where(q[:, hj] > (lo + hi) / 2, lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo))  # every hand joint elsewhere
     _, terms = objective(yumi, moved, t)
-    assert (terms["tip"] > 1e-4).all() and (terms["thumb"] > 1e-4).all()
+    for name in ("tip", "thumb", "tip_dir", "finger_dir"):
+        assert (terms[name] > 1e-4).all(), name
     # the arm alone does not change the handshape terms (they live in the wrist frame)
     arm = q.clone()
     arm[:, :14] += 0.2
     _, terms = objective(yumi, arm.clamp(yumi.lower_limits, yumi.upper_limits), t)
-    assert float(terms["tip"].abs().max()) < 1e-12 and float(terms["thumb"].abs().max()) < 1e-12
+    for name in ("tip", "thumb", "tip_dir", "finger_dir"):
+        assert float(terms[name].abs().max()) < 1e-12, name
 
 
 def test_hand_terms_ignore_masked_fingers(yumi, demonstration_from_robot, random_feasible_pose):
@@ -200,9 +211,30 @@ def test_numpy_fast_path_gives_the_same_hand_terms_values_and_gradients(yumi, ex
     out = []
     for fused in (True, False):
         x = start.clone().requires_grad_(True)
-        total, terms = Objective(yumi, t, LossWeights(tip=3.0, thumb=5.0, pinch=7.0), fused=fused)(x)
+        total, terms = Objective(yumi, t, LossWeights(tip=3.0, thumb=5.0, pinch=7.0, tip_dir=11.0, finger_dir=13.0), fused=fused)(x)
         total.sum().backward()
         out.append((total.detach(), terms.detach(), x.grad))
     for a, b in zip(*out, strict=True):
         torch.testing.assert_close(a, b, rtol=1e-9, atol=1e-9)
-    assert float(out[0][1][:, TERMS.index("pinch")].min()) > 0
+    for name in HAND_TERMS:
+        assert float(out[0][1][:, TERMS.index(name)].min()) > 0, name
+
+
+def test_direction_terms_are_the_measured_angles():
+    """tip_dir and finger_dir are 2 - 2 cos of the angle the hand benchmark scores, summed over the fingers:
+    a finger turned by a known angle about a wrist axis costs exactly that, whatever the lengths."""
+    B = 1
+    rot = torch.eye(3, dtype=torch.float64).expand(B, 2, 3, 3)
+    side = torch.tensor([0, 1])
+    length = torch.tensor([0.1, 0.1], dtype=torch.float64)
+    t_length = torch.full((B, 2), 0.08, dtype=torch.float64)
+    wrist = torch.zeros(B, 2, 3, dtype=torch.float64)
+    t_tip = torch.tensor([[[0.0, 0.0, 0.07], [0.0, 0.0, 0.05]]], dtype=torch.float64)
+    angle = torch.tensor([0.3, 1.1], dtype=torch.float64)  # [rad] per finger, about the wrist's x axis
+    tip = 0.13 * torch.stack([torch.zeros(2), -torch.sin(angle), torch.cos(angle)], -1)[None]  # another length
+    mask = torch.ones(B, 2, dtype=torch.bool)
+    got = fingertip_direction_loss(wrist, rot, tip, length, wrist, rot, t_tip, t_length, side, mask)
+    torch.testing.assert_close(got, (2 - 2 * torch.cos(angle)).sum()[None])
+    base = torch.full((B, 2, 3), 0.02, dtype=torch.float64)
+    got = finger_direction_loss(rot, base, base + tip, length, rot, base, base + t_tip, t_length, side, mask)
+    torch.testing.assert_close(got, (2 - 2 * torch.cos(angle)).sum()[None])

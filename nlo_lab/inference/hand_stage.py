@@ -1,0 +1,116 @@
+"""The hand stage: after the latent optimisation, the hands' joints alone, on the same objective.
+
+The decoder maps one latent to the whole robot, so the latent optimisation moves the fingers
+only as far as the decoder's hands reach, and 100 steps shared with the arms leave them short
+of the objective's best handshape (``benchmarks/hands.py`` measured it: docs/RESULTS.md,
+"Handshapes"). The hand joints do not move the wrist, so this stage optimises them alone,
+in joint space, on the same weighted objective (collision and smoothness included), the arms
+kept where the latent optimisation put them:
+
+``q_hand* = argmin_(q_hand in limits) sum_t L(D_t, K(q_arm,t, q_hand,t)) + w_smooth L_smooth``
+
+Adam from the decoder's hands (warm start), every frame at once, the limits by clamping after
+each step (projected gradient), the best point of the whole sequence kept (patience as the
+latent optimisation's). Where the arm and wrist are scored (Table I) nothing changes.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import torch
+
+from nlo_lab.inference.descent import descend, smoothness_term
+from nlo_lab.inference.fast_paths import FastPaths, fast_paths
+from nlo_lab.objective import LossWeights, Objective, Targets
+
+if TYPE_CHECKING:  # annotations only: no import at run time
+    from nlo_lab.robot import Robot
+
+__all__ = ["hand_joint_mask", "refine_hands", "HandStageResult"]
+
+
+def hand_joint_mask(robot: Robot) -> torch.Tensor:
+    """``(n,)`` bool: the actuated joints that move a link below a wrist link (the fingers)."""
+    mask = torch.zeros(robot.n_joints, dtype=torch.bool)
+    for side in ("left", "right"):
+        wrist = robot.arm(side).wrist
+        for link in robot.model.subtree(wrist):
+            joint = robot.model.parent_joint(link)
+            if link == wrist or joint is None or not joint.moving:
+                continue
+            name = joint.mimic[0] if joint.mimic else joint.name
+            if name in robot.joint_names:
+                mask[robot.joint_names.index(name)] = True
+    return mask
+
+
+@dataclass
+class HandStageResult:
+    """What :func:`refine_hands` found.
+
+    Attributes:
+        q: ``(T, n)`` the angles, hand joints optimised, the others as given.
+        loss: ``(T,)`` the objective per frame at ``q`` (without the latent term; the smoothness
+            term's share of each frame included when it applies).
+        terms: ``(T, len(TERMS))`` unweighted terms at ``q``.
+        history: mean loss per evaluation; steps: Adam steps taken; seconds: wall time.
+    """
+
+    q: torch.Tensor
+    loss: torch.Tensor
+    terms: torch.Tensor
+    history: list[float]
+    steps: int
+    seconds: float
+
+
+def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossWeights | None = None, *,
+                 iterations: int = 30, patience: int = 5, lr: float = 0.05, collision_form: str = "hinge",
+                 anchor: torch.Tensor | None = None, fast: bool | FastPaths = False) -> HandStageResult:
+    """Optimise the hand joints of ``q (T, n)`` on the objective of ``targets``, the other joints kept.
+
+    Args:
+        robot: the robot; without hand joints ``q`` comes back unchanged (0 steps).
+        q: ``(T, n)`` start angles [rad] (the latent optimisation's).
+        targets: :class:`~nlo_lab.objective.Targets` of the T frames.
+        weights: the objective's weights (:class:`~nlo_lab.objective.LossWeights`), as the latent optimisation's.
+        iterations, patience, lr: Adam's steps, the stop after ``patience`` evaluations without
+            improvement, its step [rad].
+        collision_form: as :class:`~nlo_lab.inference.OptimizeSettings`.
+        anchor: ``(n,)`` the frame before ``targets`` (a previous chunk's last): frame 0 pays its step from it.
+        fast: the objective's evaluation (:func:`~nlo_lab.inference.fast_paths`); same numbers either way.
+    """
+    start = time.perf_counter()
+    weights = weights or LossWeights()
+    dtype = robot.lower_limits.dtype
+    targets = targets.to(dtype=dtype)
+    q0 = q.detach().to(dtype)
+    hand = hand_joint_mask(robot).to(q0.device)
+    index = hand.nonzero().flatten()
+    paths = fast_paths(fast, len(targets), targets.shoulder.device)
+    loss_fn = Objective(robot, targets, weights, collision_form, **paths.objective_options())
+    smooth = smoothness_term(robot, targets, weights, anchor)
+    lo, hi = robot.lower_limits[index], robot.upper_limits[index]
+
+    def angles(x: torch.Tensor) -> torch.Tensor:
+        return q0.index_copy(1, index, x)  # the hand joints from x, the others as given
+
+    def evaluate(x):
+        full = angles(x)
+        total, terms = loss_fn(full)
+        if smooth is not None:
+            total = total + smooth(full)
+        return total, full, terms
+
+    def project(x):  # inside the limits
+        x.copy_(torch.maximum(torch.minimum(x, hi), lo))
+
+    if index.numel() == 0 or len(targets) == 0:
+        iterations = 0
+    x0 = q0[:, index].clamp(lo, hi)
+    _, best_q, loss, terms, history, steps = descend(x0, evaluate, project, iterations, patience, lr, None,
+                                                      per_sample=smooth is None)
+    return HandStageResult(best_q.detach(), loss.detach(), terms.detach(), history, steps, time.perf_counter() - start)

@@ -1,0 +1,108 @@
+"""The hand stage (issue 27): after the latent optimisation, the hand joints alone on the same objective.
+
+It must lower the objective, move nothing but the hand joints (so the wrists, and Table I, stay),
+keep the limits, and be what ``retarget`` runs on a robot with hands; the one-frame path
+(``optimize_frame``: live, the lab's sliders) and robots without fingers skip it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+import torch
+
+from nlo_lab.errors import SettingsError
+from nlo_lab.inference import OptimizeSettings, smoothness_term
+from nlo_lab.inference.hand_stage import hand_joint_mask, refine_hands
+from nlo_lab.model import load_pretrained
+from nlo_lab.objective import LossWeights, Objective, point_plan, targets_from_demonstration
+from nlo_lab.pipeline import RetargetConfig
+from nlo_lab.robot import load_robot
+
+
+@pytest.fixture(scope="module")
+def yumi():
+    return load_robot("yumi")
+
+
+def test_hand_joint_mask_is_the_fingers_actuated_joints(yumi):
+    names = [yumi.joint_names[i] for i in hand_joint_mask(yumi).nonzero().flatten()]
+    assert names == [n for n in yumi.joint_names if "_hand_" in n] and len(names) == 12
+    assert not hand_joint_mask(load_robot("nao")).any()
+
+
+def test_refine_hands_lowers_the_objective_moving_only_the_hands_inside_their_limits(yumi, demonstration_from_robot, random_feasible_pose):
+    q = random_feasible_pose(yumi, 6, seed=21).to(yumi.lower_limits.dtype)
+    t = targets_from_demonstration(demonstration_from_robot(yumi, q), dtype=yumi.lower_limits.dtype)
+    hand = hand_joint_mask(yumi)
+    start = q.clone()
+    start[:, hand] = yumi.lower_limits[hand]  # every hand open at its lower limits: far from the human's shape
+    weights = LossWeights()
+    loss = Objective(yumi, t, weights)
+    out = refine_hands(yumi, start, t, weights, iterations=40)
+    assert out.steps > 0
+    assert float(loss(out.q)[0].sum()) < 0.5 * float(loss(start)[0].sum())
+    torch.testing.assert_close(out.q[:, ~hand], start[:, ~hand], rtol=0, atol=0)  # the arms exactly where they were
+    assert bool((out.q >= yumi.lower_limits).all() and (out.q <= yumi.upper_limits).all())
+    plan = point_plan(yumi, out.q.dtype)
+    with torch.no_grad():
+        before, after = plan(start), plan(out.q)
+    torch.testing.assert_close(after.wrist, before.wrist)  # what Table I scores does not move
+    torch.testing.assert_close(after.elbow, before.elbow)
+    assert float((after.finger_tip - before.finger_tip).norm(dim=-1).max()) > 0.01
+
+
+def test_fast_and_readable_hand_stage_agree(yumi, demonstration_from_robot, random_feasible_pose):
+    q = random_feasible_pose(yumi, 3, seed=22).to(torch.float64)
+    y64 = yumi.to(dtype=torch.float64)
+    t = targets_from_demonstration(demonstration_from_robot(y64, q), dtype=torch.float64)
+    start = q.clone()
+    start[:, hand_joint_mask(y64)] = 0.4
+    a = refine_hands(y64, start, t, iterations=5, fast=True)
+    b = refine_hands(y64, start, t, iterations=5, fast=False)
+    torch.testing.assert_close(a.q, b.q, rtol=1e-7, atol=1e-9)
+    torch.testing.assert_close(a.loss, b.loss, rtol=1e-7, atol=1e-9)
+
+
+def test_retarget_runs_the_hand_stage_on_a_robot_with_hands(yumi, demonstration_from_robot, random_feasible_pose):
+    q = random_feasible_pose(yumi, 8, seed=23).to(yumi.lower_limits.dtype)
+    demo = demonstration_from_robot(yumi, q)
+    model = load_pretrained(yumi)
+    hand = hand_joint_mask(yumi)
+    retargeter = RetargetConfig(yumi, OptimizeSettings(iterations=5), model=model, retime=False).build()
+    inputs = retargeter.inputs(demo)
+    result = retargeter.optimize(inputs)
+    assert result.extra["hand_steps"] > 0
+    with torch.no_grad():
+        decoded = model.decode(result.z).to(result.q.dtype)
+    torch.testing.assert_close(result.q[:, ~hand], decoded[:, ~hand])  # the latent optimisation's arms
+    assert float((result.q[:, hand] - decoded[:, hand]).abs().max()) > 1e-4  # the stage's hands
+    # the stage's weights count in the loss it reports; the latent optimisation ran without its direction terms
+    targets = inputs.targets.to(dtype=result.q.dtype)
+    total, _ = Objective(yumi, targets, LossWeights())(result.q)
+    total = total + smoothness_term(yumi, targets, LossWeights())(result.q) + result.z.pow(2).flatten(1).sum(1).to(total.dtype)
+    assert float(result.terms["tip_dir"].sum()) > 0
+    torch.testing.assert_close(total, result.loss.to(total.dtype), rtol=1e-4, atol=1e-3)
+    # off: the decoder's angles
+    off = RetargetConfig(yumi, OptimizeSettings(iterations=5, hand_iterations=0), model=model, retime=False).build().optimize(inputs)
+    assert "hand_steps" not in off.extra
+    with torch.no_grad():
+        torch.testing.assert_close(off.q, model.decode(off.z).to(off.q.dtype))
+    # one frame (live, the lab's sliders): latent optimisation only
+    one = retargeter.optimize_frame(inputs, 0)
+    assert "hand_steps" not in one.extra
+
+
+def test_robots_without_fingers_skip_the_hand_stage(demonstration_from_robot, random_feasible_pose):
+    nao = load_robot("nao")
+    demo = demonstration_from_robot(nao, random_feasible_pose(nao, 4, seed=24).to(nao.lower_limits.dtype))
+    retargeter = RetargetConfig(nao, OptimizeSettings(iterations=3), retime=False).build()
+    assert not retargeter.has_hand_joints
+    assert "hand_steps" not in retargeter.optimize(retargeter.inputs(demo)).extra
+
+
+@pytest.mark.parametrize("field, value", [("hand_iterations", -1), ("hand_iterations", 1.5), ("hand_lr", 0.0), ("hand_lr", float("nan"))])
+def test_bad_hand_stage_settings_are_refused(field, value):
+    with pytest.raises(SettingsError, match=field):
+        dataclasses.replace(OptimizeSettings(), **{field: value})
