@@ -70,7 +70,7 @@ from nlo_lab.inference import (  # noqa: E402
     smoothness_term,
 )
 from nlo_lab.model import load_pretrained  # noqa: E402
-from nlo_lab.objective import LossWeights, Objective, point_plan, targets_from_demonstration  # noqa: E402
+from nlo_lab.objective import HAND_STAGE_TERMS, LossWeights, Objective, point_plan, targets_from_demonstration  # noqa: E402
 from nlo_lab.pipeline import RetargetConfig  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.robot.geometry_collision import DEPTH_TOLERANCE, GeometryCollision  # noqa: E402
@@ -295,7 +295,7 @@ def main() -> None:
     hand_frames = pooled["nlo_lab"]["hand_frames"]
     lines = [f"- data: {len(items)} recordings ({', '.join(label for label, _ in items)}), {hand_frames} hand-frames",
              f"- nlo_lab: shipped checkpoint `assets/checkpoints/yumi.pt`, default weights ({weights.as_dict()}; the latent "
-             f"optimisation without `tip_dir`, `finger_dir`), then the hand stage ({OptimizeSettings().hand_iterations} Adam steps "
+             f"optimisation without {', '.join(f'`{n}`' for n in HAND_STAGE_TERMS)}), then the hand stage ({OptimizeSettings().hand_iterations} Adam steps "
              f"of {OptimizeSettings().hand_lr} rad on the hand joints, same weights)",
              "- dex-retargeting 0.5, vector retargeting, our configs `benchmarks/hands/inspire_{left,right}.yml` on "
              "`benchmarks/hands/yumi_hand_{left,right}.urdf`, run in `.venv-bench`" if have_dex else "- dex-retargeting: not run",

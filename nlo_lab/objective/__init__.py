@@ -31,6 +31,7 @@ from nlo_lab.objective.terms import (
     smoothness_loss,
     smoothness_scale,
     step_cost,
+    thumb_gap_loss,
     thumb_loss,
 )
 from nlo_lab.objective.total import Objective, objective
@@ -56,7 +57,7 @@ __all__ = [
     "Targets", "targets_from_demonstration", "PointPlan", "point_plan", "RobotPoints", "robot_points",
     # terms
     "end_effector_loss", "orientation_loss", "elbow_loss", "finger_loss", "collision_loss", "collision_scale", "capsule_distances",
-    "fingertip_loss", "thumb_loss", "pinch_loss", "fingertip_direction_loss", "finger_direction_loss", "pinch_activation", "in_wrist_frame",
+    "fingertip_loss", "thumb_loss", "pinch_loss", "fingertip_direction_loss", "finger_direction_loss", "thumb_gap_loss", "pinch_activation", "in_wrist_frame",
     "latent_loss", "smoothness_loss", "smoothness_scale", "step_cost", "UNIT_EPS",
     # the total, and the fast path kept beside it
     "Objective", "objective", "near_pair_distances", "CULL_SLACK",

@@ -90,7 +90,7 @@ def _add_rows(out: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
 
 
 class HandTerms:
-    """The hand terms (``tip``, ``thumb``, ``pinch``, ``tip_dir``, ``finger_dir``) in numpy, forward and backward, on the mapped points.
+    """The hand terms (``HAND_TERMS``: ``tip``, ``thumb``, ``pinch``, ``tip_dir``, ``finger_dir``, ``thumb_gap``) in numpy, forward and backward.
 
     Every wrist -> fingertip vector (``tip``, ``tip_dir``), finger base -> tip vector (``finger_dir``)
     and thumb tip -> fingertip vector (``thumb``) is the difference of two points,
@@ -98,13 +98,15 @@ class HandTerms:
     frame, ``v_i = a_i · d / l`` (``a_i``: the mapped wrist axes, ``l``: the robot's hand length);
     ``tip`` compares the vectors, ``w = v``, the others their directions, ``w = v / n``,
     ``n = sqrt(|v|² + ε)``; the term sums ``mask |w - ŵ|²`` per kind. The pinch reads the thumb
-    vectors' lengths, ``δ = sqrt(|d|² + ε)/l``: ``active mask ((δ - goal)_+)²``. Backward:
+    vectors' lengths, ``δ = sqrt(|d|² + ε)/l``: ``active mask ((δ - goal)_+)²``; the thumb gap ``mask e²``,
+    ``e = δ - goal`` (``(δ - goal)_+`` where the human's distance is below ``d_min``). Backward:
     ``g_w = 2 mask (w - ŵ)``, ``g_v = g_w`` (vectors) or ``(g_w - w (w · g_w)) / n`` (directions),
     ``g_d = Σ_i g_v,i a_i / l`` and ``g_a_i = g_v,i d / l`` (summed per side onto the axes), and the
-    pinch's ``2 active mask (δ - goal)_+ d / (l sqrt(|d|² + ε))`` onto ``d``; ``g_d`` onto both points.
+    pinch's ``2 active mask (δ - goal)_+ d / (l sqrt(|d|² + ε))`` (the gap's likewise with ``mask e``) onto ``d``;
+    ``g_d`` onto both points.
     """
 
-    def __init__(self, plus, minus, axes, side, length, kind, v_hat, mask, pinch_goal, pinch_weight):
+    def __init__(self, plus, minus, axes, side, length, kind, v_hat, mask, pinch_goal, pinch_weight, gap_below):
         self.plus, self.minus = np.asarray(plus, dtype=np.int64), np.asarray(minus, dtype=np.int64)  # d = p[plus] - p[minus]
         self.items = len(self.plus)  # K fingertip vectors, K fingertip directions, K finger directions, then J thumb vectors
         self.axes = np.asarray(axes, dtype=np.int64)  # (6,) the wrist axes' points, side-major
@@ -116,6 +118,9 @@ class HandTerms:
         self.side_sum = np.eye(2, dtype=dtype)[self.side].T  # (2, M): sums the items of each side
         self.v_hat, self.mask = v_hat, mask[..., None]  # (T, M, 3), (T, M, 1)
         self.pinch_goal, self.pinch_weight = pinch_goal, pinch_weight  # (T, J): max(d̂, floor), activation x mask
+        J = pinch_goal.shape[1]
+        self.pair_mask = (mask[:, mask.shape[1] - J:]).astype(pinch_goal.dtype)  # (T, J) the thumb gap's
+        self.gap_below = gap_below  # (T, J) bool: the human's distance below d_min (the gap only draws down to d_min)
         self.pairs = slice(self.items - pinch_goal.shape[1], self.items)  # the thumb vectors
         # (U, M) over the U points that end a vector: +1 at its plus point, -1 at its minus point, so g_d
         # goes onto the points in one matmul (np.add.at, unbuffered: 61 against 30 us for 97 frames)
@@ -145,18 +150,18 @@ class HandTerms:
             v_hat = in_wrist_frame(t_vec, t.wrist_rotation, torch.as_tensor(side, dtype=torch.long), t.hand_length)
             v_hat[:, len(fingers):] = unit(v_hat[:, len(fingers):])  # all but the tip vectors: directions
             d_hat = (t_tip[:, j[:, 1]] - t_tip[:, j[:, 0]]).norm(dim=-1) / t.hand_length[:, plan.pair_side]
-            goal, active = torch.maximum(d_hat, floor), pinch_activation(d_hat)
+            goal, active, below = torch.maximum(d_hat, floor), pinch_activation(d_hat), d_hat < floor
             mask = torch.cat([tip_mask, tip_mask, tip_mask, pair_mask], 1)
         return cls(
             [i[0] for i in items], [i[1] for i in items], np.arange(*plan.rows["wrist_axes"].indices(K_points)), side,
             plan.hand_length.cpu().numpy()[side], [k for *_, k in items], v_hat.cpu().numpy(), mask.cpu().numpy(), goal.cpu().numpy(),
-            (active * pair_mask).cpu().numpy().astype(plan.hand_length.cpu().numpy().dtype),
+            (active * pair_mask).cpu().numpy().astype(plan.hand_length.cpu().numpy().dtype), below.cpu().numpy(),
         )
 
     columns = [0, 1, 3, 4]  # the output columns of the kinds tip, thumb, tip_dir, finger_dir (HAND_TERMS order; 2: pinch)
 
     def forward(self, P: np.ndarray, out: np.ndarray):
-        """Writes the terms ``(B, 5)`` (``HAND_TERMS`` order) into ``out``; returns what the backward needs."""
+        """Writes the terms ``(B, 6)`` (``HAND_TERMS`` order) into ``out``; returns what the backward needs."""
         d = P[:, self.plus] - P[:, self.minus]  # (B, M, 3)
         A = P[:, self.axes].reshape(P.shape[0], 2, 3, 3)[:, self.side]  # (B, M, 3, 3): rows = the wrist axes a_i
         v = np.einsum("bmij,bmj->bmi", A, d) / self.length  # (B, M, 3); einsum: 2x np.matmul's stacked 3x3s
@@ -166,20 +171,23 @@ class HandTerms:
         out[:, self.columns] = (r * r).sum(-1) @ self.kind
         gap = d[:, self.pairs]
         root = np.sqrt((gap * gap).sum(-1) + UNIT_EPS)  # (B, J)
-        over = np.maximum(root / self.length[self.pairs, 0] - self.pinch_goal, 0.0)
+        diff = root / self.length[self.pairs, 0] - self.pinch_goal  # (B, J): δ - goal
+        over = np.maximum(diff, 0.0)
         out[:, 2] = (self.pinch_weight * over * over).sum(-1)
-        return d, A, r, root, over, w, n
+        gap = np.where(self.gap_below, over, diff)  # e of the thumb gap
+        out[:, 5] = (self.pair_mask * gap * gap).sum(-1)
+        return d, A, r, root, over, w, n, gap
 
     def backward(self, g: np.ndarray, saved, gP: np.ndarray) -> None:
-        """Adds the gradient of ``sum(g * terms)`` (``g (B, 5)``) with respect to the points to ``gP``."""
-        d, A, r, root, over, w, n = saved
+        """Adds the gradient of ``sum(g * terms)`` (``g (B, 6)``) with respect to the points to ``gP``."""
+        d, A, r, root, over, w, n, gap = saved
         g_w = 2.0 * r * (g[:, self.columns] @ self.kind.T)[..., None]  # (B, M, 3)
         g_w = np.where(self.direction, (g_w - w * (w * g_w).sum(-1, keepdims=True)) / n, g_w)
         g_v = g_w / self.length  # with the 1/l of v
         g_d = np.einsum("bmi,bmij->bmj", g_v, A)  # Σ_i g_v,i a_i
         g_A = g_v[..., None] * d[:, :, None, :]  # (B, M, 3, 3): onto axis i, coordinates c
         g_axes = np.matmul(self.side_sum, g_A.reshape(g.shape[0], self.items, 9)).reshape(g.shape[0], 6, 3)
-        pinch = 2.0 * g[:, 2:3] * self.pinch_weight * over / (root * self.length[self.pairs, 0])  # (B, J)
+        pinch = 2.0 * (g[:, 2:3] * self.pinch_weight * over + g[:, 5:6] * self.pair_mask * gap) / (root * self.length[self.pairs, 0])  # (B, J)
         g_d[:, self.pairs] += pinch[..., None] * d[:, self.pairs]
         # onto both ends of every vector (a point may end several)
         B = g.shape[0]

@@ -41,6 +41,7 @@ __all__ = [
     "pinch_loss",
     "fingertip_direction_loss",
     "finger_direction_loss",
+    "thumb_gap_loss",
     "pinch_activation",
     "in_wrist_frame",
     "collision_loss",
@@ -255,6 +256,35 @@ def finger_direction_loss(rotation, base, tip, hand_length, t_rotation, t_base, 
     u = unit(in_wrist_frame(tip - base, rotation, side, hand_length))
     u_hat = unit(in_wrist_frame(t_tip - t_base, t_rotation, side, t_hand_length))
     return masked_sum((u - u_hat).pow(2).sum(-1), mask)
+
+
+@needs("finger_tip")
+def thumb_gap_loss(tip, hand_length, t_tip, t_hand_length, pairs, side, floor, mask) -> torch.Tensor:
+    """``L_gap = sum_side sum_(finger != thumb) e²``, ``e = d - d̂`` where ``d̂ >= d_min``, else ``(d - d_min)_+``.
+
+    The thumb tip -> fingertip distances ``d``, ``d̂`` in hand lengths (as :func:`pinch_loss`'s), matched
+    both ways in every frame: how far the thumb is from each finger follows the human's, opening as
+    well as closing, never asked below ``d_min`` (what the hand can do; closer than that it is not pushed
+    apart, so a robot hand that matches the human's costs 0). :func:`pinch_loss` acts only
+    while the human pinches and only draws together; on the real recordings this term raised the
+    thumb-index distance's correlation with the human's (the pinch measure of ``benchmarks/hands.py``).
+
+    Args:
+        as :func:`pinch_loss`.
+
+    Returns:
+        ``(B,)``; exactly 0 when every distance is the human's (or at most ``d_min`` where the human's is below it).
+    """
+    if pairs.shape[0] == 0:
+        return tip.new_zeros(tip.shape[0])
+    length = hand_length[side]
+    gap = tip[:, pairs[:, 1]] - tip[:, pairs[:, 0]]
+    d = gap.pow(2).sum(-1).add(UNIT_EPS).sqrt() / length  # (B, J)
+    with torch.no_grad():  # the human side: a target
+        d_hat = (t_tip[:, pairs[:, 1]] - t_tip[:, pairs[:, 0]]).norm(dim=-1) / t_hand_length[:, side]
+        below = d_hat < floor
+    e = torch.where(below, (d - floor).clamp_min(0.0), d - d_hat)
+    return masked_sum(e.pow(2), mask)
 
 
 def pinch_activation(distance: torch.Tensor) -> torch.Tensor:

@@ -1,7 +1,7 @@
 """The retargeting objective ``L(D, K(q))``: the terms of :mod:`nlo_lab.objective.terms`, weighted and summed.
 
 ``L = w_ee L_ee + w_ori L_ori + w_elbow L_elbow + w_finger L_finger + w_col L_col``
-``  + w_tip L_tip + w_thumb L_thumb + w_pinch L_pinch + w_tip_dir L_tip_dir + w_finger_dir L_finger_dir``
+``  + w_tip L_tip + w_thumb L_thumb + w_pinch L_pinch + w_tip_dir L_tip_dir + w_finger_dir L_finger_dir + w_gap L_gap``
 per frame (the paper's Eq. 5-9, then our hand terms; the latent term ``||z||²/σ²`` and the
 smoothness term are added where ``z`` and the whole sequence live: optimisation and training).
 """
@@ -28,6 +28,7 @@ from nlo_lab.objective.terms import (
     fingertip_loss,
     orientation_loss,
     pinch_loss,
+    thumb_gap_loss,
     thumb_loss,
 )
 from nlo_lab.objective.weights import COLLISION_FORMS, TERMS, LossWeights
@@ -52,7 +53,7 @@ class Objective:
     that may be near (``cull``, :mod:`~nlo_lab.objective.near_pairs`), and the FK's
     gradient in closed form (``analytic_fk``). The pipeline chooses them by batch size
     (:class:`nlo_lab.inference.FastPaths`).
-    The hand terms (``tip``, ``thumb``, ``pinch``, ``tip_dir``, ``finger_dir``) run as written here (:meth:`hand_terms`); with
+    The hand terms (``HAND_TERMS``) run as written here (:meth:`hand_terms`); with
     ``fused`` their numpy form (:class:`~nlo_lab.objective.numpy_backend.HandTerms`) runs with the others.
 
     Args:
@@ -105,7 +106,7 @@ class Objective:
         return terms @ self.weights, terms
 
     def hand_terms(self, p: RobotPoints) -> torch.Tensor:
-        """The unweighted hand terms ``(T, 5)`` (``HAND_TERMS`` order: tip, thumb, pinch, tip_dir, finger_dir) of ``p``."""
+        """The unweighted hand terms ``(T, 6)`` (``HAND_TERMS`` order: tip, thumb, pinch, tip_dir, finger_dir, thumb_gap) of ``p``."""
         t, plan = self.targets, self.plan
         pairs, side = plan.thumb_pairs, plan.pair_side
         return torch.stack([
@@ -119,6 +120,8 @@ class Objective:
                                      self.finger_tip, t.hand_length, plan.finger_side, self.tip_mask),
             finger_direction_loss(p.wrist_rotation, p.finger_base, p.finger_tip, plan.hand_length, t.wrist_rotation,
                                   self.finger_base, self.finger_tip, t.hand_length, plan.finger_side, self.tip_mask),
+            thumb_gap_loss(p.finger_tip, plan.hand_length, self.finger_tip, t.hand_length, pairs, side, self.pinch_floor,
+                           self.pair_mask),
         ], dim=1)  # fmt: skip
 
     def terms(self, p: RobotPoints) -> torch.Tensor:
@@ -156,7 +159,7 @@ def objective(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossWeig
 
     Returns:
         ``total (B,)`` and the unweighted terms ``{"ee", "ori", "elbow", "finger", "collision", "tip", "thumb",
-        "pinch", "tip_dir", "finger_dir"}`` (``TERMS``), each ``(B,)``.
+        "pinch", "tip_dir", "finger_dir", "thumb_gap"}`` (``TERMS``), each ``(B,)``.
     """
     if len(targets) != q.shape[0]:
         raise SettingsError(f"q has {q.shape[0]} frames but the targets have {len(targets)}")

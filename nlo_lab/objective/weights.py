@@ -23,12 +23,13 @@ __all__ = [
     "PINCH_OFF",
 ]
 
-TERMS = ("ee", "ori", "elbow", "finger", "collision", "tip", "thumb", "pinch", "tip_dir", "finger_dir")  # the per-frame terms, in the order Objective returns them
-HAND_TERMS = ("tip", "thumb", "pinch", "tip_dir", "finger_dir")  # the handshape terms (issue 27): zero on a robot without fingers
-# The direction terms weigh the pipeline's hand stage (nlo_lab.inference.hand_stage), not its latent optimisation:
-# pulled through the decoder (whose hands move with the whole latent) they gave up the thumb and the pinch
-# (benchmarks/hands.py on the shipped yumi.pt, 2026-11-26: thumb 26.5 -> 31.9 deg, pinch r 0.787 -> 0.763).
-HAND_STAGE_TERMS = ("tip_dir", "finger_dir")
+TERMS = ("ee", "ori", "elbow", "finger", "collision", "tip", "thumb", "pinch", "tip_dir", "finger_dir", "thumb_gap")  # the per-frame terms, in the order Objective returns them
+HAND_TERMS = ("tip", "thumb", "pinch", "tip_dir", "finger_dir", "thumb_gap")  # the handshape terms (issue 27): zero on a robot without fingers
+# The direction terms and the thumb gap weigh the pipeline's hand stage (nlo_lab.inference.hand_stage), not its latent
+# optimisation: the direction terms pulled through the decoder (whose hands move with the whole latent) gave up the
+# thumb and the pinch (benchmarks/hands.py on the shipped yumi.pt, 2026-11-26: thumb 26.5 -> 31.9 deg, pinch r
+# 0.787 -> 0.763).
+HAND_STAGE_TERMS = ("tip_dir", "finger_dir", "thumb_gap")
 COLLISION_FORMS = ("hinge", "paper")  # see nlo_lab.objective.terms.collision_loss
 # [m] the hinge's length unit for a capsule pair with margin 0 (contact allowed, penetration costs):
 # 1 mm of penetration costs what 1 mm inside a YuMi pair's 5 mm margin does
@@ -64,7 +65,8 @@ class LossWeights:
             (:func:`~nlo_lab.objective.terms.pinch_loss`).
         tip_dir: wrist -> fingertip directions in the wrist frame (:func:`~nlo_lab.objective.terms.fingertip_direction_loss`).
         finger_dir: finger base -> tip directions in the wrist frame (:func:`~nlo_lab.objective.terms.finger_direction_loss`).
-            ``tip_dir`` and ``finger_dir`` (``HAND_STAGE_TERMS``) weigh the pipeline's hand stage; its latent
+        thumb_gap: thumb tip -> fingertip distances matched both ways in every frame (:func:`~nlo_lab.objective.terms.thumb_gap_loss`).
+            ``tip_dir``, ``finger_dir`` and ``thumb_gap`` (``HAND_STAGE_TERMS``) weigh the pipeline's hand stage; its latent
             optimisation runs :meth:`latent_stage` (them at 0). Called directly, ``Objective`` counts them.
         latent: weight of ``||z||²`` (``1/σ²``, σ = 1 in the paper).
         smooth: weight of the joint-speed term over consecutive frames
@@ -84,11 +86,13 @@ class LossWeights:
     tip: float = 2000.0
     thumb: float = 500.0
     pinch: float = 300.0
-    # the direction terms' weights (the hand stage's), measured by benchmarks/hands.py (2026-11-26, shipped yumi.pt): with
-    # 30 hand-stage steps after the latent optimisation, wrist->tip 18.4 -> 17.4 deg, base->tip 37.8 -> 33.1 deg, thumb
-    # 26.6 -> 26.3 deg, pinch r 0.787 -> 0.785 (the same stage without them: 17.7 / 36.4 / 19.8 / 0.81 at 100 steps)
+    # the hand stage's weights, measured on benchmarks/hands.py's recordings (2026-11-26, shipped yumi.pt, 30 stage steps
+    # after the latent optimisation; wrist->tip / thumb / base->tip [deg] / pinch r): none of the three 18.4 / 26.6 /
+    # 37.8 / 0.787; tip_dir 4000, finger_dir 1000: 17.4 / 26.3 / 33.1 / 0.785; + thumb_gap 1000: 17.4 / 26.3 / 33.2 /
+    # 0.804 (3000: 17.5 / 26.8 / 33.5 / 0.834); tip_dir 8000: 17.3 / 26.0 / 35.1 / 0.804
     tip_dir: float = 4000.0
     finger_dir: float = 1000.0
+    thumb_gap: float = 1000.0
 
     def __post_init__(self) -> None:
         validate_fields(self, lambda name, v: check_range(name, v, *WEIGHT_RANGE), prefix="loss weight ")

@@ -5,7 +5,7 @@
 #
 # - Measure a handshape the way `benchmarks/hands.py` does: wrist→fingertip and thumb→fingertip
 #   directions, finger base→tip directions, and the pinch (thumb–index distance), all in the wrist frame.
-# - Read the hand terms of the objective (`tip`, `thumb`, `pinch`, `tip_dir`, `finger_dir`) as equations and see them act.
+# - Read the hand terms of the objective (`tip`, `thumb`, `pinch`, `tip_dir`, `finger_dir`, `thumb_gap`) as equations and see them act.
 # - See, letter by letter, which fingerspelling handshapes YuMi's Inspire hand can make and which it
 #   cannot, and say why from its joints: 6 actuated joints drive 12 finger joints.
 # - Move the hand weights on sliders and watch one hand up close.
@@ -72,9 +72,13 @@ for name, (source, mult, off) in coupled.items():
 # - `L_tip_dir = Σ_side Σ_finger ‖u(R_wᵀ(p_tip − p_w)) − u(R̂_wᵀ(p̂_tip − p̂_w))‖²` and
 #   `L_finger_dir = Σ_side Σ_finger ‖u(R_wᵀ(p_tip − p_base)) − u(R̂_wᵀ(p̂_tip − p̂_base))‖²`: where each
 #   fingertip points from the wrist and how each finger is bent, as directions in the wrist frame
-#   (`2 − 2 cos` of exactly the angles measured above). These two weigh the **hand stage**: after the
-#   latent optimisation, the pipeline moves the hand joints alone (30 Adam steps) on the whole
-#   objective, the arms kept (`nlo_lab.inference.hand_stage`).
+#   (`2 − 2 cos` of exactly the angles measured above);
+# - `L_gap = Σ_side Σ_(f≠thumb) e²`, `e = d − d̂` (or `(d − d_min)₊` where `d̂ < d_min`): the thumb–fingertip
+#   distances follow the human's both ways in every frame, not only while the human pinches.
+#
+# `tip_dir`, `finger_dir` and `thumb_gap` weigh the **hand stage**: after the latent optimisation, the
+# pipeline moves the hand joints alone (30 Adam steps) on the whole objective, the arms kept
+# (`nlo_lab.inference.hand_stage`).
 #
 # The paper's finger term (`finger`, base→tip directions) stays. `d_min` per finger, in hand lengths:
 
@@ -170,7 +174,7 @@ print(f"\nmade: {''.join(c for c, m in zip(letters, made, strict=True) if m) or 
 # ## The hand weights, live
 #
 # `HandPanel` re-optimises one letter with the weights on its sliders (`finger`, `tip`, `thumb`,
-# `pinch`, `tip_dir`, `finger_dir`; the latent optimisation, then the hand stage) and shows the robot
+# `pinch`, `tip_dir`, `finger_dir`, `thumb_gap`; the latent optimisation, then the hand stage) and shows the robot
 # framed on its right hand; the red spheres above it are the human's wrist and fingertips at the robot
 # hand's size, in the robot's wrist frame: where the fingertips should be.
 # Try the letter V with `tip` and `tip_dir` at 0.1, then `tip` at 1000: the robot cannot spread, so only

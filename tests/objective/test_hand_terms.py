@@ -28,6 +28,7 @@ from nlo_lab.objective import (
     pinch_loss,
     point_plan,
     targets_from_demonstration,
+    thumb_gap_loss,
     thumb_loss,
 )
 from nlo_lab.robot import load_robot
@@ -97,6 +98,7 @@ def test_each_hand_term_gradient_matches_finite_differences_on_its_own():
         "finger_dir": lambda w, R, p: finger_direction_loss(R, w[:, x["side"]], p, x["length"], x["t_rot"], x["t_wrist"][:, x["side"]], x["t_tip"],
                                                             x["t_length"], x["side"], mask10),
     }
+    checks["thumb_gap"] = lambda w, R, p: thumb_gap_loss(p, x["length"], x["t_tip"], x["t_length"], x["pairs"], x["pair_side"], floor, mask8)
     assert set(checks) == set(HAND_TERMS)
     inputs = (x["wrist"].requires_grad_(), x["rot"].requires_grad_(), x["tip"].requires_grad_())
     for name, fn in checks.items():
@@ -132,7 +134,7 @@ def test_hand_terms_are_zero_at_a_perfect_match_and_not_away_from_it(yumi, exact
     moved = q.clone()
     moved[:, hj] = torch.where(q[:, hj] > (lo + hi) / 2, lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo))  # every hand joint elsewhere
     _, terms = objective(yumi, moved, t)
-    for name in ("tip", "thumb", "tip_dir", "finger_dir"):
+    for name in ("tip", "thumb", "tip_dir", "finger_dir", "thumb_gap"):
         assert (terms[name] > 1e-4).all(), name
     # the arm alone does not change the handshape terms (they live in the wrist frame)
     arm = q.clone()
@@ -211,7 +213,7 @@ def test_numpy_fast_path_gives_the_same_hand_terms_values_and_gradients(yumi, ex
     out = []
     for fused in (True, False):
         x = start.clone().requires_grad_(True)
-        total, terms = Objective(yumi, t, LossWeights(tip=3.0, thumb=5.0, pinch=7.0, tip_dir=11.0, finger_dir=13.0), fused=fused)(x)
+        total, terms = Objective(yumi, t, LossWeights(tip=3.0, thumb=5.0, pinch=7.0, tip_dir=11.0, finger_dir=13.0, thumb_gap=17.0), fused=fused)(x)
         total.sum().backward()
         out.append((total.detach(), terms.detach(), x.grad))
     for a, b in zip(*out, strict=True):
@@ -238,3 +240,21 @@ def test_direction_terms_are_the_measured_angles():
     base = torch.full((B, 2, 3), 0.02, dtype=torch.float64)
     got = finger_direction_loss(rot, base, base + tip, length, rot, base, base + t_tip, t_length, side, mask)
     torch.testing.assert_close(got, (2 - 2 * torch.cos(angle)).sum()[None])
+
+
+def test_thumb_gap_follows_the_human_both_ways_but_not_below_what_the_hand_can_do():
+    """d, d̂ in hand lengths: a robot thumb farther than the human's costs, and closer too; where the human's
+    distance is below d_min only a robot distance above d_min costs (the hand cannot close further)."""
+    pairs = torch.tensor([[0, 1]])
+    length, t_length = torch.tensor([0.1, 0.1], dtype=torch.float64), torch.full((1, 2), 0.1, dtype=torch.float64)
+    floor, mask = torch.tensor([0.2], dtype=torch.float64), torch.ones(1, 1, dtype=torch.bool)
+
+    def cost(d, d_hat):
+        tip = torch.tensor([[[0.0, 0.0, 0.0], [0.1 * d, 0.0, 0.0]]], dtype=torch.float64)
+        t_tip = torch.tensor([[[0.0, 0.0, 0.0], [0.1 * d_hat, 0.0, 0.0]]], dtype=torch.float64)
+        return float(thumb_gap_loss(tip, length, t_tip, t_length, pairs, torch.tensor([0]), floor, mask))
+
+    assert cost(0.5, 0.5) < 1e-12
+    assert cost(0.7, 0.5) == pytest.approx(0.04, rel=1e-5) and cost(0.3, 0.5) == pytest.approx(0.04, rel=1e-5)  # both ways (UNIT_EPS)
+    assert cost(0.05, 0.05) == 0.0 and cost(0.15, 0.1) == 0.0  # below d_min: nothing pushes apart
+    assert cost(0.5, 0.1) == pytest.approx(0.09, rel=1e-5)  # drawn down to d_min = 0.2, not to 0.1
