@@ -237,7 +237,7 @@ def _spec_object(data: dict, path: Path, urdf: Path) -> RobotSpec:
 
 
 def draft_spec(urdf, out, *, left_arm=None, right_arm=None, left_hand=None, right_hand=None, base=None, name=None,
-               srdf=None, samples: int | None = None) -> Draft:
+               srdf=None, samples: int | None = None, prefilter: bool = True) -> Draft:
     """Draft the spec of the robot in ``urdf``, to be written at ``out`` (see the module docstring).
 
     Args:
@@ -249,6 +249,7 @@ def draft_spec(urdf, out, *, left_arm=None, right_arm=None, left_hand=None, righ
         name: the robot's name (default: the URDF's).
         srdf: the robot's SRDF, if it has one: the link pairs it disables are not checked (and the spec names it).
         samples: random poses of the capsule reach test (default: ``capsule_draft.REACH_SAMPLES``).
+        prefilter: the capsule draft's fast path (:func:`~nlo_lab.robot.capsule_draft.draft_collision`; the same spec).
 
     Raises:
         RobotDescriptionError: a URDF without two arms, an unknown link (with the closest names),
@@ -307,7 +308,7 @@ def draft_spec(urdf, out, *, left_arm=None, right_arm=None, left_hand=None, righ
     sides = {s: set(robot.model.subtree(arms[s].shoulder)) for s in SIDES}
     collision = draft_collision(robot.model, robot.tree, robot.reference_q.double().numpy(), robot.lower_limits.double().numpy(),
                                 robot.upper_limits.double().numpy(), Arms(sides, {s: arms[s].wrist for s in SIDES}), margin,
-                                samples=REACH_SAMPLES if samples is None else samples, disabled=disabled)
+                                samples=REACH_SAMPLES if samples is None else samples, disabled=disabled, prefilter=prefilter)
     data["capsules"] = [{"name": c.name, "link": c.link, "p0": list(c.p0), "p1": list(c.p1), "radius": c.radius} for c in collision.capsules]
     data["collision_pairs"] = [list(p) for p in collision.pairs]
     data["collision_margin"] = {"default": margin, **{f"{a}/{b}": m for (a, b), m in collision.margins.items()}}

@@ -162,3 +162,16 @@ def test_tiago_fingers_cannot_close_into_the_palm_unseen(tiago_draft):
             assert any(p[0].startswith(f"hand_{s}_palm_link") and p[1].startswith(f"hand_{s}_{finger}_flex_1_link")
                        for p in draft.robot.spec.collision_pairs), (s, finger)
     assert names
+
+
+def test_the_fast_draft_equals_the_readable_one(tmp_path):
+    """The prefilter (a vectorised test before each linear programme) and the pruned weighing of cuts change how fast
+    a spec is drafted, not what it says: NAO (thinned pairs, narrowed margins) drafted both ways."""
+    from nlo_lab.robot.spec_draft import draft_spec
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fast, readable = (draft_spec(ROBOTS_DIR / "nao.urdf", tmp_path / "nao.json", samples=200, prefilter=p).spec for p in (True, False))
+    assert any("~" in a + b for a, b in fast["collision_pairs"])  # the thinning bound was at work
+    assert {k: fast[k] for k in ("capsules", "collision_pairs", "collision_margin")} == \
+        {k: readable[k] for k in ("capsules", "collision_pairs", "collision_margin")}

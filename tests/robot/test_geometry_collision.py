@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 from nlo_lab.robot import load_robot
-from nlo_lab.robot.geometry_collision import DEPTH_TOLERANCE, GeometryCollision, overlap_depth, polytope
+from nlo_lab.robot.geometry_collision import DEPTH_TOLERANCE, GeometryCollision, overlap_depth, overlap_prefilter, overlaps, polytope
 
 
 def moved(x: float = 0.0, y: float = 0.0, z: float = 0.0, yaw: float = 0.0) -> np.ndarray:
@@ -38,6 +38,41 @@ def test_crossed_bars_with_no_corner_inside_the_other_still_overlap():
     bar = polytope("a", trimesh.creation.box(extents=(0.4, 0.02, 0.02)))
     assert overlap_depth(bar, moved(), bar, moved(yaw=np.pi / 2)) == pytest.approx(0.02, abs=1e-7)
     assert overlap_depth(bar, moved(), bar, moved(z=0.021, yaw=np.pi / 2)) == 0.0
+
+
+def random_poses(gen, count: int, reach: float) -> np.ndarray:
+    T = np.repeat(np.eye(4)[None], count, 0)
+    for k in range(count):
+        q = gen.normal(size=4)
+        T[k, :3, :3] = trimesh.transformations.quaternion_matrix(q / np.linalg.norm(q))[:3, :3]
+    T[:, :3, 3] = gen.uniform(-reach, reach, (count, 3))
+    return T
+
+
+@pytest.mark.parametrize("shapes", [("box", "box"), ("cylinder", "sphere"), ("box", "cylinder")])
+def test_the_prefilter_agrees_with_the_linear_programme(shapes):
+    """The capsule draft's fast path settles the poses it can without the linear programme: wherever it says
+    apart (-1) or overlapping (+1), overlaps() says the same; the poses span deep overlaps, shallow ones near the
+    0.1 mm tolerance and clear gaps, so that both verdicts occur (and 0, left to the programme)."""
+    make = {"box": lambda: trimesh.creation.box(extents=(0.12, 0.04, 0.03)),
+            "cylinder": lambda: trimesh.creation.cylinder(radius=0.02, height=0.1, sections=64),
+            "sphere": lambda: trimesh.creation.icosphere(subdivisions=3, radius=0.03)}
+    a, b = polytope("a", make[shapes[0]]()), polytope("b", make[shapes[1]]())
+    gen = np.random.default_rng(3)
+    Ta, Tb = random_poses(gen, 300, 0.05), random_poses(gen, 300, 0.05)
+    for k in range(0, 300, 3):  # every third pair of poses pushed to just touching: the overlap's edge
+        lo, hi = 0.0, 1.0  # slide b from a's origin (overlapping) outward until it clears
+        way = Tb[k, :3, 3] / max(np.linalg.norm(Tb[k, :3, 3]), 1e-9)
+        for _ in range(30):
+            mid = 0.5 * (lo + hi)
+            Tb[k, :3, 3] = mid * way * 0.2
+            lo, hi = (mid, hi) if overlap_depth(a, Ta[k], b, Tb[k]) > 0 else (lo, mid)
+        Tb[k, :3, 3] = (lo + (k % 7 - 3) * 2e-4) * way * 0.2  # within a fraction of a mm of the edge, either side
+    verdict = overlap_prefilter(a, Ta, b, Tb)
+    truth = np.array([overlaps(a, Ta[k], b, Tb[k]) for k in range(len(Ta))])
+    assert not truth[verdict < 0].any() and truth[verdict > 0].all()
+    assert (verdict < 0).sum() > 20 and (verdict > 0).sum() > 20 and (verdict == 0).sum() > 0
+    assert truth.any() and not truth.all()
 
 
 def two_link_arm(tmp_path, length: float = 0.15, elbow=(-3.0, 3.0)):
