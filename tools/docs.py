@@ -106,8 +106,8 @@ def copy_js(stage: Path) -> list[str]:
 def run_notebooks(sources: list[Path], stage: Path, scratch: Path, quick: bool) -> None:
     """Run each notebook as Jupyter would (widget state kept) and write it, with its outputs, into ``stage``."""
     import nbformat
-    from nbclient import NotebookClient
     from nbclient.exceptions import CellExecutionError
+    from notebook_client import notebook_client  # tools/: nbclient without its lost wake-ups
 
     env = {"NLO_LAB_WORK": str(scratch / "work"), "NLO_LAB_TEST_MODE": "1" if quick else "0"}
     saved = {k: os.environ.get(k) for k in env}
@@ -116,7 +116,7 @@ def run_notebooks(sources: list[Path], stage: Path, scratch: Path, quick: bool) 
         for source in sources:
             start = time.perf_counter()
             nb = nbformat.read(source, as_version=4)
-            client = NotebookClient(nb, timeout=1800, kernel_name="python3", store_widget_state=True,
+            client = notebook_client(nb, timeout=1800, kernel_name="python3", store_widget_state=True,
                                     resources={"metadata": {"path": str(scratch)}})
             try:
                 client.execute(stderr=subprocess.DEVNULL)  # the kernel's own start-up notes; a cell's errors are its outputs
