@@ -45,6 +45,9 @@ def test_a_fist_with_the_thumb_across_counts_on_its_hand_only(hands, yumi):
     assert frames == 1 and deepest > 0.005
     right_only = np.array([[False, True], [False, True]])
     assert hands.hand_collisions(geometry, hands.own_hand_pairs(robot, geometry), q, right_only) == (0, 0.0)
+    # per hand-frame, in hand_scores' row order (frame-major): only frame 1's left hand goes through itself
+    depth = hands.hand_frame_depths(geometry, hands.own_hand_pairs(robot, geometry), q, both)
+    assert list(depth > 0.005) == [False, False, True, False]
 
 
 def test_the_hand_refinement_moves_only_the_hand_joints_within_their_limits_and_lowers_the_objective(hands, yumi):
