@@ -180,7 +180,8 @@ class Retargeter:
                 (:func:`~nlo_lab.inference.hand_stage.refine_hands`, ``settings.hand_iterations`` steps):
                 the hand joints alone on the same objective. ``q`` then holds its hands (``z`` still
                 decodes to the latent optimisation's), ``loss`` and ``terms`` are at ``q``, ``seconds``
-                counts both, ``extra["hand_steps"]`` says how many steps it took.
+                counts both, ``extra["hand_steps"]`` and ``extra["hand_seconds"]`` say how many steps it took
+                (the most of any chunk) and how long (all chunks).
 
         The latent optimisation runs ``weights.latent_stage()`` (the hand stage's direction terms,
         ``tip_dir`` and ``finger_dir``, at 0); the hand stage runs ``weights``.
@@ -206,7 +207,11 @@ class Retargeter:
             anchor = parts[-1].q[-1] if parts else None
             start = self.start(part) if z0 is None else z0[a:b]
             parts.append(self._optimize(part.targets, hands, z0=start, callback=callback, anchor=anchor))
-        return join_results(parts, self.settings.init, sum(r.seconds for r in parts), frames_weighted=True)
+        joined = join_results(parts, self.settings.init, sum(r.seconds for r in parts), frames_weighted=True)
+        if all("hand_steps" in r.extra for r in parts):  # the hand stage ran on every chunk
+            joined.extra["hand_steps"] = max(r.extra["hand_steps"] for r in parts)
+            joined.extra["hand_seconds"] = sum(r.extra["hand_seconds"] for r in parts)
+        return joined
 
     def optimize_frame(self, inputs: RetargetInputs, t: int, z0: torch.Tensor | None = None) -> OptimizeResult:
         """Frame ``t`` of ``inputs`` alone, from ``z0 (1, N_r, k)`` (e.g. its current latent: a warm
@@ -234,7 +239,7 @@ class Retargeter:
         result.q, result.loss = stage.q, stage.loss
         result.terms = dict(zip(TERMS, stage.terms.unbind(1), strict=True))
         result.seconds += stage.seconds
-        result.extra["hand_steps"] = stage.steps
+        result.extra["hand_steps"], result.extra["hand_seconds"] = stage.steps, stage.seconds
         return result
 
     def _bounds(self, frames: int) -> list[tuple[int, int]]:

@@ -73,7 +73,9 @@ def test_retarget_runs_the_hand_stage_on_a_robot_with_hands(yumi, demonstration_
     retargeter = RetargetConfig(yumi, OptimizeSettings(iterations=5), model=model, retime=False).build()
     inputs = retargeter.inputs(demo)
     result = retargeter.optimize(inputs)
-    assert result.extra["hand_steps"] > 0
+    assert result.extra["hand_steps"] > 0 and 0 < result.extra["hand_seconds"] < result.seconds
+    chunked = RetargetConfig(yumi, OptimizeSettings(iterations=5), model=model, retime=False, chunk_frames=3).build().optimize(inputs)
+    assert chunked.extra["hand_steps"] > 0 and chunked.extra["hand_seconds"] > 0 and chunked.q.shape == result.q.shape
     with torch.no_grad():
         decoded = model.decode(result.z).to(result.q.dtype)
     torch.testing.assert_close(result.q[:, ~hand], decoded[:, ~hand])  # the latent optimisation's arms
