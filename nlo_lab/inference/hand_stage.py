@@ -12,6 +12,11 @@ kept where the latent optimisation put them:
 Adam from the decoder's hands (warm start), every frame at once, the limits by clamping after
 each step (projected gradient), the best point of the whole sequence kept (patience as the
 latent optimisation's). Where the arm and wrist are scored (Table I) nothing changes.
+
+It never adds a self-collision: a frame where the stage's hands would put two capsules into each
+other (surface distance < 0) and the start's did not keeps the start's hands (the collision term
+is a penalty the hand terms can outweigh; on Table I's YuMi test clips the stage alone put 2 more
+frames into collision before this rule, measured 2026-11-26).
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ from nlo_lab.objective import LossWeights, Objective, Targets
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
 
-__all__ = ["hand_joint_mask", "refine_hands", "HandStageResult"]
+__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "HandStageResult"]
 
 
 def hand_joint_mask(robot: Robot) -> torch.Tensor:
@@ -57,6 +62,7 @@ class HandStageResult:
             term's share of each frame included when it applies).
         terms: ``(T, len(TERMS))`` unweighted terms at ``q``.
         history: mean loss per evaluation; steps: Adam steps taken; seconds: wall time.
+        kept: ``(T,)`` bool, the frames that kept the start's hands (the stage's would collide, the start's not).
     """
 
     q: torch.Tensor
@@ -65,6 +71,7 @@ class HandStageResult:
     history: list[float]
     steps: int
     seconds: float
+    kept: torch.Tensor
 
 
 def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossWeights | None = None, *,
@@ -113,4 +120,17 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     x0 = q0[:, index].clamp(lo, hi)
     _, best_q, loss, terms, history, steps = descend(x0, evaluate, project, iterations, patience, lr, None,
                                                       per_sample=smooth is None)
-    return HandStageResult(best_q.detach(), loss.detach(), terms.detach(), history, steps, time.perf_counter() - start)
+    best_q = best_q.detach()
+    with torch.no_grad():  # never a new self-collision: such a frame keeps the start's hands
+        kept = penetrating(robot, best_q) & ~penetrating(robot, q0)
+        if bool(kept.any()):
+            best_q = torch.where(kept[:, None], angles(x0), best_q)
+            loss, _, terms = evaluate(best_q[:, index])
+    return HandStageResult(best_q, loss.detach(), terms.detach(), history, steps, time.perf_counter() - start, kept)
+
+
+def penetrating(robot: Robot, q: torch.Tensor) -> torch.Tensor:
+    """``(T,)`` bool: some checked capsule pair of ``q (T, n)`` penetrates (surface distance < 0), as the metrics count it."""
+    if q.shape[0] == 0 or not robot.spec.collision_pairs:
+        return torch.zeros(q.shape[0], dtype=torch.bool, device=q.device)
+    return (robot.capsule_distances(robot.forward_kinematics(q)) < 0).any(-1)

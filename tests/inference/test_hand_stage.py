@@ -14,7 +14,7 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import OptimizeSettings, smoothness_term
-from nlo_lab.inference.hand_stage import hand_joint_mask, refine_hands
+from nlo_lab.inference.hand_stage import hand_joint_mask, penetrating, refine_hands
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import LossWeights, Objective, point_plan, targets_from_demonstration
 from nlo_lab.pipeline import RetargetConfig
@@ -108,3 +108,23 @@ def test_robots_without_fingers_skip_the_hand_stage(demonstration_from_robot, ra
 def test_bad_hand_stage_settings_are_refused(field, value):
     with pytest.raises(SettingsError, match=field):
         dataclasses.replace(OptimizeSettings(), **{field: value})
+
+
+def test_the_hand_stage_never_adds_a_self_collision(yumi, demonstration_from_robot):
+    """Targets of a fist with the thumb through the index (the capsules penetrate) and no collision term: the
+    stage would follow them into the collision; those frames keep the start's (collision-free) hands."""
+    hand = hand_joint_mask(yumi)
+    open_hand = yumi.neutral_q[None].repeat(3, 1)
+    fist = open_hand.clone()
+    fist[:, hand] = yumi.upper_limits[hand]
+    assert bool(penetrating(yumi, fist).all()) and not bool(penetrating(yumi, open_hand).any())
+    t = targets_from_demonstration(demonstration_from_robot(yumi, fist), dtype=yumi.lower_limits.dtype)
+    weights = dataclasses.replace(LossWeights(), collision=0.0)
+    out = refine_hands(yumi, open_hand, t, weights, iterations=60, lr=0.1)
+    assert not bool(penetrating(yumi, out.q).any())
+    assert bool(out.kept.any())
+    torch.testing.assert_close(out.q[out.kept], open_hand[out.kept])
+    # with the collision term the stage moves towards the fist as far as the capsules allow
+    guarded = refine_hands(yumi, open_hand, t, LossWeights(), iterations=60, lr=0.1)
+    assert not bool(penetrating(yumi, guarded.q).any())
+    assert float((guarded.q[:, hand] - open_hand[:, hand]).abs().max()) > 0.1
