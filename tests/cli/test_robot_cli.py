@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import struct
 
@@ -73,10 +75,22 @@ def tiny(tmp_path):
     return path
 
 
-def test_init_drafts_a_complete_spec_and_check_reads_it_back(tiny, tmp_path, capsys):
-    spec = tmp_path / "out" / "tiny.json"
+@pytest.fixture(scope="module")
+def drafted(tmp_path_factory):
+    """``nlo-lab robot init tiny.urdf --out out/tiny.json`` run once for the tests that read its default draft
+    (drafting the capsules is the costly part): the spec's path, the exit status, stdout and stderr."""
+    folder = tmp_path_factory.mktemp("drafted")
+    (folder / "tiny.urdf").write_text(urdf_text(left_velocity="0"))
+    spec = folder / "out" / "tiny.json"
     spec.parent.mkdir()
-    code, out, err = run(["robot", "init", tiny, "--out", spec], capsys)
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["robot", "init", str(folder / "tiny.urdf"), "--out", str(spec)])
+    return spec, code, out.getvalue(), err.getvalue()
+
+
+def test_init_drafts_a_complete_spec_and_check_reads_it_back(drafted, capsys):
+    spec, code, out, err = drafted
     assert code == 0, err
     # the six links it chose are printed, and the summary
     for name in ("l_shoulder", "l_forearm", "l_hand", "r_shoulder", "r_forearm", "r_hand"):
@@ -127,11 +141,12 @@ def test_given_arms_and_hands_and_unknown_links(tiny, tmp_path, capsys, assert_o
     assert_one_line_error(code, err, "SHOULDER,ELBOW,WRIST")
 
 
-def test_check_names_an_unknown_link_with_the_closest_names(tiny, tmp_path, capsys, assert_one_line_error):
-    spec = tmp_path / "tiny.json"
-    assert run(["robot", "init", tiny, "--out", spec], capsys)[0] == 0
-    data = json.loads(spec.read_text())
+def test_check_names_an_unknown_link_with_the_closest_names(drafted, capsys, assert_one_line_error):
+    drafted_spec, code, _, err = drafted
+    assert code == 0, err
+    data = json.loads(drafted_spec.read_text())
     data["arms"]["right"]["elbow"] = "r_fore_arm"
+    spec = drafted_spec.with_name("misnamed.json")  # beside it: the same path to the URDF
     spec.write_text(json.dumps(data))
     code, _, err = run(["robot", "check", spec], capsys)
     assert_one_line_error(code, err, "arms.right.elbow", "'r_fore_arm'", "closest: r_forearm")
