@@ -32,7 +32,7 @@ def test_the_modes_and_their_objectives():
     default = BaselineSettings()
     assert default.mode == "robot-ready" and default.retime and default.loss_weights == LossWeights()
     paper = BaselineSettings(mode="paper")
-    assert not paper.retime and paper.loss_weights == LossWeights(smooth=0.0, tip=0.0, thumb=0.0, pinch=0.0, tip_dir=0.0, finger_dir=0.0) == LossWeights.paper()  # the paper's terms only
+    assert not paper.retime and paper.loss_weights == LossWeights(smooth=0.0, tip=0.0, thumb=0.0, pinch=0.0, tip_dir=0.0, finger_dir=0.0, thumb_gap=0.0) == LossWeights.paper()  # the paper's terms only
     custom = BaselineSettings(mode="paper", weights=LossWeights(ee=1.0))
     assert custom.loss_weights.ee == 1.0
     with pytest.raises(SettingsError, match="mode"):
