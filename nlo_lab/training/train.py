@@ -221,7 +221,8 @@ def train_model(
     Args:
         robot: a ``Robot`` or a robot name.
         settings: :class:`TrainSettings`.
-        weights: :class:`LossWeights` (defaults of the paper).
+        weights: :class:`LossWeights`; default ``LossWeights().latent_stage()``, the pipeline's latent optimisation's
+            objective (without the hand stage's terms).
         train_data, val_data: :class:`~nlo_lab.inference.RetargetInputs` (targets and encoder input); default the
             two parts of :func:`train_validation_split` (never the test split).
         model: a model to continue training; a new one otherwise.
@@ -233,7 +234,7 @@ def train_model(
         :class:`TrainResult` with the best-validation model (and, auto-decoder, the codes).
     """
     settings = settings or TrainSettings()
-    weights = weights or LossWeights()
+    weights = weights or LossWeights().latent_stage()  # the decoder serves the latent optimisation: its objective
     robot = as_robot(robot)
     dtype = torch.float32
     robot = robot.to(dtype=dtype)

@@ -53,6 +53,11 @@ def test_training_is_reproducible_with_a_seed(nao, pose_data):
     a = train_model(nao, settings, train_data=train, val_data=val)
     b = train_model(nao, settings, train_data=train, val_data=val)
     assert a.val_loss == b.val_loss
+    # by default the decoder trains on the pipeline's latent objective: without the hand stage's terms
+    from nlo_lab.objective import HAND_STAGE_TERMS, LossWeights
+
+    assert a.model.train_info["weights"] == LossWeights().latent_stage().as_dict()
+    assert all(a.model.train_info["weights"][name] == 0.0 for name in HAND_STAGE_TERMS)
 
 
 def test_checkpoint_round_trip(tmp_path, nao, pose_data):
