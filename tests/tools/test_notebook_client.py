@@ -80,3 +80,5 @@ def test_the_notebook_runners_use_the_patient_client():
     for path in ("tests/notebooks/conftest.py", "tools/docs.py"):
         text = (ROOT / path).read_text(encoding="utf-8")
         assert "notebook_client(" in text and "NotebookClient(" not in text, path
+    assert "--ExecutePreprocessor.kernel_manager_class=notebook_client.PatientKernelManager" in (
+        ROOT / "tests/viz/test_export_notebook.py").read_text(encoding="utf-8")  # nbconvert --execute

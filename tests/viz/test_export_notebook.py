@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import base64
 import json
+import os
 import re
 import subprocess
 import sys
@@ -39,8 +40,12 @@ def exported(tmp_path_factory) -> Path:
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("from nlo_lab.lab import show_robot\nshow_robot('nao')")])
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
     nbformat.write(nb, tmp / "view.ipynb")
-    run = subprocess.run([sys.executable, "-m", "jupyter", "nbconvert", "--to", "html", "--execute", "view.ipynb"],
-                         cwd=tmp, capture_output=True, text=True, timeout=300)
+    # nbclient under nbconvert, its kernel's client from tools/notebook_client.py: a lost wake-up of the shell
+    # socket would otherwise leave it waiting for the cell's reply with no timeout at all (nbconvert's default)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT / "tools"), os.environ.get("PYTHONPATH")]))}
+    run = subprocess.run([sys.executable, "-m", "jupyter", "nbconvert", "--to", "html", "--execute", "view.ipynb",
+                          "--ExecutePreprocessor.kernel_manager_class=notebook_client.PatientKernelManager"],
+                         cwd=tmp, capture_output=True, text=True, timeout=300, env=env)
     assert run.returncode == 0, run.stderr[-3000:]
     return tmp / "view.html"
 
