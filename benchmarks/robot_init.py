@@ -6,7 +6,7 @@ Each robot is drafted as ``tests/robot`` drafts it (iCub without its SRDF, as
 ``test_without_its_checkpoint_a_drafted_robot_says_how_to_train_one``; Baxter, Talos and Romeo with
 theirs, as ``test_a_real_robot_from_urdf_to_a_retargeted_recording``; TIAGo dual with its hands, as the
 ``tiago_draft`` fixture), from the URDFs of the ``example-robot-data`` wheel (the test extra), one
-torch thread. Printed per robot: the wall time of ``draft_spec`` (what ``nlo-lab robot init`` runs),
+torch thread. Printed per robot: the wall and CPU time of ``draft_spec`` (what ``nlo-lab robot init`` runs),
 the capsules and checked pairs, and a digest of the drafted collision model (capsules, pairs, margins)
 so that two runs (two commits, or ``--readable``) can be seen to draft the same spec.
 
@@ -52,18 +52,18 @@ def robot_data() -> Path:
         sys.exit("example-robot-data is not installed: pip install 'nlo_lab[test]'")
 
 
-def draft(name: str, **kwargs) -> tuple[float, dict]:
-    """``(seconds, the drafted collision model)`` of one robot."""
+def draft(name: str, **kwargs) -> tuple[float, float, dict]:
+    """``(wall seconds, CPU seconds, the drafted collision model)`` of one robot (CPU time: less swayed by a loaded machine)."""
     from nlo_lab.robot.spec_draft import draft_spec
 
     urdf, srdf = ROBOTS[name]
     data = robot_data()
     with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         result = draft_spec(data / urdf, Path(tmp) / f"{name}.json", srdf=None if srdf is None else data / srdf, **HANDS.get(name, {}), **kwargs)
-        seconds = time.perf_counter() - t0
-    return seconds, {k: result.spec[k] for k in ("capsules", "collision_pairs", "collision_margin")}
+        seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return seconds, cpu, {k: result.spec[k] for k in ("capsules", "collision_pairs", "collision_margin")}
 
 
 def digest(model: dict) -> str:
@@ -81,15 +81,16 @@ def main() -> int:
     torch.set_num_threads(1)  # as nlo-lab robot init does (nlo_lab.threads)
     import scipy.optimize  # noqa: F401  (imported lazily by the draft: not part of the first robot's time)
     import trimesh  # noqa: F401
-    head = "| robot | draft [s] | capsules | checked pairs | spec digest |" + (" readable [s] | ratio | same spec |" if args.readable else "")
+    head = "| robot | draft [s] | CPU [s] | capsules | checked pairs | spec digest |" + (
+        " readable [s] | readable CPU [s] | CPU ratio | same spec |" if args.readable else "")
     rows = [head, "|" + "---|" * head.count(" | ")]
     print(head, flush=True)
     for name in args.robots.split(","):
-        seconds, model = draft(name)
-        row = f"| {name} | {seconds:.1f} | {len(model['capsules'])} | {len(model['collision_pairs'])} | {digest(model)} |"
+        seconds, cpu, model = draft(name)
+        row = f"| {name} | {seconds:.1f} | {cpu:.1f} | {len(model['capsules'])} | {len(model['collision_pairs'])} | {digest(model)} |"
         if args.readable:
-            slow, plain = draft(name, prefilter=False)
-            row += f" {slow:.1f} | {slow / seconds:.1f} | {'yes' if plain == model else 'NO'} |"
+            slow, slow_cpu, plain = draft(name, prefilter=False)
+            row += f" {slow:.1f} | {slow_cpu:.1f} | {slow_cpu / cpu:.1f} | {'yes' if plain == model else 'NO'} |"
         rows.append(row)
         print(row, flush=True)
     body = "\n".join(["## Drafting a spec (`nlo-lab robot init`, issue 28)", "", stamp().strip(), "",

@@ -43,6 +43,13 @@ of the robot meets the hand's envelope. Of those:
     at rest than where the geometry collides: TIAGo's left thumb, whose links' shapes are 0.2 mm
     apart at rest) is thinned to clear the margin at rest as before, and the draft says so; a pair
     that needs more than the radii allow is left unchecked, and the draft says so;
+  - a blind pair whose *visual* geometry overlaps in none of those poses is a **shape contact**: the
+    URDF's collision elements meet where the parts they stand for do not (TIAGo's left thumb base:
+    its collision mesh is mirrored across y, ``scale="1 -1 1"``, where its visual mesh and its joint
+    are mirrored across z; the right thumb's same shapes, and the left's visual ones, stay apart in
+    the whole range, the left's collision shapes overlap by up to 0.56 mm in 60 % of it). The draft
+    names it, and the self-collision check by the geometry leaves it out, as it leaves out an SRDF's
+    disabled pairs (spec ``"shape_contacts"``);
 * pairs between the two arms (everything from one shoulder down against everything from the
   other) are always checked, even when they touch at rest (YuMi's zero pose crosses the
   forearms: such a robot needs a ``neutral_pose`` in its spec; the draft reports them).
@@ -124,6 +131,8 @@ class CapsuleDraft:
             at rest would let their geometry overlap unseen): pair -> its margin d_min [m].
         blind: link pairs thinned to clear the margin at rest although the geometry they hold overlaps in a
             sampled pose where the thinned capsules do not (capsules this loose cannot tell the two apart).
+        shape_contacts: blind link pairs whose visual geometry overlaps in none of those poses: their collision
+            elements meet where the parts do not (not in ``blind``; the spec's ``"shape_contacts"``).
     """
 
     capsules: list[CapsuleSpec]
@@ -136,6 +145,7 @@ class CapsuleDraft:
     apart: int = 0
     margins: dict[tuple[str, str], float] = field(default_factory=dict)
     blind: list[tuple[str, str]] = field(default_factory=list)
+    shape_contacts: list[tuple[str, str]] = field(default_factory=list)
 
 
 def _link_hulls(model) -> dict[str, list]:
@@ -359,7 +369,8 @@ def _pair_gaps(T: np.ndarray, ia: int, a: Piece, ib: int, b: Piece) -> np.ndarra
     return segment_closest_points(np.ascontiguousarray(ends.transpose(1, 2, 0)))[3] - a.radius - b.radius
 
 
-def _thinning_bound(tree, sample: tuple[np.ndarray, np.ndarray], a: Piece, b: Piece, prefilter: bool = True) -> float:
+def _thinning_bound(tree, sample: tuple[np.ndarray, np.ndarray], a: Piece, b: Piece, prefilter: bool = True,
+                    below: float = -np.inf) -> float:
     """The most thinning [m], summed over both capsules, that still lets capsules ``a`` and ``b`` overlap wherever
     the geometry they hold overlaps (deeper than ``DEPTH_TOLERANCE``), in the poses ``sample = (q, T)``
     (:func:`_path_poses`) and on the way out of the overlap from the :data:`BOUNDARY_SEEDS` overlapping
@@ -368,7 +379,9 @@ def _thinning_bound(tree, sample: tuple[np.ndarray, np.ndarray], a: Piece, b: Pi
     samples; NAO's torso and upper arm overlapped 1.7 mm past a bound that only the samples set);
     ``inf`` when the geometry overlaps in none. Thinned further, the collision term would let that
     geometry into each other unseen (TIAGo's fingers closed 1.4 mm into the palm past capsules thinned
-    by 16 mm). ``prefilter``: settle the poses a cheap test can (:func:`_overlapping`; the same answer)."""
+    by 16 mm). ``prefilter``: settle the poses a cheap test can (:func:`_overlapping`; the same answer). ``below``: the
+    caller only needs to know whether the bound is below this: the search stops once it is (the bound only falls as
+    it goes on), returning a value below ``below`` that the bound does not exceed."""
     q, T = sample
     ia, ib = tree.link_index[a.link], tree.link_index[b.link]
     overlapping = _overlapping(polytope(a.link, a.hull), ia, polytope(b.link, b.hull), ib, prefilter)
@@ -380,7 +393,7 @@ def _thinning_bound(tree, sample: tuple[np.ndarray, np.ndarray], a: Piece, b: Pi
     for s, overlap in zip(order, overlapping(T[order]), strict=True):
         if overlap():
             hit.append(int(s))
-            if len(hit) == BOUNDARY_SEEDS:
+            if len(hit) == BOUNDARY_SEEDS or -float(gaps[hit[0]]) < below:
                 break
         else:
             free[s] = True
@@ -388,7 +401,7 @@ def _thinning_bound(tree, sample: tuple[np.ndarray, np.ndarray], a: Piece, b: Pi
         return float("inf")
     best = float(gaps[hit[0]])  # the largest capsule gap where the geometry overlaps
     known = np.nonzero(free)[0]
-    if len(known):
+    if len(known) and -best >= below:
         span = np.where(np.ptp(q, 0) > 0, np.ptp(q, 0), 1.0)
         inside, outside = [], []  # the ends of each way out: overlapping, free
         for s in hit:
@@ -397,6 +410,8 @@ def _thinning_bound(tree, sample: tuple[np.ndarray, np.ndarray], a: Piece, b: Pi
             outside += [q[n] for n in near]
         lo, hi = np.array(inside), np.array(outside)
         for _ in range(BOUNDARY_STEPS):
+            if -best < below:
+                break
             mid = 0.5 * (lo + hi)
             with torch.no_grad():
                 Tm = tree.forward(torch.as_tensor(mid)).numpy()
@@ -443,17 +458,22 @@ def _split(a: Piece, b: Piece, total: float) -> tuple[float, float] | None:
     return (first, second) if first <= most[0] + 1e-9 and min(first, second) >= -1e-9 else None
 
 
-def _rest_slack(tree, a: Piece, b: Piece, poses: dict, sample: tuple[np.ndarray, np.ndarray], margin: float, prefilter: bool = True) -> float:
+def _rest_slack(tree, a: Piece, b: Piece, poses: dict, sample: tuple[np.ndarray, np.ndarray], margin: float, prefilter: bool = True,
+                bar: float = -np.inf) -> float:
     """For capsules ``a`` and ``b`` near at rest (``poses``): how far apart at rest they stay, less the clearance,
     when thinned as far as the geometry they hold allows in the poses ``sample`` (:func:`_thinning_bound`); < 0 for
     a *blind* pair (the capsules cannot tell the rest pose from a collision); ``inf`` for a pair that is not
-    near at rest, touches at rest or never meets."""
+    near at rest, touches at rest or never meets. ``bar``: the caller only needs to know whether the slack exceeds it;
+    a value at or below ``bar`` may then be returned early (the slack is no more than that)."""
     gap = float(capsule_gaps([a, b], poses, [(0, 1)])[0])
     if gap > margin + INNER_CLEARANCE:
         return float("inf")
     if overlap_depth(polytope(a.link, a.hull), poses[a.link], polytope(b.link, b.hull), poses[b.link]) > DEPTH_TOLERANCE:
         return float("inf")
-    return gap + _allowed(_thinning_bound(tree, sample, a, b, prefilter)) - ROUNDING
+    # slack <= bar once _allowed(bound) <= bar - gap + ROUNDING: surely once bound < bar - gap + ROUNDING + THIN_SAFETY
+    # (_allowed(x) <= x - THIN_SAFETY, to 1e-12 m), less 1e-9 m for that rounding
+    below = bar - gap + ROUNDING + THIN_SAFETY - 1e-9
+    return gap + _allowed(_thinning_bound(tree, sample, a, b, prefilter, below)) - ROUNDING
 
 
 def _rest_slack_cap(tree, a: Piece, b: Piece, poses: dict, sample: tuple[np.ndarray, np.ndarray], margin: float) -> float:
@@ -489,15 +509,21 @@ def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, pose
     halves leave the most room at rest, while that helps, up to :data:`REFINE_CUTS` times
     per pair (TIAGo's finger: a 13 mm ball round its first phalanx overlapped the palm's at rest by more than
     the finger can close into the palm; two 9 mm capsules do not). A pair's slack is worked out once (a piece pair
-    keeps it while neither is cut), and a cut stops being weighed at its first pair no better than the best so far."""
-    known: dict[tuple[int, int, bool], tuple[Piece, Piece, float]] = {}  # (id, id, cap?) -> the pieces (kept alive), their slack
+    keeps it while neither is cut); a cut stops being weighed at its first pair no better than the best so far, and
+    that pair's search stops as soon as it cannot be better (the same choice as weighing every pair to the end).
+    """
+    known: dict[tuple[int, int, bool], tuple[Piece, Piece, float, bool]] = {}  # (id, id, cap?) -> the pieces (kept alive),
+    # their slack (or an upper bound of it: cap, or a search stopped at a bar) and whether it is the slack itself
 
-    def rest_slack(x: Piece, y: Piece, sample, cap: bool = False) -> float:
-        """The pair's slack (:func:`_rest_slack`), or with ``cap`` an upper bound of it (:func:`_rest_slack_cap`)."""
+    def rest_slack(x: Piece, y: Piece, sample, cap: bool = False, bar: float = -np.inf) -> float:
+        """The pair's slack (:func:`_rest_slack`), or a value at or below ``bar`` when the slack is; with ``cap`` an upper
+        bound of it (:func:`_rest_slack_cap`)."""
         key = (id(x), id(y), cap)
-        if key not in known:
-            value = _rest_slack_cap(tree, x, y, poses, sample, margin) if cap else _rest_slack(tree, x, y, poses, sample, margin, prefilter)
-            known[key] = (x, y, value)
+        if cap and key not in known:
+            known[key] = (x, y, _rest_slack_cap(tree, x, y, poses, sample, margin), False)
+        elif not cap and (key not in known or (not known[key][3] and known[key][2] > bar)):
+            value = _rest_slack(tree, x, y, poses, sample, margin, prefilter, bar if prefilter else -np.inf)
+            known[key] = (x, y, value, value > bar or not prefilter)  # above the bar: the search ran to its end
         return known[key][2]
 
     for ga, gb in key_pairs:
@@ -526,7 +552,7 @@ def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, pose
                 if prefilter and any(rest_slack(x, y, sample, cap=True) <= bar for x in na for y in nb):
                     continue  # a pair no better than the bar, by the cheap bound: the same verdict as below
                 after = float("inf")  # the least slack of the cut's pairs ...
-                for value in (rest_slack(x, y, sample) for x in na for y in nb):
+                for value in (rest_slack(x, y, sample, bar=bar) for x in na for y in nb):
                     after = min(after, value)
                     if after <= bar:
                         break  # ... no better than the bar already: the rest of its pairs need not be weighed
@@ -536,6 +562,23 @@ def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, pose
                 break  # cutting does not help: the pair stays blind
             pieces[ga] = pieces[ga][:u] + best[1] + pieces[ga][u + 1:]
             pieces[gb] = pieces[gb][:v] + best[2] + pieces[gb][v + 1:]
+
+
+def _visual_apart(model, tree, la: str, lb: str, sample: tuple[np.ndarray, np.ndarray], prefilter: bool) -> bool:
+    """Does the *visual* geometry of links ``la`` and ``lb`` (each in its own frame) overlap in none of the poses ``sample``
+    (:func:`_path_poses`)? False when either link has no visual geometry (nothing to tell by)."""
+    T = sample[1]
+    shapes: dict[str, list] = {la: [], lb: []}
+    for shape in link_shapes(model, "visual"):
+        if shape.link in shapes:
+            try:
+                shapes[shape.link].append(polytope(shape.link, shape_mesh(shape)))
+            except FileNotFoundError:
+                return False
+    if not shapes[la] or not shapes[lb]:
+        return False
+    ia, ib = tree.link_index[la], tree.link_index[lb]
+    return not any(overlap() for pa in shapes[la] for pb in shapes[lb] for overlap in _overlapping(pa, ia, pb, ib, prefilter)(T))
 
 
 def _between_arms(side_of: dict, a: str, b: str) -> bool:
@@ -682,5 +725,6 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
     if unchecked:
         warnings.warn(f"capsules of {len(unchecked)} link pairs touch at the rest pose though their geometry does not; "
                       f"those pairs are not checked: {sorted(unchecked)}", stacklevel=2)
+    contacts = {p for p in blind if ENVELOPE not in p[0] + p[1] and _visual_apart(model, tree, *p, path_poses(keys[p[0]], keys[p[1]]), prefilter)}
     return CapsuleDraft(capsules + list(inner.values()), checked, sorted(touching), arms_touching, sorted(unchecked), thinned, far,
-                        apart, margins, sorted(blind))
+                        apart, margins, sorted(blind - contacts), sorted(contacts))

@@ -165,7 +165,8 @@ class GeometryCollision:
     Args:
         robot: a loaded ``nlo_lab.robot.Robot``.
         role: ``"collision"`` (default) or ``"visual"`` elements.
-        disabled: link pairs not to check (default: those of the spec's SRDF, if it names one).
+        disabled: link pairs not to check (default: those of the spec's SRDF, if it names one, and its
+            ``shape_contacts``: collision elements that meet where the parts do not).
 
     Attributes:
         pieces: one :class:`Polytope` per element.
@@ -178,6 +179,7 @@ class GeometryCollision:
         if disabled is None:
             srdf = getattr(robot.spec, "srdf", None)
             disabled = disabled_pairs(srdf) if srdf is not None else set()
+            disabled |= {frozenset(p) for p in getattr(robot.spec, "shape_contacts", ())}
         self.disabled = disabled
         self.pieces: list[Polytope] = []
         self.skipped: list[tuple[str, str]] = []

@@ -146,6 +146,10 @@ class Robot:
         for c in spec.capsules:
             if c.link not in links:
                 raise RobotDescriptionError(f"{where}: capsule {c.name!r} names link {c.link!r}, which does not exist in {spec.urdf}{closest(c.link, links)}")
+        for pair in spec.shape_contacts:
+            for link in pair:
+                if link not in links:
+                    raise RobotDescriptionError(f"{where}: shape_contacts names link {link!r}, which does not exist in {spec.urdf}{closest(link, links)}")
         for a, b in spec.collision_pairs:
             la, lb = spec.capsule(a).link, spec.capsule(b).link
             pa, pb = self.model.parent_joint(la), self.model.parent_joint(lb)

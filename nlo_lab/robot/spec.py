@@ -128,6 +128,8 @@ class RobotSpec:
             Y left, Z up) in ``base_link``'s frame at the fixed joints' values; without it, base_link's frame.
         srdf: optional SRDF file (spec ``"srdf"``, relative to the spec): its disabled collision pairs are
             left out of the self-collision check by the URDF's geometry (:mod:`nlo_lab.robot.srdf`).
+        shape_contacts: optional link pairs (spec ``"shape_contacts"``) whose collision elements meet where their
+            visual parts do not (found by ``nlo-lab robot init``): left out of that check too.
     """
 
     name: str
@@ -146,6 +148,7 @@ class RobotSpec:
     fixed_joints: tuple[tuple[str, float], ...] | None = None
     robot_frame: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
     srdf: Path | None = None
+    shape_contacts: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
         if set(self.arms) != set(SIDES):
@@ -349,6 +352,9 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         frame = (_vec3(frame.get("xyz", [0, 0, 0]), "robot_frame.xyz", path), _vec3(frame.get("rpy", [0, 0, 0]), "robot_frame.rpy", path))
         if not all(math.isfinite(v) for part in frame for v in part):
             raise RobotDescriptionError(f"{path}: robot_frame must hold finite numbers")
+    contacts = data.get("shape_contacts", [])
+    if not isinstance(contacts, list) or not all(isinstance(p, list) and len(p) == 2 and all(isinstance(n, str) for n in p) for p in contacts):
+        raise RobotDescriptionError(f"{path}: 'shape_contacts' must be a list of [link, link] pairs")
     return RobotSpec(
         name=str(data.get("name", path.stem)),
         path=path,
@@ -366,4 +372,5 @@ def load_spec(name_or_path: str | Path) -> RobotSpec:
         fixed_joints=fixed,
         robot_frame=frame,
         srdf=None if data.get("srdf") is None else path.parent / str(data["srdf"]),
+        shape_contacts=tuple((a, b) for a, b in contacts),
     )

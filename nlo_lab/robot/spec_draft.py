@@ -233,6 +233,7 @@ def _spec_object(data: dict, path: Path, urdf: Path) -> RobotSpec:
         velocity_limits=tuple(data["velocity_limits"].items()),
         robot_frame=None if frame is None else (tuple(frame["xyz"]), tuple(frame["rpy"])),
         srdf=None if data.get("srdf") is None else Path(os.path.normpath(path.parent / data["srdf"])),
+        shape_contacts=tuple(tuple(p) for p in data.get("shape_contacts", [])),
     )
 
 
@@ -318,6 +319,11 @@ def draft_spec(urdf, out, *, left_arm=None, right_arm=None, left_hand=None, righ
     if collision.blind:
         notes.append(f"capsules too loose to tell the rest pose from a collision of their geometry: {len(collision.blind)} link "
                      f"pair(s), e.g. {collision.blind[0][0]} / {collision.blind[0][1]} (check the output with GeometryCollision)")
+    if collision.shape_contacts:
+        data["shape_contacts"] = [list(p) for p in collision.shape_contacts]
+        notes.append(f"collision shapes that meet where the parts do not (their visual shapes never do): {len(collision.shape_contacts)} "
+                     f"link pair(s), e.g. {collision.shape_contacts[0][0]} / {collision.shape_contacts[0][1]}; left out of the check by "
+                     "the URDF's geometry as \"shape_contacts\" (check the URDF's collision elements)")
     if collision.unchecked:
         notes.append(f"{len(collision.unchecked)} link pairs are not checked: their capsules touch at rest though their geometry does not")
     if not math.isfinite(length) or length <= 0:

@@ -109,6 +109,25 @@ def test_a_folded_arm_hits_its_base_and_the_check_says_how_deep(tmp_path):
     assert check.depths(np.array([[0.0, 0.0]]))[0, 0] == 0.0
 
 
+def test_a_spec_s_shape_contacts_are_left_out_and_must_name_real_links(tmp_path):
+    """``"shape_contacts"``: link pairs whose collision elements meet where the parts do not (robot init names them);
+    the check leaves them out as it leaves out an SRDF's disabled pairs. A misspelt link is one clear error."""
+    from nlo_lab.errors import RobotDescriptionError
+
+    two_link_arm(tmp_path)
+    spec = tmp_path / "fold.json"
+    data = json.loads(spec.read_text())
+    spec.write_text(json.dumps({**data, "shape_contacts": [["base", "fore"]]}))
+    check = GeometryCollision(load_robot(spec))
+    assert len(check.pairs) == 0 and check.report(np.array([[0.0, 2.0]]))["frames"] == 0  # folded into the base: left out
+    spec.write_text(json.dumps({**data, "shape_contacts": [["base", "forearm"]]}))
+    with pytest.raises(RobotDescriptionError, match="shape_contacts names link 'forearm'.*closest: fore"):
+        load_robot(spec)
+    spec.write_text(json.dumps({**data, "shape_contacts": [["base"]]}))
+    with pytest.raises(RobotDescriptionError, match="shape_contacts"):
+        load_robot(spec)
+
+
 def test_pairs_touching_at_rest_are_not_checked(tmp_path):
     """An elbow whose limits start folded (zero clamps to 2 rad): the forearm rests in the base."""
     robot = two_link_arm(tmp_path, elbow=(2.0, 3.0))
