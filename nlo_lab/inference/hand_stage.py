@@ -13,6 +13,12 @@ Adam from the decoder's hands (warm start), every frame at once, the limits by c
 each step (projected gradient), the best point of the whole sequence kept (patience as the
 latent optimisation's). Where the arm and wrist are scored (Table I) nothing changes.
 
+It never makes the robot slower: after the descent, each hand joint's step between consecutive
+frames is clamped, frame by frame, to the larger of what its velocity limit allows at the recording's
+rate and the start's own step there (the retiming then slows no segment more than it would the
+start; without this the stage's hands stretched one real clip's retimed duration from 2.9x to 3.5x,
+``benchmarks/motion.py``, 2026-11-26).
+
 It never adds a self-collision: a frame where the stage's hands would put two capsules into each
 other (surface distance < 0) and the start's did not keeps the start's hands (the collision term
 is a penalty the hand terms can outweigh; on Table I's YuMi test clips the stage alone put 2 more
@@ -34,7 +40,7 @@ from nlo_lab.objective import LossWeights, Objective, Targets
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
 
-__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "HandStageResult"]
+__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "HandStageResult"]
 
 
 def hand_joint_mask(robot: Robot) -> torch.Tensor:
@@ -121,12 +127,27 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     _, best_q, loss, terms, history, steps = descend(x0, evaluate, project, iterations, patience, lr, None,
                                                       per_sample=smooth is None)
     best_q = best_q.detach()
-    with torch.no_grad():  # never a new self-collision: such a frame keeps the start's hands
+    with torch.no_grad():
+        if targets.fps is not None and len(targets) > 1:  # never slower than the start
+            x = within_speed(best_q[:, index], q0[:, index], robot.velocity_limits[index] / float(targets.fps))
+            best_q = angles(x)
+            loss, _, terms = evaluate(x)
+        # never a new self-collision: such a frame keeps the start's hands
         kept = penetrating(robot, best_q) & ~penetrating(robot, q0)
         if bool(kept.any()):
             best_q = torch.where(kept[:, None], angles(x0), best_q)
             loss, _, terms = evaluate(best_q[:, index])
     return HandStageResult(best_q, loss.detach(), terms.detach(), history, steps, time.perf_counter() - start, kept)
+
+
+def within_speed(x: torch.Tensor, start: torch.Tensor, step: torch.Tensor) -> torch.Tensor:
+    """``x (T, h)`` with each joint's step between consecutive frames at most ``max(step, |start's step|)``,
+    clamped frame by frame from frame 0 (``step (h,)``: the velocity limit times the frame period [rad])."""
+    cap = torch.maximum((start[1:] - start[:-1]).abs(), step)  # (T-1, h)
+    out = [x[0]]
+    for t in range(1, x.shape[0]):
+        out.append(torch.minimum(torch.maximum(x[t], out[-1] - cap[t - 1]), out[-1] + cap[t - 1]))
+    return torch.stack(out)
 
 
 def penetrating(robot: Robot, q: torch.Tensor) -> torch.Tensor:

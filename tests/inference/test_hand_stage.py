@@ -14,7 +14,7 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import OptimizeSettings, smoothness_term
-from nlo_lab.inference.hand_stage import hand_joint_mask, penetrating, refine_hands
+from nlo_lab.inference.hand_stage import hand_joint_mask, penetrating, refine_hands, within_speed
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import LossWeights, Objective, point_plan, targets_from_demonstration
 from nlo_lab.pipeline import RetargetConfig
@@ -128,3 +128,25 @@ def test_the_hand_stage_never_adds_a_self_collision(yumi, demonstration_from_rob
     guarded = refine_hands(yumi, open_hand, t, LossWeights(), iterations=60, lr=0.1)
     assert not bool(penetrating(yumi, guarded.q).any())
     assert float((guarded.q[:, hand] - open_hand[:, hand]).abs().max()) > 0.1
+
+
+def test_within_speed_never_steps_faster_than_the_limit_or_the_start():
+    start = torch.tensor([[0.0, 0.0], [0.0, 0.5], [0.0, 1.0]])  # joint 1 already fast in the start
+    x = torch.tensor([[0.0, 0.0], [0.4, 0.9], [0.4, 1.0]])
+    out = within_speed(x, start, torch.tensor([0.1, 0.1]))
+    torch.testing.assert_close(out, torch.tensor([[0.0, 0.0], [0.1, 0.5], [0.2, 1.0]]))
+
+
+def test_the_hand_stage_does_not_slow_the_robot(yumi, demonstration_from_robot, random_feasible_pose):
+    """Targets whose hands jump between frames: the stage's hand steps stay within the velocity limit at the
+    recorded rate wherever the start's did."""
+    q = random_feasible_pose(yumi, 6, seed=25).to(yumi.lower_limits.dtype)
+    demo = demonstration_from_robot(yumi, q)
+    t = targets_from_demonstration(demo, dtype=yumi.lower_limits.dtype)
+    hand = hand_joint_mask(yumi)
+    start = q.clone()
+    start[:, hand] = yumi.lower_limits[hand]  # a still hand: every step within the limit
+    out = refine_hands(yumi, start, t, iterations=40, lr=0.1)
+    step = (out.q[1:, hand] - out.q[:-1, hand]).abs()
+    assert bool((step <= yumi.velocity_limits[hand] / float(t.fps) + 1e-6).all())
+    assert float((out.q[:, hand] - start[:, hand]).abs().max()) > 0.05  # and the hands still moved
