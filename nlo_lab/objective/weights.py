@@ -87,7 +87,7 @@ class LossWeights:
     thumb: float = 500.0
     pinch: float = 300.0
     # the hand stage's weights, measured on benchmarks/hands.py's recordings (2026-11-26, shipped yumi.pt, 30 stage steps
-    # after the latent optimisation; wrist->tip / thumb / base->tip [deg] / pinch r): none of the three 18.4 / 26.6 /
+    # after the latent optimisation, before the stage's speed clamp; wrist->tip / thumb / base->tip [deg] / pinch r): none of the three 18.4 / 26.6 /
     # 37.8 / 0.787; tip_dir 4000, finger_dir 1000: 17.4 / 26.3 / 33.1 / 0.785; + thumb_gap 1000: 17.4 / 26.3 / 33.2 /
     # 0.804 (3000: 17.5 / 26.8 / 33.5 / 0.834); tip_dir 8000: 17.3 / 26.0 / 35.1 / 0.804
     tip_dir: float = 4000.0
