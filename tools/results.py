@@ -92,7 +92,7 @@ STEPS: tuple[Step, ...] = (
     Step("paper:nao", "benchmarks/paper.py", "--robots nao", "--robots nao --quick", minutes=10),  # Table II, auto-decoder
     Step("paper:pepper", "benchmarks/paper.py", "--robots pepper", None, minutes=10),
     Step("paper:yumi", "benchmarks/paper.py", "--robots yumi", None, minutes=25),  # + the departures (YuMi's)
-    Step("robot-init", "benchmarks/robot_init.py", "--readable", "--robots baxter,romeo", minutes=15),
+    Step("robot-init", "benchmarks/robot_init.py", "", "--robots baxter,romeo", minutes=10),
     Step("robots", "benchmarks/robots.py", "", "--robots nao,baxter --train-seconds 60 --out build/robots-quick", minutes=90),
 )
 

@@ -181,3 +181,39 @@ def test_the_fast_draft_equals_the_readable_one(tmp_path):
     assert any("~" in a + b for a, b in fast["collision_pairs"])  # the thinning bound was at work
     assert {k: fast[k] for k in ("capsules", "collision_pairs", "collision_margin")} == \
         {k: readable[k] for k in ("capsules", "collision_pairs", "collision_margin")}
+
+
+def test_a_thinning_bound_stopped_at_a_bar_says_the_same_as_one_searched_to_the_end(tmp_path):
+    """_refine asks only whether a cut's pair beats the best so far: the bound's search stops once it falls below
+    the bar (it only falls as the search goes on). Stopped or not, the verdict against the bar is the same, and an
+    unstopped search returns the bound itself: a forearm folding onto its base, four bars around its value."""
+    from nlo_lab.robot.capsule_draft import _path_joints, _path_poses, _thinning_bound
+    from nlo_lab.robot.capsule_fit import fit_link_capsules
+
+    (tmp_path / "fold.urdf").write_text("""<robot name="fold">
+  <link name="base"><collision><origin xyz="0 0 -0.1"/><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>
+  <link name="upper"><collision><origin xyz="0.075 0 0"/><geometry><box size="0.15 0.04 0.04"/></geometry></collision></link>
+  <link name="fore"><collision><origin xyz="0.075 0 0"/><geometry><cylinder radius="0.02" length="0.15"/></geometry></collision></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/><origin xyz="0 0 0.05"/>
+    <axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" velocity="1" effort="1"/></joint>
+  <joint name="elbow" type="revolute"><parent link="upper"/><child link="fore"/><origin xyz="0.15 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-3.0" upper="3.0" velocity="1" effort="1"/></joint>
+</robot>""")
+    (tmp_path / "fold.json").write_text(json.dumps({
+        "name": "fold", "urdf": "fold.urdf", "base_link": "base", "actuated_joints": ["shoulder", "elbow"],
+        "arms": {side: {"shoulder": "upper", "elbow": "fore", "wrist": "fore"} for side in ("left", "right")}}))
+    robot = load_robot(tmp_path / "fold.json")
+    tree = robot.tree
+    hulls = {s.link: shape_mesh(s).convex_hull for s in link_shapes(robot.model, "collision")}
+    a, b = fit_link_capsules("base", [hulls["base"]])[0], fit_link_capsules("fore", [hulls["fore"]])[0]
+    q0 = robot.reference_q.double().numpy()
+    lo, hi = robot.lower_limits.double().numpy(), robot.upper_limits.double().numpy()
+    sample = _path_poses(tree, _path_joints(tree, "base", "fore"), q0, lo, hi, 0)
+    full = _thinning_bound(tree, sample, a, b)
+    assert np.isfinite(full) and full > 0  # the folded forearm reaches the base: a finite bound
+    for bar in (full - 0.01, full - 1e-4, full + 1e-4, full + 0.01):
+        stopped = _thinning_bound(tree, sample, a, b, below=bar)
+        assert (stopped < bar) == (full < bar), bar
+        assert stopped >= full - 1e-12  # the search only lowers the bound: stopped early, it is no lower
+        if full >= bar:
+            assert stopped == full
