@@ -132,8 +132,9 @@ def overlap_prefilter(a: Polytope, Ta: np.ndarray, b: Polytope, Tb: np.ndarray) 
     out = np.zeros(len(Ta), dtype=np.int8)
     if len(Ta) == 0:
         return out
-    rel = np.linalg.inv(Ta) @ Tb  # (S, 4, 4) b's frame in a's: everything below is in a's frame
-    R, t = rel[:, :3, :3], rel[:, :3, 3]
+    Ra_T = np.swapaxes(Ta[:, :3, :3], 1, 2)  # rigid poses: the inverse rotation is the transpose (np.linalg.inv was 60 % of a draft)
+    R = Ra_T @ Tb[:, :3, :3]  # (S, 3, 3) b's frame in a's: everything below is in a's frame
+    t = np.einsum("sij,sj->si", Ra_T, Tb[:, :3, 3] - Ta[:, :3, 3])
     centre_b = R @ b.centre + t
     far = np.linalg.norm(centre_b - a.centre, axis=1) > a.radius + b.radius + PREFILTER_SLACK
     out[far] = -1
