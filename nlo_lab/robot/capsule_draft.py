@@ -87,6 +87,7 @@ GEOMETRY_SAMPLES = 512  # random poses of the joints between a thinned pair's li
 THIN_SAFETY = 0.0005  # [m] a thinning stops this short of letting the sampled geometry overlap unseen
 ROUNDING = 0.0003  # [m] what the radii's rounding to 0.1 mm (up, and down when thinned) may take from a gap, and some
 REFINE_CUTS = 6  # a blind pair's capsules are cut in two at most this many times
+PREFILTER_BATCH = 64  # poses prefiltered at a time, as a scan reaches them (Talos's meshes: thousands of corners and faces)
 BOUNDARY_SEEDS = 4  # overlapping poses (and free neighbours of each) between which a thinning bound is bisected ...
 BOUNDARY_STEPS = 8  # ... in this many halvings
 REACH = 0.05  # [m] a pair whose capsules never come this close (nor closer than their radii) in those poses is not checked
@@ -434,8 +435,17 @@ def _overlapping(pa, ia: int, pb, ib: int, prefilter: bool) -> Callable[[np.ndar
     (:func:`~nlo_lab.robot.geometry_collision.overlap_prefilter`, true by construction) skip the programme: the same answers."""
 
     def overlapping(T: np.ndarray) -> list[Callable[[], bool]]:
-        known = overlap_prefilter(pa, T[:, ia], pb, T[:, ib]) if prefilter and len(T) else np.zeros(len(T), dtype=np.int8)
-        return [(lambda k=k, Tk=Tk: bool(k > 0) or (k == 0 and overlaps(pa, Tk[ia], pb, Tk[ib]))) for k, Tk in zip(known, T, strict=True)]
+        known = np.zeros(len(T), dtype=np.int8)
+        done = np.zeros(-(-len(T) // PREFILTER_BATCH), dtype=bool)  # the batches prefiltered so far (a scan stops early)
+
+        def overlap(s: int) -> bool:
+            c = s // PREFILTER_BATCH
+            if prefilter and not done[c]:
+                batch = slice(c * PREFILTER_BATCH, (c + 1) * PREFILTER_BATCH)
+                known[batch], done[c] = overlap_prefilter(pa, T[batch, ia], pb, T[batch, ib]), True
+            return bool(known[s] > 0) or (known[s] == 0 and overlaps(pa, T[s, ia], pb, T[s, ib]))
+
+        return [(lambda s=s: overlap(s)) for s in range(len(T))]
 
     return overlapping
 
@@ -490,7 +500,8 @@ def _rest_slack_cap(tree, a: Piece, b: Piece, poses: dict, sample: tuple[np.ndar
         return float("inf")  # touching at rest
     T = sample[1]
     gaps = _pair_gaps(T, ia, a, ib, b)
-    near = np.nonzero(gaps < 0)[0]
+    near = np.argsort(-gaps)
+    near = near[gaps[near] < 0][:PREFILTER_BATCH]  # the poses the scan meets first: enough to bound (any would do)
     deep = near[overlap_prefilter(pa, T[near, ia], pb, T[near, ib]) > 0] if len(near) else near
     return gap + _allowed(-float(gaps[deep].max())) - ROUNDING if len(deep) else float("inf")
 
