@@ -35,7 +35,7 @@ import torch
 
 from nlo_lab.inference.descent import descend, smoothness_term
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
-from nlo_lab.objective import LossWeights, Objective, Targets
+from nlo_lab.objective import LossWeights, Objective, Targets, near_pair_distances
 
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
@@ -133,7 +133,8 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
             best_q = angles(x)
             loss, _, terms = evaluate(x)
         # never a new self-collision: such a frame keeps the start's hands
-        kept = penetrating(robot, best_q) & ~penetrating(robot, q0)
+        cull = paths.cull_far_pairs
+        kept = penetrating(robot, best_q, cull) & ~penetrating(robot, q0, cull)
         if bool(kept.any()):
             best_q = torch.where(kept[:, None], angles(x0), best_q)
             loss, _, terms = evaluate(best_q[:, index])
@@ -150,8 +151,20 @@ def within_speed(x: torch.Tensor, start: torch.Tensor, step: torch.Tensor) -> to
     return torch.stack(out)
 
 
-def penetrating(robot: Robot, q: torch.Tensor) -> torch.Tensor:
-    """``(T,)`` bool: some checked capsule pair of ``q (T, n)`` penetrates (surface distance < 0), as the metrics count it."""
+def penetrating(robot: Robot, q: torch.Tensor, cull: bool = False) -> torch.Tensor:
+    """``(T,)`` bool: some checked capsule pair of ``q (T, n)`` penetrates (surface distance < 0), as the metrics count it.
+
+    ``cull``: the faster form, the same verdicts: a pair's exact distance only where a lower bound
+    does not clear it of contact (:func:`~nlo_lab.objective.near_pair_distances` with margins 0;
+    most of YuMi's pairs are centimetres apart in every frame)."""
     if q.shape[0] == 0 or not robot.spec.collision_pairs:
         return torch.zeros(q.shape[0], dtype=torch.bool, device=q.device)
-    return (robot.capsule_distances(robot.forward_kinematics(q)) < 0).any(-1)
+    with torch.no_grad():
+        poses = robot.forward_kinematics(q)
+        if not cull:
+            return (robot.capsule_distances(poses) < 0).any(-1)
+        segments = robot.capsule_segments(poses)  # (T, C, 2, 3)
+        pairs = torch.as_tensor(robot.pair_capsules, device=q.device)  # (P, 2)
+        ends = segments[:, pairs].reshape(q.shape[0], -1, 4, 3)  # a0, a1, b0, b1
+        radii = robot.pair_radii.to(dtype=ends.dtype, device=ends.device)
+        return (near_pair_distances(ends, radii, torch.zeros_like(radii)) < 0).any(-1)

@@ -150,3 +150,17 @@ def test_the_hand_stage_does_not_slow_the_robot(yumi, demonstration_from_robot, 
     step = (out.q[1:, hand] - out.q[:-1, hand]).abs()
     assert bool((step <= yumi.velocity_limits[hand] / float(t.fps) + 1e-6).all())
     assert float((out.q[:, hand] - start[:, hand]).abs().max()) > 0.05  # and the hands still moved
+
+
+def test_penetrating_with_culling_gives_the_readable_verdicts(yumi):
+    """Random poses over the whole joint ranges (many collide, many do not), and the fist of the test above."""
+    g = torch.Generator().manual_seed(26)
+    lo, hi = yumi.lower_limits, yumi.upper_limits
+    q = lo + (hi - lo) * torch.rand(400, lo.shape[0], generator=g, dtype=lo.dtype)
+    hand = hand_joint_mask(yumi)
+    fist = yumi.neutral_q[None].repeat(2, 1)
+    fist[:, hand] = hi[hand]
+    q = torch.cat([q, fist, yumi.neutral_q[None]])
+    readable = penetrating(yumi, q)
+    assert 20 < int(readable.sum()) < len(q) - 20  # both verdicts occur
+    assert torch.equal(penetrating(yumi, q, cull=True), readable)

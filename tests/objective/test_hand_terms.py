@@ -203,6 +203,51 @@ def test_a_human_pinch_closes_the_robots_thumb_and_finger(yumi, finger, exact_ta
     assert float(tip_distance(yumi, x.detach(), 1, finger)) == pytest.approx(float(tip_distance(yumi, q, 1, finger)))  # other hand untouched
 
 
+ALL_HAND = dict(tip=3.0, thumb=5.0, pinch=7.0, tip_dir=11.0, finger_dir=13.0, thumb_gap=17.0)
+WEIGHT_SETS = {
+    "all": ALL_HAND,
+    "latent stage": {**ALL_HAND, "tip_dir": 0.0, "finger_dir": 0.0, "thumb_gap": 0.0},  # LossWeights.latent_stage()
+    "pinch alone": {**dict.fromkeys(ALL_HAND, 0.0), "pinch": 7.0},
+    "thumb gap alone": {**dict.fromkeys(ALL_HAND, 0.0), "thumb_gap": 17.0},
+    "directions alone": {**dict.fromkeys(ALL_HAND, 0.0), "tip_dir": 11.0, "finger_dir": 13.0},
+    "thumb without pinch or gap": {**dict.fromkeys(ALL_HAND, 0.0), "thumb": 5.0, "tip": 3.0},
+    "no hand term": dict.fromkeys(ALL_HAND, 0.0),
+}
+
+
+@pytest.mark.parametrize("weights", list(WEIGHT_SETS), ids=list(WEIGHT_SETS))
+def test_numpy_fast_path_gives_the_same_values_and_gradients_whichever_hand_weights_are_zero(yumi, exact_targets, random_feasible_pose, weights):
+    """The numpy backward leaves out the kinds whose weight is 0 (the latent optimisation's direction terms):
+    the same total, terms (every one, the zero-weight ones too) and gradient as the term functions."""
+    q = random_feasible_pose(yumi, 4, seed=16)
+    t = exact_targets(yumi, q)
+    tip = t.finger_tip.clone()
+    tip[:, :, 0] = tip[:, :, 1] + 0.004  # pinch on the index
+    t = dataclasses.replace(t, finger_tip=tip)
+    start = (q - 0.07).clamp(yumi.lower_limits, yumi.upper_limits)
+    out = []
+    for fused in (True, False):
+        x = start.clone().requires_grad_(True)
+        total, terms = Objective(yumi, t, LossWeights(**WEIGHT_SETS[weights]), fused=fused, cull=fused, analytic_fk=fused)(x)
+        total.sum().backward()
+        out.append((total.detach(), terms.detach(), x.grad))
+    for a, b in zip(*out, strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-9, atol=1e-9)
+    hand = out[0][0].new_tensor([float(out[0][1][:, TERMS.index(n)].min()) for n in HAND_TERMS])
+    assert bool((hand > 0).all()), hand  # every hand term has a value, its weight 0 or not
+
+
+def test_the_numpy_backward_visits_only_the_kinds_with_a_gradient(yumi, exact_targets, random_feasible_pose):
+    q = random_feasible_pose(yumi, 2, seed=17)
+    loss = Objective(yumi, exact_targets(yumi, q), LossWeights().latent_stage(), fused=True)
+    hand = loss.numpy_terms.hand
+    g = loss.weights.numpy()[None, 5:].repeat(2, 0)
+    sel, kind, *_ = hand._active(g)
+    K, J = len(loss.plan.finger_side), len(loss.plan.thumb_pairs)
+    assert hand.items == 3 * K + J and len(sel) == K + J  # tip and the thumb vectors; not tip_dir, finger_dir
+    assert hand._active(0 * g)[5].shape[1] == 0 and hand._active(g + 1)[0] is None  # nothing; everything
+
+
 def test_numpy_fast_path_gives_the_same_hand_terms_values_and_gradients(yumi, exact_targets, random_feasible_pose):
     q = random_feasible_pose(yumi, 4, seed=15)
     t = exact_targets(yumi, q)

@@ -130,3 +130,43 @@ def test_the_numpy_culling_bound_never_leaves_out_a_near_pair():
     assert close.sum() > 100 and (~close).sum() > 100
     assert kept[close].all(), "a pair within the clearance was left out"
     assert (~kept[~close]).mean() > 0.5  # and it does cull
+
+
+def test_near_pairs_kept_across_calls_give_bit_for_bit_the_terms_of_a_search_every_call(random_angles, demonstration_from_robot):
+    """An optimisation's calls (small steps, and some frames that jump): PointTerms with NearPairs' candidates
+    kept across calls against one that searches every pair every call: the same terms and point gradients to
+    the bit; the pairs it measures are maybe_near's, less some at least their clearance apart."""
+    import numpy as np
+
+    from nlo_lab.objective.numpy_backend import maybe_near
+    from nlo_lab.robot import load_robot
+    from nlo_lab.robot.collision import segment_closest_points
+
+    yumi = load_robot("yumi")  # float32, as the pipeline runs it
+    q0 = random_angles(yumi, 24, seed=31).to(yumi.lower_limits.dtype)
+    t = targets_from_demonstration(demonstration_from_robot(yumi, random_angles(yumi, 24, seed=32)), dtype=q0.dtype)
+    kept, searched = (Objective(yumi, t, fused=True).numpy_terms for _ in range(2))
+    searched.near_pairs.slack = 0.0
+    g = torch.Generator().manual_seed(33)
+    q, reused = q0.clone(), 0
+    for step in range(12):
+        q = q + 0.002 * torch.randn(q.shape, generator=g, dtype=q.dtype)  # about an Adam step of the optimisation
+        if step % 4 == 3:
+            q[::5] += 0.3  # some frames jump: searched again
+        P = Objective(yumi, t).plan.map(q).numpy()
+        reference = None if kept.near_pairs.reference is None else kept.near_pairs.reference.copy()
+        a, b = kept.forward(P), searched.forward(P)
+        assert np.array_equal(a[0], b[0])
+        G = np.linspace(0.5, 1.5, a[0].size, dtype=P.dtype).reshape(a[0].shape)
+        assert np.array_equal(kept.backward(G, a[1]), searched.backward(G, b[1]))
+        if reference is not None:
+            reused += int((kept.near_pairs.reference == reference).all(axis=(1, 2)).sum())  # frames not searched again
+        near, full = kept.near_pairs(P), maybe_near(P[:, kept.capsule_rows].reshape(24, -1, 2, 3), kept.pair_capsules, kept.clearance)
+        assert set(near.tolist()) <= set(full.tolist())
+        left = np.setdiff1d(full, near)
+        frame, pair = np.divmod(left, len(kept.pair_capsules))
+        ends = P[frame[:, None], kept.pair_points.reshape(-1, 4)[pair]]
+        dist = segment_closest_points(ends.transpose(1, 2, 0).astype(np.float64))[3]
+        assert bool((dist >= kept.clearance[pair]).all())
+        assert float(a[0][:, 4].max()) > 0  # the collision term acts
+    assert reused > 100  # most frames kept their candidates between calls
