@@ -53,6 +53,8 @@ class FastPaths:
         numpy_iteration: latent optimisation evaluates its loss and gradient in numpy
             (:class:`~nlo_lab.inference.numpy_descent.NumpyLatentLoss`), where the decoder and
             the objective have numpy forms and no sequence term couples the frames.
+        hand_chains: the hand stage maps only the points its hand joints move, by FK from the wrists
+            down (:class:`~nlo_lab.inference.hand_stage.HandChains`; the arms are fixed there).
     """
 
     decoder: str = "paper"
@@ -60,10 +62,11 @@ class FastPaths:
     cull_far_pairs: bool = False
     analytic_fk: bool = False
     numpy_iteration: bool = False
+    hand_chains: bool = False
 
     def __post_init__(self) -> None:
         check_choice("decoder form", self.decoder, DECODER_FORMS)
-        for name in ("fused_objective", "cull_far_pairs", "analytic_fk", "numpy_iteration"):
+        for name in ("fused_objective", "cull_far_pairs", "analytic_fk", "numpy_iteration", "hand_chains"):
             if not isinstance(getattr(self, name), bool):
                 raise SettingsError(f"FastPaths {name} must be True or False, got {getattr(self, name)!r}")
 
@@ -82,6 +85,7 @@ class FastPaths:
             cull_far_pairs=True,
             analytic_fk=True,
             numpy_iteration=cpu and frames <= DECODER_NUMPY_MAX_BATCH,
+            hand_chains=True,
         )
 
     def objective_options(self) -> dict[str, bool]:

@@ -27,20 +27,28 @@ frames into collision before this rule, measured 2026-11-26).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import numpy as np
 import torch
 
+from nlo_lab.errors import RobotDescriptionError
+from nlo_lab.human.demonstration import SIDES
 from nlo_lab.inference.descent import descend, smoothness_term
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
-from nlo_lab.objective import LossWeights, Objective, Targets, near_pair_distances
+from nlo_lab.objective import CULL_SLACK, LossWeights, Objective, Targets, point_plan
+from nlo_lab.objective.numpy_backend import maybe_near
+from nlo_lab.robot.collision import segment_closest_points
+from nlo_lab.robot.kinematics import KinematicTree
+from nlo_lab.robot.urdf import JointInfo
 
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
 
-__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "HandStageResult"]
+__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "HandStageResult", "HandChains"]
 
 
 def hand_joint_mask(robot: Robot) -> torch.Tensor:
@@ -56,6 +64,66 @@ def hand_joint_mask(robot: Robot) -> torch.Tensor:
             if name in robot.joint_names:
                 mask[robot.joint_names.index(name)] = True
     return mask
+
+
+class HandChains:
+    """The objective's points with the arms fixed: FK of the hand chains alone, from the wrists down.
+
+    In the hand stage only the hand joints move, so every point on the arms, the wrist links included,
+    stays where ``q0`` puts it. ``HandChains(robot, plan, index)(x, q0's points)`` maps only the points
+    below a wrist, by a tree of the two hands whose root is each wrist (``T_world_point = T_world_wrist(q0)
+    T_wrist_point(x)``), and puts them among ``q0``'s others: the points ``plan.map`` gives for
+    ``q0`` with the hand joints ``index`` set to ``x``, without FK of the arms (YuMi: 24 of the tree's 38
+    moving joints, 66 of the 174 points). FK's closed-form gradient
+    (:class:`~nlo_lab.robot.point_gradient.MapPoints`) reaches ``x``. The tests hold it equal to ``plan.map``.
+
+    Args:
+        robot: the robot; plan: the objective's :class:`~nlo_lab.objective.PointPlan`;
+        index: ``(h,)`` the hand joints' indices in ``q`` (:func:`hand_joint_mask`).
+
+    Raises:
+        RobotDescriptionError: a joint below a wrist is driven from above it (a mimic of an arm joint):
+            :meth:`build` then returns None and the stage maps every point.
+    """
+
+    ROOT = "__wrists__"  # the hand tree's root: each wrist hangs from it at the identity
+
+    def __init__(self, robot: Robot, plan, index: torch.Tensor):
+        model = robot.model
+        wrists = [robot.arm(side).wrist for side in SIDES]
+        below = {w: set(model.subtree(w)) - {w} for w in wrists}
+        hand_links = set().union(*below.values())
+        joints = [JointInfo(f"{self.ROOT}{w}", "fixed", self.ROOT, w, np.eye(4), np.array([1.0, 0.0, 0.0]), 0.0, 0.0) for w in wrists]
+        joints += [j for j in model.joints if j.child in hand_links]  # parents first, as in the model
+        links = (self.ROOT, *wrists, *[link for link in model.links if link in hand_links])
+        tree_model = dataclasses.replace(model, root=self.ROOT, links=links, joints=tuple(joints), urdf=None)
+        self.tree = KinematicTree(tree_model, [robot.joint_names[i] for i in index.tolist()])
+        rows = [k for k, link in enumerate(plan.links) if link in hand_links]
+        side = [next(s for s, w in enumerate(wrists) if plan.links[k] in below[w]) for k in rows]
+        body, vectors = self.tree.point_map([plan.links[k] for k in rows], plan.link_vectors[rows])
+        device, dtype = plan.vectors.device, plan.vectors.dtype
+        self.rows = torch.as_tensor(rows, dtype=torch.long, device=device)  # (k_h,) the plan's rows below a wrist
+        self.side = torch.as_tensor(side, dtype=torch.long, device=device)  # (k_h,) their wrist
+        self.body = torch.as_tensor(body, dtype=torch.long, device=device)
+        self.vectors = torch.as_tensor(vectors, dtype=dtype, device=device)  # (k_h, 4) in the hand tree's bodies
+        self.wrists = wrists
+
+    @classmethod
+    def build(cls, robot: Robot, plan, index: torch.Tensor) -> HandChains | None:
+        """The hand chains, or None where a joint below a wrist does not move with the hand joints alone."""
+        try:
+            return cls(robot, plan, index)
+        except RobotDescriptionError:
+            return None
+
+    def __call__(self, x: torch.Tensor, points: torch.Tensor, wrists: torch.Tensor) -> torch.Tensor:
+        """``x (T, h)`` the hand joints -> ``(T, k, 3)``: ``points`` (``q0``'s) with the rows below a wrist mapped for ``x``.
+
+        ``wrists``: ``(T, 2, 3, 4)`` the wrist links' world poses ``[R | t]`` at ``q0``."""
+        local = self.tree.map_points(x, self.body, self.vectors, analytic_gradient=True)  # (T, k_h, 3) in the wrist frames
+        pose = wrists[:, self.side]  # (T, k_h, 3, 4)
+        world = (pose[..., :3] @ local[..., None])[..., 0] + pose[..., 3]
+        return points.index_copy(1, self.rows, world)
 
 
 @dataclass
@@ -111,9 +179,18 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     def angles(x: torch.Tensor) -> torch.Tensor:
         return q0.index_copy(1, index, x)  # the hand joints from x, the others as given
 
+    chains = HandChains.build(robot, loss_fn.plan, index) if paths.hand_chains and index.numel() else None
+    if chains is not None:  # the arms' points and the wrists' poses, fixed for the whole stage
+        with torch.no_grad():
+            fixed_points = loss_fn.plan.map(q0)
+            wrist_poses = robot.forward_kinematics_links(q0, chains.wrists)[..., :3, :]
+
     def evaluate(x):
         full = angles(x)
-        total, terms = loss_fn(full)
+        if chains is None:
+            total, terms = loss_fn(full)
+        else:  # the same objective, FK of the hands alone
+            total, terms = loss_fn.of_points(chains(x, fixed_points, wrist_poses))
         if smooth is not None:
             total = total + smooth(full)
         return total, full, terms
@@ -144,27 +221,33 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
 def within_speed(x: torch.Tensor, start: torch.Tensor, step: torch.Tensor) -> torch.Tensor:
     """``x (T, h)`` with each joint's step between consecutive frames at most ``max(step, |start's step|)``,
     clamped frame by frame from frame 0 (``step (h,)``: the velocity limit times the frame period [rad])."""
-    cap = torch.maximum((start[1:] - start[:-1]).abs(), step)  # (T-1, h)
-    out = [x[0]]
-    for t in range(1, x.shape[0]):
-        out.append(torch.minimum(torch.maximum(x[t], out[-1] - cap[t - 1]), out[-1] + cap[t - 1]))
-    return torch.stack(out)
+    cap = torch.maximum((start[1:] - start[:-1]).abs(), step).cpu().numpy()  # (T-1, h)
+    out = x.detach().cpu().numpy().copy()  # frame by frame in numpy: a torch op per frame cost 10x as much
+    for t in range(1, out.shape[0]):
+        np.clip(out[t], out[t - 1] - cap[t - 1], out[t - 1] + cap[t - 1], out=out[t])
+    return torch.as_tensor(out, device=x.device)
 
 
 def penetrating(robot: Robot, q: torch.Tensor, cull: bool = False) -> torch.Tensor:
     """``(T,)`` bool: some checked capsule pair of ``q (T, n)`` penetrates (surface distance < 0), as the metrics count it.
 
-    ``cull``: the faster form, the same verdicts: a pair's exact distance only where a lower bound
-    does not clear it of contact (:func:`~nlo_lab.objective.near_pair_distances` with margins 0;
-    most of YuMi's pairs are centimetres apart in every frame)."""
+    ``cull``: the faster form, the same verdicts: the capsules' end points from the objective's point plan (one FK of
+    the points it maps, not of every link), and a pair's exact distance only where the separating-axis bound
+    (:func:`~nlo_lab.objective.numpy_backend.maybe_near`) does not clear it of contact (most of YuMi's pairs are
+    centimetres apart in every frame)."""
     if q.shape[0] == 0 or not robot.spec.collision_pairs:
         return torch.zeros(q.shape[0], dtype=torch.bool, device=q.device)
     with torch.no_grad():
-        poses = robot.forward_kinematics(q)
         if not cull:
-            return (robot.capsule_distances(poses) < 0).any(-1)
-        segments = robot.capsule_segments(poses)  # (T, C, 2, 3)
-        pairs = torch.as_tensor(robot.pair_capsules, device=q.device)  # (P, 2)
-        ends = segments[:, pairs].reshape(q.shape[0], -1, 4, 3)  # a0, a1, b0, b1
-        radii = robot.pair_radii.to(dtype=ends.dtype, device=ends.device)
-        return (near_pair_distances(ends, radii, torch.zeros_like(radii)) < 0).any(-1)
+            return (robot.capsule_distances(robot.forward_kinematics(q)) < 0).any(-1)
+        plan = point_plan(robot, q.dtype, q.device)
+        points = plan.map(q, analytic_gradient=True).cpu().numpy()  # (T, K, 3)
+    T, pairs = points.shape[0], robot.pair_capsules
+    radii = plan.pair_radii.cpu().numpy().astype(np.float64)
+    near = maybe_near(points[:, plan.capsule_end_rows.cpu().numpy()].reshape(T, -1, 2, 3), pairs, radii + CULL_SLACK)
+    frame, pair = np.divmod(near, len(pairs))
+    ends = points[frame[:, None], plan.pair_points.cpu().numpy().reshape(-1, 4)[pair]]  # (n, 4, 3): a0, a1, b0, b1
+    dist = segment_closest_points(ends.transpose(1, 2, 0).astype(np.float64))[3]
+    out = np.zeros(T, dtype=bool)
+    out[frame[dist - radii[pair] < 0]] = True
+    return torch.as_tensor(out, device=q.device)

@@ -98,7 +98,11 @@ class Objective:
         """``q (T, n)`` -> ``total (T,)`` and the unweighted terms ``(T, len(TERMS))`` in ``TERMS`` order."""
         if q.shape[0] != self.n_frames:
             raise SettingsError(f"q has {q.shape[0]} frames but the targets have {self.n_frames}")
-        points = self.plan.map(q, self.analytic_fk)  # (T, k, 3): every point the terms need, one FK
+        return self.of_points(self.plan.map(q, self.analytic_fk))  # (T, k, 3): every point the terms need, one FK
+
+    def of_points(self, points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``total (T,)`` and the terms ``(T, len(TERMS))`` of the plan's points ``(T, k, 3)``, mapped already
+        (``self.plan.map(q)``; the hand stage maps only the hands' points, :class:`~nlo_lab.inference.hand_stage.HandChains`)."""
         if self.numpy_terms is not None:
             terms = point_terms(points, self.numpy_terms)  # every term, the hand terms too
         else:

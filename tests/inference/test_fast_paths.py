@@ -36,13 +36,13 @@ def _raise(*args, **kwargs):
 
 
 def test_the_choice_by_batch_size():
-    assert FastPaths.readable() == FastPaths() == FastPaths("paper", False, False, False, False)
+    assert FastPaths.readable() == FastPaths() == FastPaths("paper", False, False, False, False, False)
     one, many = FastPaths.for_frames(1), FastPaths.for_frames(1000)
-    assert one == FastPaths("numpy", True, True, True, True)
+    assert one == FastPaths("numpy", True, True, True, True, True)
     edge, above = FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH), FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH + 1)
     assert edge.decoder == "numpy" and edge.numpy_iteration and above.decoder == "node-major" and not above.numpy_iteration
-    assert many == FastPaths("node-major", True, True, True, False)  # the numpy terms at any batch on the CPU
-    assert FastPaths.for_frames(1, "meta") == FastPaths("node-major", False, True, True, False)  # numpy forms: the CPU only
+    assert many == FastPaths("node-major", True, True, True, False, True)  # the numpy terms at any batch on the CPU
+    assert FastPaths.for_frames(1, "meta") == FastPaths("node-major", False, True, True, False, True)  # numpy forms: the CPU only
     assert fast_paths(True, 1) == one and fast_paths(False, 1) == FastPaths() and fast_paths(many, 1) is many
     assert one.objective_options() == {"fused": True, "cull": True, "analytic_fk": True}
 

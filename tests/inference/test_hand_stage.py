@@ -164,3 +164,35 @@ def test_penetrating_with_culling_gives_the_readable_verdicts(yumi):
     readable = penetrating(yumi, q)
     assert 20 < int(readable.sum()) < len(q) - 20  # both verdicts occur
     assert torch.equal(penetrating(yumi, q, cull=True), readable)
+
+
+def test_hand_chains_map_the_points_and_their_gradient_as_the_whole_tree(yumi):
+    """FK from the wrists down with the arms fixed: the points plan.map gives for the whole q, and the same
+    gradient in the hand joints (float64; random poses over the joint ranges)."""
+    from nlo_lab.inference.hand_stage import HandChains
+
+    y64 = yumi.to(dtype=torch.float64)
+    plan = point_plan(y64, torch.float64)
+    index = hand_joint_mask(y64).nonzero().flatten()
+    chains = HandChains.build(y64, plan, index)
+    assert chains is not None and 0 < len(chains.rows) < plan.vectors.shape[0]
+    g = torch.Generator().manual_seed(27)
+    lo, hi = y64.lower_limits, y64.upper_limits
+    q0 = lo + (hi - lo) * torch.rand(6, lo.shape[0], generator=g, dtype=lo.dtype)
+    x = (lo + (hi - lo) * torch.rand(6, lo.shape[0], generator=g, dtype=lo.dtype))[:, index]
+    weight = torch.randn(6, plan.vectors.shape[0], 3, generator=g, dtype=lo.dtype)
+    grads, points = [], []
+    for fast in (True, False):
+        xx = x.clone().requires_grad_(True)
+        if fast:
+            with torch.no_grad():
+                fixed, wrists = plan.map(q0), y64.forward_kinematics_links(q0, chains.wrists)[..., :3, :]
+            p = chains(xx, fixed, wrists)
+        else:
+            p = plan.map(q0.index_copy(1, index, xx))
+        (grad,) = torch.autograd.grad((p * weight).sum(), xx)
+        points.append(p.detach())
+        grads.append(grad)
+    torch.testing.assert_close(points[0], points[1], rtol=0, atol=1e-12)
+    torch.testing.assert_close(grads[0], grads[1], rtol=1e-10, atol=1e-10)
+    assert float(grads[1].abs().min()) > 0  # every hand joint moves some point
