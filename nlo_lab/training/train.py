@@ -58,9 +58,16 @@ from nlo_lab.training.data import demos_inputs, train_validation_split
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
 
-__all__ = ["TRAIN_MODES", "TrainSettings", "TrainResult", "new_model", "train_model", "latent_statistics"]
+__all__ = ["TRAIN_MODES", "DEFAULT_STARTS", "TrainSettings", "TrainResult", "new_model", "train_model", "latent_statistics"]
 
 TRAIN_MODES = ("encoder", "autodecoder")
+# Candidate starts of a robot without a shipped checkpoint, and each one's steps before the choice (TrainSettings.starts).
+# A drafted Romeo's elbows swung out on a real recording in 3 of 5 single-start seeds; which basin a start ends in shows
+# in its validation objective (on the default corpus: about 42,170-42,220 against 42,320-42,460 after 1000 steps,
+# the two less apart and in another order after 300), so the choice waits 1000 steps (at most a third of the training).
+DEFAULT_STARTS = 3
+DEFAULT_START_STEPS = 1000
+STARTS_RANGE = (1, 16)
 DECODER_RESTS = ("neutral", "midpoint")  # TrainSettings.decoder_rest  # paper Eq. 10 (encoder + decoder), Eq. autodecoder (decoder + codes)
 
 @dataclass(frozen=True)
@@ -95,6 +102,14 @@ class TrainSettings:
         decoder_rest: what a new decoder decodes before training: ``"neutral"`` (the robot's
             collision-free neutral pose; ``assets/checkpoints/README.md`` says why) or
             ``"midpoint"`` (the middle of every joint's limits: the paper's remap).
+        starts: candidate starts: so many models, from seeds ``seed``, ``seed + 1``, ..., each train
+            ``start_steps`` steps (at most a third of the training, in at most its share of half of
+            ``max_seconds``) on the same data; the one with the lowest validation objective goes on
+            to the full training (a start that falls into a poor basin of the objective stays in it:
+            a drafted Romeo's elbows swung out in 2 of 3 seeds, ``docs/ARCHITECTURE.md``). None: 1 for a
+            robot with a shipped checkpoint (its recipe, ``assets/checkpoints/README.md``), else
+            :data:`DEFAULT_STARTS`. 1: today's single start.
+        start_steps: steps each candidate start trains before the choice (see ``starts``).
     """
 
     epochs: int = 30
@@ -116,6 +131,8 @@ class TrainSettings:
     code_init_std: float = 0.01
     val_iterations: int = 30
     decoder_rest: str = "neutral"
+    starts: int | None = None
+    start_steps: int = DEFAULT_START_STEPS
 
     def __post_init__(self) -> None:
         for name, bounds in (("epochs", EPOCHS_RANGE), ("batch_size", BATCH_RANGE), ("latent_per_node", LATENT_RANGE),
@@ -124,6 +141,9 @@ class TrainSettings:
             check_int(name, getattr(self, name), *bounds)
         if self.max_steps is not None:
             check_int("max_steps", self.max_steps, 1, EPOCHS_RANGE[1] * BATCH_RANGE[1])
+        if self.starts is not None:
+            check_int("starts", self.starts, *STARTS_RANGE)
+        check_int("start_steps", self.start_steps, 1, EPOCHS_RANGE[1] * BATCH_RANGE[1])
         for name in ("lr", "clip", "code_lr", "code_init_std"):
             object.__setattr__(self, name, check_range(name, getattr(self, name), *RATE_RANGE))
         object.__setattr__(self, "max_seconds", check_range("max_seconds", self.max_seconds, *SECONDS_RANGE))
@@ -147,6 +167,10 @@ class TrainResult:
         steps: optimiser steps taken.
         codes: auto-decoder mode: the learned latent code of every training frame
             ``(N, N_r, k)``, in the order of the training frames (at the best validation); else None.
+        starts: the candidate starts (``TrainSettings.starts``): ``[{"seed", "steps", "val"}, ...]``, each
+            with the steps it trained before the choice and its best validation objective by then; the one
+            of lowest ``val`` went on (``history`` and ``steps`` are its own). Without candidates, one entry
+            with the training's steps and best validation.
     """
 
     model: RetargetModel
@@ -155,6 +179,7 @@ class TrainResult:
     seconds: float
     steps: int
     codes: torch.Tensor | None = None
+    starts: list[dict[str, float]] = dataclasses.field(default_factory=list)
 
 
 
@@ -206,6 +231,103 @@ def latent_statistics(model: RetargetModel, data: EncoderInput | RetargetInputs,
     return z.mean(0), z.std(0).clamp_min(1e-3)
 
 
+def _start_count(settings: TrainSettings, robot: Robot, model: RetargetModel | None) -> int:
+    """How many candidate starts ``train_model`` tries (``TrainSettings.starts``): one to continue a given model."""
+    if model is not None:
+        return 1
+    if settings.starts is not None:
+        return settings.starts
+    from nlo_lab.model import checkpoint_path
+    from nlo_lab.paths import is_bundled
+
+    shipped = is_bundled(robot.spec.path) and checkpoint_path(robot.name).is_file()
+    return 1 if shipped else DEFAULT_STARTS
+
+
+class _Run:
+    """One start of a training: its model (and auto-decoder codes), optimisers, batch order and best validation."""
+
+    def __init__(self, robot, settings: TrainSettings, weights: LossWeights, train_data: RetargetInputs, val_data: RetargetInputs,
+                 fast, seed: int, model: RetargetModel | None, start: float, bar) -> None:
+        self.settings, self.seed, self.start, self.bar = settings, seed, start, bar
+        self.n = n = len(train_data)
+        self.steps_per_epoch = max(1, n // settings.batch_size)  # drop the ragged last batch
+        torch.manual_seed(seed)
+        if model is None:
+            model = new_model(robot, settings, in_features=int(train_data.encoder.node_features.shape[-1]))
+        self.model = model = model.to(dtype=train_data.targets.dtype).train()
+        form = settings.collision_form
+        if settings.mode == "autodecoder":  # Eq. autodecoder: the decoder and one code per frame; the encoder takes no part
+            model.config["training"] = "autodecoder"
+            codes = LatentCodes(n, model.latent_shape, settings.code_init_std, seed)
+            self.codes: LatentCodes | None = codes
+            self.params = list(model.decoder.parameters())
+            self.code_opt: torch.optim.Optimizer | None = torch.optim.SparseAdam(list(codes.parameters()), lr=settings.code_lr)
+
+            def batch_loss(idx):
+                return autodecoder_loss(model, robot, codes, idx, train_data.targets.index(idx), weights, form, fast)
+
+            def validate():
+                return validate_autodecoder(model, robot, val_data, codes.all().mean(0), weights, form, settings.val_iterations, fast)
+        else:
+            self.codes, self.code_opt, self.params = None, None, list(model.parameters())
+
+            def batch_loss(idx):
+                return _batch_loss(model, robot, train_data.index(idx), weights, form, fast)
+
+            def validate():
+                return _evaluate(model, robot, val_data, weights, form, fast)
+
+        self.batch_loss, self.validate = batch_loss, validate
+        self.opt = torch.optim.Adam(self.params, lr=settings.lr)
+        self.gen = torch.Generator().manual_seed(seed)
+        self.step, self.epoch, self.b, self.running = 0, 0, 0, []
+        self.order = torch.empty(0, dtype=torch.long)
+        self.best_val = validate()
+        self.best_state, self.best_codes = self.snapshot()
+        self.history = [{"step": 0, "epoch": 0, "train": float("nan"), "val": self.best_val, "seconds": time.perf_counter() - start}]
+
+    def snapshot(self):
+        state = {k: v.detach().clone() for k, v in self.model.state_dict().items()}
+        return state, None if self.codes is None else self.codes.all()
+
+    def advance(self, last_step: int, deadline: float) -> None:
+        """Train until step ``last_step``, or until the step that passes ``deadline`` (a ``time.perf_counter()``)."""
+        s = self.settings
+        while self.step < last_step:
+            if self.b == 0:
+                self.order = torch.randperm(self.n, generator=self.gen)
+            idx = self.order[self.b * s.batch_size : (self.b + 1) * s.batch_size]
+            loss = self.batch_loss(idx).mean()
+            self.opt.zero_grad(set_to_none=True)
+            if self.code_opt is not None:
+                self.code_opt.zero_grad(set_to_none=True)
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(self.params, s.clip)
+            self.opt.step()
+            if self.code_opt is not None:
+                self.code_opt.step()
+            self.step += 1
+            self.running.append(float(loss.detach()))
+            self.bar.update(1)
+            stop = time.perf_counter() > deadline or self.step >= last_step
+            epoch, self.b = self.epoch, self.b + 1
+            last_of_epoch = self.b == self.steps_per_epoch
+            if last_of_epoch:
+                self.epoch, self.b = self.epoch + 1, 0
+            if self.step % s.val_every == 0 or last_of_epoch or stop:
+                val = self.validate()
+                train_mean = sum(self.running) / len(self.running)
+                self.running = []
+                self.history.append({"step": self.step, "epoch": epoch, "train": train_mean, "val": val,
+                                     "seconds": time.perf_counter() - self.start})
+                self.bar.set_postfix(train=f"{train_mean:.2f}", val=f"{val:.2f}")
+                if val < self.best_val:
+                    self.best_val = val
+                    self.best_state, self.best_codes = self.snapshot()
+            if stop:
+                break
+
 def train_model(
     robot: Robot | str,
     settings: TrainSettings | None = None,
@@ -248,85 +370,38 @@ def train_model(
     if len(val_data) > settings.val_frames:  # evenly spaced subset, fixed across runs
         val_data = val_data.index(torch.linspace(0, len(val_data) - 1, settings.val_frames).long())
 
-    torch.manual_seed(settings.seed)
-    if model is None:
-        model = new_model(robot, settings, in_features=int(train_data.encoder.node_features.shape[-1]))
-    model = model.to(dtype=dtype).train()
+    n_starts = _start_count(settings, robot, model)
     autodecoder = settings.mode == "autodecoder"
-    form = settings.collision_form
     n = len(train_data)
-    if autodecoder:  # Eq. autodecoder: the decoder and one code per frame; the encoder takes no part
-        model.config["training"] = "autodecoder"
-        codes = LatentCodes(n, model.latent_shape, settings.code_init_std, settings.seed)
-        params = list(model.decoder.parameters())
-        code_opt = torch.optim.SparseAdam(list(codes.parameters()), lr=settings.code_lr)
-
-        def batch_loss(idx):
-            return autodecoder_loss(model, robot, codes, idx, train_data.targets.index(idx), weights, form, fast)
-
-        def validate():
-            return validate_autodecoder(model, robot, val_data, codes.all().mean(0), weights, form, settings.val_iterations, fast)
-    else:
-        codes, code_opt, params = None, None, list(model.parameters())
-
-        def batch_loss(idx):
-            return _batch_loss(model, robot, train_data.index(idx), weights, form, fast)
-
-        def validate():
-            return _evaluate(model, robot, val_data, weights, form, fast)
-
-    opt = torch.optim.Adam(params, lr=settings.lr)
-    gen = torch.Generator().manual_seed(settings.seed)
     steps_per_epoch = max(1, n // settings.batch_size)  # drop the ragged last batch
     total_steps = settings.epochs * steps_per_epoch
     if settings.max_steps is not None:
         total_steps = min(total_steps, settings.max_steps)
+    trial_steps = min(settings.start_steps, total_steps // 3) if n_starts > 1 else 0
+    if trial_steps == 0:  # too short a training to try starts
+        n_starts = 1
 
     label = "train" if not autodecoder else "auto-decode"
-    bar = tqdm(total=total_steps, desc=f"{label} {robot.name}", disable=not settings.progress, leave=False)
+    bar = tqdm(total=total_steps + (n_starts - 1) * trial_steps, desc=f"{label} {robot.name}", disable=not settings.progress, leave=False)
     start = time.perf_counter()
-
-    def snapshot():
-        state = {k: v.detach().clone() for k, v in model.state_dict().items()}
-        return state, None if codes is None else codes.all()
-
-    best_val = validate()
-    best_state, best_codes = snapshot()
-    history = [{"step": 0, "epoch": 0, "train": float("nan"), "val": best_val, "seconds": 0.0}]
-    step, running, stop = 0, [], False
-    for epoch in range(settings.epochs):
-        order = torch.randperm(n, generator=gen)
-        for b in range(steps_per_epoch):
-            idx = order[b * settings.batch_size : (b + 1) * settings.batch_size]
-            loss = batch_loss(idx).mean()
-            opt.zero_grad(set_to_none=True)
-            if code_opt is not None:
-                code_opt.zero_grad(set_to_none=True)
-            loss.backward()
-            torch.nn.utils.clip_grad_norm_(params, settings.clip)
-            opt.step()
-            if code_opt is not None:
-                code_opt.step()
-            step += 1
-            running.append(float(loss.detach()))
-            bar.update(1)
-            stop = time.perf_counter() - start > settings.max_seconds or step >= total_steps
-            last_of_epoch = b == steps_per_epoch - 1
-            if step % settings.val_every == 0 or last_of_epoch or stop:
-                val = validate()
-                train_mean = sum(running) / len(running)
-                running = []
-                history.append({"step": step, "epoch": epoch, "train": train_mean, "val": val, "seconds": time.perf_counter() - start})
-                bar.set_postfix(train=f"{train_mean:.2f}", val=f"{val:.2f}")
-                if val < best_val:
-                    best_val = val
-                    best_state, best_codes = snapshot()
-            if stop:
-                break
-        if stop:
-            break
+    runs = []
+    for c in range(n_starts):  # the candidate starts: each trains trial_steps, in at most its share of half the budget
+        run = _Run(robot, settings, weights, train_data, val_data, fast, (settings.seed + c) % (SEED_RANGE[1] + 1), model, start, bar)
+        if n_starts > 1:
+            bar.set_description(f"{label} {robot.name} (start {c + 1} of {n_starts})")
+            run.advance(trial_steps, start + settings.max_seconds * (c + 1) / (2 * n_starts))
+        runs.append(run)
+    run = min(runs, key=lambda r: r.best_val)  # the lowest validation objective continues (the first on a tie)
+    starts = [{"seed": r.seed, "steps": r.step, "val": r.best_val} for r in runs]
+    del runs
+    if n_starts > 1:
+        bar.set_description(f"{label} {robot.name} (start seed {run.seed})")
+    run.advance(total_steps, start + settings.max_seconds)
     bar.close()
-    model.load_state_dict(best_state)
+    if n_starts == 1:
+        starts = [{"seed": run.seed, "steps": run.step, "val": run.best_val}]
+    model, best_val, history, step, best_codes = run.model, run.best_val, run.history, run.step, run.best_codes
+    model.load_state_dict(run.best_state)
     model.eval()
     if autodecoder:  # train-stats starts from the learned codes' distribution
         mean, std = best_codes.mean(0), best_codes.std(0).clamp_min(1e-3)
@@ -341,5 +416,6 @@ def train_model(
         "history": history,
         "seconds": time.perf_counter() - start,
         "steps": step,
+        "starts": starts,
     }
-    return TrainResult(model, best_val, history, time.perf_counter() - start, step, best_codes)
+    return TrainResult(model, best_val, history, time.perf_counter() - start, step, best_codes, starts)
