@@ -14,10 +14,14 @@ each step (projected gradient), the best point of the whole sequence kept (patie
 latent optimisation's). Where the arm and wrist are scored (Table I) nothing changes.
 
 It never makes the robot slower: after the descent, each hand joint's step between consecutive
-frames is clamped, frame by frame, to the larger of what its velocity limit allows at the recording's
-rate and the start's own step there (the retiming then slows no segment more than it would the
-start; without this the stage's hands stretched one real clip's retimed duration from 2.9x to 3.5x,
-``benchmarks/motion.py``, 2026-11-26).
+frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's
+(:func:`step_caps`: its velocity limit times the time the retiming gives the start's segment,
+``max(1/fps, max_k |Δq_k|/v_k)`` over all joints, :mod:`nlo_lab.inference.retime`), so the retimed
+trajectory is never longer than the start's. Without a clamp the stage's hands stretched one real clip's
+retimed duration from 2.9x to 3.5x (``benchmarks/motion.py``, 2026-11-26); the clamp at each hand joint's
+own limit or start step, which this one replaced, cost the wrist->tip measure 0.25° on the hand
+benchmark's recordings (17.77° against 17.52°, measured 2026-11-26): where the arm already slows a
+segment down, the fingers may move as fast.
 
 It never adds a self-collision: a frame where the stage's hands would put two capsules into each
 other (surface distance < 0) and the start's did not keeps the start's hands (the collision term
@@ -48,7 +52,7 @@ from nlo_lab.robot.urdf import JointInfo
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
 
-__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "HandStageResult", "HandChains"]
+__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "step_caps", "HandStageResult", "HandChains"]
 
 
 def hand_joint_mask(robot: Robot) -> torch.Tensor:
@@ -206,7 +210,7 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     best_q = best_q.detach()
     with torch.no_grad():
         if targets.fps is not None and len(targets) > 1:  # never slower than the start
-            x = within_speed(best_q[:, index], q0[:, index], robot.velocity_limits[index] / float(targets.fps))
+            x = within_speed(best_q[:, index], step_caps(q0, robot.velocity_limits, float(targets.fps))[:, index])
             best_q = angles(x)
             loss, _, terms = evaluate(x)
         # never a new self-collision: such a frame keeps the start's hands
@@ -218,13 +222,22 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     return HandStageResult(best_q, loss.detach(), terms.detach(), history, steps, time.perf_counter() - start, kept)
 
 
-def within_speed(x: torch.Tensor, start: torch.Tensor, step: torch.Tensor) -> torch.Tensor:
-    """``x (T, h)`` with each joint's step between consecutive frames at most ``max(step, |start's step|)``,
-    clamped frame by frame from frame 0 (``step (h,)``: the velocity limit times the frame period [rad])."""
-    cap = torch.maximum((start[1:] - start[:-1]).abs(), step).cpu().numpy()  # (T-1, h)
+def step_caps(start: torch.Tensor, velocity_limits: torch.Tensor, fps: float) -> torch.Tensor:
+    """``(T-1, n)`` the largest step [rad] of each joint between consecutive frames of ``start (T, n)`` that
+    leaves the retimed segment no longer than the start's: ``v_j dt_i``, ``dt_i = max(1/fps, max_k |Δq_k,i|/v_k)``
+    (:func:`~nlo_lab.inference.retime.segment_durations`' time of the start's segment; unlimited joints count 0)."""
+    ratio = torch.where(torch.isfinite(velocity_limits), (start[1:] - start[:-1]).abs() / velocity_limits, 0.0)
+    dt = ratio.amax(1, keepdim=True).clamp_min(1.0 / fps) if ratio.shape[1] else ratio.new_full((ratio.shape[0], 1), 1.0 / fps)
+    return velocity_limits * dt
+
+
+def within_speed(x: torch.Tensor, cap: torch.Tensor) -> torch.Tensor:
+    """``x (T, h)`` with each joint's step between consecutive frames at most ``cap (T-1, h)`` [rad]
+    (:func:`step_caps`), clamped frame by frame from frame 0."""
+    bound = cap.detach().cpu().numpy()
     out = x.detach().cpu().numpy().copy()  # frame by frame in numpy: a torch op per frame cost 10x as much
     for t in range(1, out.shape[0]):
-        np.clip(out[t], out[t - 1] - cap[t - 1], out[t - 1] + cap[t - 1], out=out[t])
+        np.clip(out[t], out[t - 1] - bound[t - 1], out[t - 1] + bound[t - 1], out=out[t])
     return torch.as_tensor(out, device=x.device)
 
 

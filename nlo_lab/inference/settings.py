@@ -73,8 +73,11 @@ class OptimizeSettings:
     warm_window: int = 2
     seed: int = 0
     collision_form: str = "hinge"
-    hand_iterations: int = 30
-    hand_lr: float = 0.05
+    # the hand stage's steps, measured by benchmarks/hands.py (2026-11-26, shipped yumi.pt, the chord tip_dir): 30 of
+    # 0.05 rad left wrist->tip / thumb / base->tip [deg] / pinch r at 17.26 / 27.06 / 34.30 / 0.790, 60 of 0.03 at
+    # 17.05 / 25.33 / 33.79 / 0.813 (100 of 0.03: 17.01 / 25.14 / 33.73 / 0.815; 0.05 rad oscillates around its best)
+    hand_iterations: int = 60
+    hand_lr: float = 0.03
 
     def __post_init__(self) -> None:
         if self.init not in INITS:

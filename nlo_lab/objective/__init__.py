@@ -13,8 +13,10 @@ from nlo_lab.objective.near_pairs import CULL_SLACK, near_pair_distances
 from nlo_lab.objective.points import PointPlan, RobotPoints, point_plan, robot_points
 from nlo_lab.objective.targets import Targets, targets_from_demonstration
 from nlo_lab.objective.terms import (
+    CHORD_EPS,
     UNIT_EPS,
     capsule_distances,
+    chord,
     collision_loss,
     collision_scale,
     elbow_loss,
@@ -58,7 +60,7 @@ __all__ = [
     # terms
     "end_effector_loss", "orientation_loss", "elbow_loss", "finger_loss", "collision_loss", "collision_scale", "capsule_distances",
     "fingertip_loss", "thumb_loss", "pinch_loss", "fingertip_direction_loss", "finger_direction_loss", "thumb_gap_loss", "pinch_activation", "in_wrist_frame",
-    "latent_loss", "smoothness_loss", "smoothness_scale", "step_cost", "UNIT_EPS",
+    "latent_loss", "smoothness_loss", "smoothness_scale", "step_cost", "chord", "UNIT_EPS", "CHORD_EPS",
     # the total, and the fast path kept beside it
     "Objective", "objective", "near_pair_distances", "CULL_SLACK",
 ]  # fmt: skip

@@ -35,7 +35,7 @@ from torch.autograd.function import once_differentiable
 from nlo_lab.objective.near_pairs import CULL_SLACK
 from nlo_lab.objective.points import PointPlan
 from nlo_lab.objective.targets import Targets
-from nlo_lab.objective.terms import UNIT_EPS, in_wrist_frame, pinch_activation, unit
+from nlo_lab.objective.terms import CHORD_EPS, UNIT_EPS, in_wrist_frame, pinch_activation, unit
 from nlo_lab.objective.weights import CONTACT_SCALE, TERMS
 from nlo_lab.robot.collision import segment_closest_points
 
@@ -161,10 +161,11 @@ class HandTerms:
     ``d = p_plus - p_minus``, seen in its wrist
     frame, ``v_i = a_i · d / l`` (``a_i``: the mapped wrist axes, ``l``: the robot's hand length);
     ``tip`` compares the vectors, ``w = v``, the others their directions, ``w = v / n``,
-    ``n = sqrt(|v|² + ε)``; the term sums ``mask |w - ŵ|²`` per kind. The pinch reads the thumb
+    ``n = sqrt(|v|² + ε)``; the term sums ``mask |w - ŵ|²`` per kind (``tip_dir`` its chord,
+    ``sqrt(|w - ŵ|² + ε_c²) - ε_c``, ``ε_c`` = ``CHORD_EPS``). The pinch reads the thumb
     vectors' lengths, ``δ = sqrt(|d|² + ε)/l``: ``active mask ((δ - goal)_+)²``; the thumb gap ``mask e²``,
     ``e = δ - goal`` (``(δ - goal)_+`` where the human's distance is below ``d_min``). Backward:
-    ``g_w = 2 mask (w - ŵ)``, ``g_v = g_w`` (vectors) or ``(g_w - w (w · g_w)) / n`` (directions),
+    ``g_w = 2 mask (w - ŵ)`` (the chord's ``mask (w - ŵ) / sqrt(|w - ŵ|² + ε_c²)``), ``g_v = g_w`` (vectors) or ``(g_w - w (w · g_w)) / n`` (directions),
     ``g_d = Σ_i g_v,i a_i / l`` and ``g_a_i = g_v,i d / l`` (summed per side onto the axes), and the
     pinch's ``2 active mask (δ - goal)_+ d / (l sqrt(|d|² + ε))`` (the gap's likewise with ``mask e``) onto ``d``;
     ``g_d`` onto both points.
@@ -179,6 +180,7 @@ class HandTerms:
         self.length = np.asarray(length, dtype=dtype)[:, None]  # (M, 1) the robot's hand length per item
         self.kind = np.eye(4, dtype=dtype)[np.asarray(kind, dtype=np.int64)]  # (M, 4) tip / thumb / tip_dir / finger_dir
         self.direction = self.kind[:, 1:].sum(1, keepdims=True) > 0  # (M, 1) the items compared as directions
+        self.chord = self.kind[:, 2:3] > 0  # (M, 1) the items costing their chord, not its square (tip_dir)
         self.side_sum = np.eye(2, dtype=dtype)[self.side].T  # (2, M): sums the items of each side
         self.v_hat, self.mask = v_hat, mask[..., None]  # (T, M, 3), (T, M, 1)
         self.pinch_goal, self.pinch_weight = pinch_goal, pinch_weight  # (T, J): max(d̂, floor), activation x mask
@@ -233,7 +235,10 @@ class HandTerms:
         n = np.where(self.direction, np.sqrt((v * v).sum(-1, keepdims=True) + UNIT_EPS), 1.0)  # (B, M, 1)
         w = v / n
         r = np.where(self.mask, w - self.v_hat, 0.0)
-        out[:, self.columns] = (r * r).sum(-1) @ self.kind
+        square = (r * r).sum(-1, keepdims=True)  # (B, M, 1)
+        distance = np.sqrt(square + CHORD_EPS * CHORD_EPS)
+        out[:, self.columns] = np.where(self.chord, distance - CHORD_EPS, square)[..., 0] @ self.kind
+        r = np.where(self.chord, r / (2.0 * distance), r)  # the backward's 2 r: the chord's r / distance
         gap = d[:, self.pairs]
         root = np.sqrt((gap * gap).sum(-1) + UNIT_EPS)  # (B, J)
         diff = root / self.length[self.pairs, 0] - self.pinch_goal  # (B, J): δ - goal

@@ -69,15 +69,17 @@ for name, (source, mult, off) in coupled.items():
 # - `L_pinch = Σ_side Σ_(f≠thumb) a(d̂)·((d − max(d̂, d_min))₊)²`: when the human's thumb and a fingertip
 #   touch (`a(d̂)` = 1 below 0.3 hand lengths, fading out at 0.6), the robot's are drawn together, but
 #   never below `d_min`, the closest this hand's thumb and that finger can come at all;
-# - `L_tip_dir = Σ_side Σ_finger ‖u(R_wᵀ(p_tip − p_w)) − u(R̂_wᵀ(p̂_tip − p̂_w))‖²` and
-#   `L_finger_dir = Σ_side Σ_finger ‖u(R_wᵀ(p_tip − p_base)) − u(R̂_wᵀ(p̂_tip − p̂_base))‖²`: where each
+# - `L_tip_dir = Σ_side Σ_finger chord(u(R_wᵀ(p_tip − p_w)), u(R̂_wᵀ(p̂_tip − p̂_w)))`, `chord(u, û) = √(‖u − û‖² + ε²) − ε`,
+#   and `L_finger_dir = Σ_side Σ_finger ‖u(R_wᵀ(p_tip − p_base)) − u(R̂_wᵀ(p̂_tip − p̂_base))‖²`: where each
 #   fingertip points from the wrist and how each finger is bent, as directions in the wrist frame
-#   (`2 − 2 cos` of exactly the angles measured above);
+#   (`2 sin(θ/2)` ≈ `θ` and `2 − 2 cos θ` of exactly the angles `θ` measured above: the fingertip term
+#   costs each finger about its angle, as the measure averages angles, so a fingertip this hand cannot
+#   point right does not take the effort the others need);
 # - `L_gap = Σ_side Σ_(f≠thumb) e²`, `e = d − d̂` (or `(d − d_min)₊` where `d̂ < d_min`): the thumb–fingertip
 #   distances follow the human's both ways in every frame, not only while the human pinches.
 #
 # `tip_dir`, `finger_dir` and `thumb_gap` weigh the **hand stage**: after the latent optimisation, the
-# pipeline moves the hand joints alone (30 Adam steps) on the whole objective, the arms kept
+# pipeline moves the hand joints alone (60 Adam steps) on the whole objective, the arms kept
 # (`nlo_lab.inference.hand_stage`).
 #
 # The paper's finger term (`finger`, base→tip directions) stays. `d_min` per finger, in hand lengths:

@@ -14,7 +14,8 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import OptimizeSettings, smoothness_term
-from nlo_lab.inference.hand_stage import hand_joint_mask, penetrating, refine_hands, within_speed
+from nlo_lab.inference.hand_stage import hand_joint_mask, penetrating, refine_hands, step_caps, within_speed
+from nlo_lab.inference.retime import segment_durations
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import LossWeights, Objective, point_plan, targets_from_demonstration
 from nlo_lab.pipeline import RetargetConfig
@@ -130,26 +131,42 @@ def test_the_hand_stage_never_adds_a_self_collision(yumi, demonstration_from_rob
     assert float((guarded.q[:, hand] - open_hand[:, hand]).abs().max()) > 0.1
 
 
-def test_within_speed_never_steps_faster_than_the_limit_or_the_start():
-    start = torch.tensor([[0.0, 0.0], [0.0, 0.5], [0.0, 1.0]])  # joint 1 already fast in the start
+def test_within_speed_never_steps_beyond_its_cap():
     x = torch.tensor([[0.0, 0.0], [0.4, 0.9], [0.4, 1.0]])
-    out = within_speed(x, start, torch.tensor([0.1, 0.1]))
+    cap = torch.tensor([[0.1, 0.5], [0.1, 0.5]])
+    out = within_speed(x, cap)
     torch.testing.assert_close(out, torch.tensor([[0.0, 0.0], [0.1, 0.5], [0.2, 1.0]]))
 
 
+def test_step_caps_give_every_joint_the_time_the_start_s_segment_takes():
+    """A segment the start's fast joint 0 (1 rad/s) stretches to 0.5 s lets joint 1 (2 rad/s) step 1 rad there; a still
+    segment 1/fps = 0.1 s: 0.2 rad; an unlimited joint neither stretches a segment nor is held."""
+    start = torch.tensor([[0.0, 0.0, 0.0], [0.5, 0.0, 5.0], [0.5, 0.0, 5.0]])
+    limits = torch.tensor([1.0, 2.0, float("inf")])
+    caps = step_caps(start, limits, fps=10.0)
+    torch.testing.assert_close(caps[:, :2], torch.tensor([[0.5, 1.0], [0.1, 0.2]]))
+    assert bool(torch.isinf(caps[:, 2]).all())
+
+
 def test_the_hand_stage_does_not_slow_the_robot(yumi, demonstration_from_robot, random_feasible_pose):
-    """Targets whose hands jump between frames: the stage's hand steps stay within the velocity limit at the
-    recorded rate wherever the start's did."""
+    """Targets whose hands jump between frames: the retimed segments of the stage's output are never longer than
+    the start's (where the start is still, the hands step within their velocity limit at the recorded rate)."""
     q = random_feasible_pose(yumi, 6, seed=25).to(yumi.lower_limits.dtype)
     demo = demonstration_from_robot(yumi, q)
     t = targets_from_demonstration(demo, dtype=yumi.lower_limits.dtype)
     hand = hand_joint_mask(yumi)
+    limits = yumi.velocity_limits.double().numpy()
     start = q.clone()
-    start[:, hand] = yumi.lower_limits[hand]  # a still hand: every step within the limit
+    start[:, hand] = yumi.lower_limits[hand]  # a still hand
+    start[3:] = start[3]  # and a still robot from frame 3 on
     out = refine_hands(yumi, start, t, iterations=40, lr=0.1)
-    step = (out.q[1:, hand] - out.q[:-1, hand]).abs()
+    before = segment_durations(start.double().numpy(), float(t.fps), limits)
+    after = segment_durations(out.q.double().numpy(), float(t.fps), limits)
+    assert (after <= before * (1 + 1e-6)).all(), (before, after)
+    step = (out.q[4:, hand] - out.q[3:-1, hand]).abs()  # where the start stands still
     assert bool((step <= yumi.velocity_limits[hand] / float(t.fps) + 1e-6).all())
     assert float((out.q[:, hand] - start[:, hand]).abs().max()) > 0.05  # and the hands still moved
+    assert bool((after[:2] > 1.0 / float(t.fps)).all())  # the arm's jumps are slow segments: the hands may use them
 
 
 def test_penetrating_with_culling_gives_the_readable_verdicts(yumi):

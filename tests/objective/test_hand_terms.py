@@ -14,6 +14,7 @@ import pytest
 import torch
 
 from nlo_lab.objective import (
+    CHORD_EPS,
     HAND_TERMS,
     PINCH_OFF,
     PINCH_ON,
@@ -268,8 +269,9 @@ def test_numpy_fast_path_gives_the_same_hand_terms_values_and_gradients(yumi, ex
 
 
 def test_direction_terms_are_the_measured_angles():
-    """tip_dir and finger_dir are 2 - 2 cos of the angle the hand benchmark scores, summed over the fingers:
-    a finger turned by a known angle about a wrist axis costs exactly that, whatever the lengths."""
+    """tip_dir is the chord 2 sin(θ/2) (rounded at 0 by CHORD_EPS) of the angle θ the hand benchmark scores, finger_dir
+    2 - 2 cos θ, summed over the fingers: a finger turned by a known angle about a wrist axis costs exactly that,
+    whatever the lengths."""
     B = 1
     rot = torch.eye(3, dtype=torch.float64).expand(B, 2, 3, 3)
     side = torch.tensor([0, 1])
@@ -281,10 +283,36 @@ def test_direction_terms_are_the_measured_angles():
     tip = 0.13 * torch.stack([torch.zeros(2), -torch.sin(angle), torch.cos(angle)], -1)[None]  # another length
     mask = torch.ones(B, 2, dtype=torch.bool)
     got = fingertip_direction_loss(wrist, rot, tip, length, wrist, rot, t_tip, t_length, side, mask)
-    torch.testing.assert_close(got, (2 - 2 * torch.cos(angle)).sum()[None])
+    torch.testing.assert_close(got, (torch.sqrt(2 - 2 * torch.cos(angle) + CHORD_EPS**2) - CHORD_EPS).sum()[None])
+    torch.testing.assert_close(got, (2 * torch.sin(angle / 2)).sum()[None], rtol=0, atol=2 * CHORD_EPS)  # the chord: ≈ the angle
     base = torch.full((B, 2, 3), 0.02, dtype=torch.float64)
     got = finger_direction_loss(rot, base, base + tip, length, rot, base, base + t_tip, t_length, side, mask)
     torch.testing.assert_close(got, (2 - 2 * torch.cos(angle)).sum()[None])
+
+
+def test_tip_direction_costs_each_finger_its_chord_not_its_square():
+    """The chord is L1-like, as the measure (a mean angle): one finger 0.8 rad off costs what four fingers 0.2 rad
+    off do (2 sin(θ/2) ≈ θ), where the squared form made the one finger cost 4x more; at a perfect match the
+    gradient is 0, near it finite (CHORD_EPS)."""
+    def cost(angles):
+        angles = torch.as_tensor(angles, dtype=torch.float64)
+        k = len(angles)
+        rot = torch.eye(3, dtype=torch.float64).expand(1, 2, 3, 3)
+        wrist, side = torch.zeros(1, 2, 3, dtype=torch.float64), torch.zeros(k, dtype=torch.long)
+        length, t_length = torch.tensor([0.1, 0.1], dtype=torch.float64), torch.full((1, 2), 0.1, dtype=torch.float64)
+        t_tip = torch.tensor([0.0, 0.0, 0.1], dtype=torch.float64).expand(1, k, 3)
+        tip = (0.1 * torch.stack([torch.zeros(k, dtype=torch.float64), torch.sin(angles), torch.cos(angles)], -1))[None].requires_grad_(True)
+        value = fingertip_direction_loss(wrist, rot, tip, length, wrist, rot, t_tip, t_length, side, torch.ones(1, k, dtype=torch.bool))
+        value.sum().backward()
+        return float(value.detach()), tip.grad
+
+    one, _ = cost([0.8, 0.0, 0.0, 0.0])
+    four, _ = cost([0.2, 0.2, 0.2, 0.2])
+    assert one == pytest.approx(four, rel=0.03)
+    zero, grad = cost([0.0])
+    assert zero == 0.0 and float(grad.abs().max()) == 0.0
+    _, grad = cost([1e-4])
+    assert torch.isfinite(grad).all() and 0 < float(grad.abs().max()) < 1.0 / CHORD_EPS
 
 
 def test_thumb_gap_follows_the_human_both_ways_but_not_below_what_the_hand_can_do():
