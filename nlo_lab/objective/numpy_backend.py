@@ -98,7 +98,9 @@ class NearPairs:
 
     def __init__(self, capsule_rows: np.ndarray, pairs: np.ndarray, clearance: np.ndarray, slack: float = NEAR_SLACK):
         self.capsule_rows, self.pairs, self.clearance, self.slack = capsule_rows, pairs, clearance, float(slack)
-        self.end_rows = np.unique(capsule_rows)  # the distinct end points (capsules share some)
+        rows = np.unique(capsule_rows)  # the distinct end points (capsules share some)
+        whole = len(rows) and rows[-1] - rows[0] + 1 == len(rows)  # the point plan's: one block (a view, no gather)
+        self.end_rows: np.ndarray | slice = slice(int(rows[0]), int(rows[-1]) + 1) if whole else rows
         ends = capsule_rows.reshape(-1, 2)[pairs]  # (P, 2, 2): the point rows of a0, a1 / b0, b1
         self.pair_rows = ends.reshape(-1, 4).T.copy()  # (4, P)
         self.reference: np.ndarray | None = None  # (B, E, 3) each frame's end points where it was last searched
@@ -133,6 +135,12 @@ class NearPairs:
         twice_clearance = (2.0 * self.clearance).astype(points.dtype)[pair]
         near = _bound_below((b0 + b1) - (a0 + a1), a1 - a0, b1 - b0, twice_clearance)
         return items[near]
+
+
+def _dot3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(a * b).sum(-1)`` over a last axis of 3, written out: the same sum ((x + y) + z), 10x faster than numpy's
+    reduction over a short last axis (9 against 134 us at (170, 38, 3))."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
 def _rows_times(A: np.ndarray, X: np.ndarray) -> np.ndarray:
@@ -232,15 +240,15 @@ class HandTerms:
         d = P[:, self.plus] - P[:, self.minus]  # (B, M, 3)
         A = P[:, self.axes].reshape(P.shape[0], 2, 3, 3)[:, self.side]  # (B, M, 3, 3): rows = the wrist axes a_i
         v = np.einsum("bmij,bmj->bmi", A, d) / self.length  # (B, M, 3); einsum: 2x np.matmul's stacked 3x3s
-        n = np.where(self.direction, np.sqrt((v * v).sum(-1, keepdims=True) + UNIT_EPS), 1.0)  # (B, M, 1)
+        n = np.where(self.direction, np.sqrt(_dot3(v, v)[..., None] + UNIT_EPS), 1.0)  # (B, M, 1)
         w = v / n
         r = np.where(self.mask, w - self.v_hat, 0.0)
-        square = (r * r).sum(-1, keepdims=True)  # (B, M, 1)
+        square = _dot3(r, r)[..., None]  # (B, M, 1)
         distance = np.sqrt(square + CHORD_EPS * CHORD_EPS)
         out[:, self.columns] = np.where(self.chord, distance - CHORD_EPS, square)[..., 0] @ self.kind
         r = np.where(self.chord, r / (2.0 * distance), r)  # the backward's 2 r: the chord's r / distance
         gap = d[:, self.pairs]
-        root = np.sqrt((gap * gap).sum(-1) + UNIT_EPS)  # (B, J)
+        root = np.sqrt(_dot3(gap, gap) + UNIT_EPS)  # (B, J)
         diff = root / self.length[self.pairs, 0] - self.pinch_goal  # (B, J): δ - goal
         over = np.maximum(diff, 0.0)
         out[:, 2] = (self.pinch_weight * over * over).sum(-1)
@@ -281,7 +289,7 @@ class HandTerms:
             d, A, r, w, n = d[:, sel], A[:, sel], r[:, sel], w[:, sel], n[:, sel]
         B, M = g.shape[0], ends.shape[1]
         g_w = 2.0 * r * (g[:, self.columns] @ kind.T)[..., None]  # (B, M, 3)
-        g_w = np.where(direction, (g_w - w * (w * g_w).sum(-1, keepdims=True)) / n, g_w)
+        g_w = np.where(direction, (g_w - w * _dot3(w, g_w)[..., None]) / n, g_w)
         g_v = g_w / length  # with the 1/l of v
         g_d = np.einsum("bmi,bmij->bmj", g_v, A)  # Σ_i g_v,i a_i
         g_A = g_v[..., None] * d[:, :, None, :]  # (B, M, 3, 3): onto axis i, coordinates c
@@ -396,12 +404,12 @@ class PointTerms:
         norm = unit = None
         if f.size:
             vf = v[:, f]
-            norm = np.sqrt((vf * vf).sum(-1, keepdims=True) + UNIT_EPS)  # (B, F, 1)
+            norm = np.sqrt(_dot3(vf, vf)[..., None] + UNIT_EPS)  # (B, F, 1)
             unit = vf / norm
             v[:, f] = unit
         r = np.where(mask, v - goal, 0.0).astype(P.dtype, copy=False)  # (B, V, 3), 0 where masked
         terms = np.zeros((P.shape[0], self.n_terms), dtype=P.dtype)
-        terms[:, :4] = (r * r).sum(-1) @ self.term_of_row
+        terms[:, :4] = _dot3(r, r) @ self.term_of_row
         coll = None
         if self.radii.shape[0]:
             near = self.near_pairs(P)  # maybe_near's pairs (and some certainly clear), searched again only where points moved
@@ -430,7 +438,7 @@ class PointTerms:
         f = self.fingers
         if f.size:
             gu = gv[:, f]
-            gv[:, f] = (gu - unit * (unit * gu).sum(-1, keepdims=True)) / norm
+            gv[:, f] = (gu - unit * _dot3(unit, gu)[..., None]) / norm
         gP = _rows_times(self.rows_t, gv)  # (B, K, 3), contiguous: the pairs' gradients are added in place
         if coll is not None:
             near, slope, w, u = coll
