@@ -188,13 +188,18 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
         with torch.no_grad():
             fixed_points = loss_fn.plan.map(q0)
             wrist_poses = robot.forward_kinematics_links(q0, chains.wrists)[..., :3, :]
+        held = None  # with the numpy terms: the capsule pairs of the arms alone measured once
+        if loss_fn.numpy_terms is not None:
+            moving = np.zeros(fixed_points.shape[1], dtype=bool)
+            moving[chains.rows.cpu().numpy()] = True
+            held = loss_fn.numpy_terms.held(moving, fixed_points.cpu().numpy())
 
     def evaluate(x):
         full = angles(x)
         if chains is None:
             total, terms = loss_fn(full)
         else:  # the same objective, FK of the hands alone
-            total, terms = loss_fn.of_points(chains(x, fixed_points, wrist_poses))
+            total, terms = loss_fn.of_points(chains(x, fixed_points, wrist_poses), held)
         if smooth is not None:
             total = total + smooth(full)
         return total, full, terms

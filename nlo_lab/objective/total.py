@@ -100,11 +100,13 @@ class Objective:
             raise SettingsError(f"q has {q.shape[0]} frames but the targets have {self.n_frames}")
         return self.of_points(self.plan.map(q, self.analytic_fk))  # (T, k, 3): every point the terms need, one FK
 
-    def of_points(self, points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    def of_points(self, points: torch.Tensor, numpy_terms: PointTerms | None = None) -> tuple[torch.Tensor, torch.Tensor]:
         """``total (T,)`` and the terms ``(T, len(TERMS))`` of the plan's points ``(T, k, 3)``, mapped already
-        (``self.plan.map(q)``; the hand stage maps only the hands' points, :class:`~nlo_lab.inference.hand_stage.HandChains`)."""
-        if self.numpy_terms is not None:
-            terms = point_terms(points, self.numpy_terms)  # every term, the hand terms too
+        (``self.plan.map(q)``; the hand stage maps only the hands' points, :class:`~nlo_lab.inference.hand_stage.HandChains`).
+        ``numpy_terms``: with ``fused``, another form of the objective's (:meth:`PointTerms.held`)."""
+        numpy_terms = numpy_terms if numpy_terms is not None else self.numpy_terms
+        if numpy_terms is not None:
+            terms = point_terms(points, numpy_terms)  # every term, the hand terms too
         else:
             terms = self.terms(self.plan.split(points))
         return terms @ self.weights, terms

@@ -213,3 +213,37 @@ def test_hand_chains_map_the_points_and_their_gradient_as_the_whole_tree(yumi):
     torch.testing.assert_close(points[0], points[1], rtol=0, atol=1e-12)
     torch.testing.assert_close(grads[0], grads[1], rtol=1e-10, atol=1e-10)
     assert float(grads[1].abs().min()) > 0  # every hand joint moves some point
+
+
+def test_held_terms_give_the_terms_and_hand_gradient_of_the_whole_objective(yumi, demonstration_from_robot, random_angles):
+    """PointTerms.held (the hand stage's numpy terms, the arms' capsule pairs measured once): for points that
+    differ from the held ones only below the wrists, the same terms and the same gradient onto the moving points."""
+    import numpy as np
+
+    from nlo_lab.inference.hand_stage import HandChains
+
+    y64 = yumi.to(dtype=torch.float64)
+    q0 = random_angles(y64, 8, seed=28).to(torch.float64)  # arms anywhere in their ranges: some arm pairs within their margins
+    t = targets_from_demonstration(demonstration_from_robot(y64, random_angles(y64, 8, seed=30)), dtype=torch.float64)
+    index = hand_joint_mask(y64).nonzero().flatten()
+    loss = Objective(y64, t, LossWeights(), fused=True)
+    chains = HandChains.build(y64, loss.plan, index)
+    moving = np.zeros(loss.plan.vectors.shape[0], dtype=bool)
+    moving[chains.rows.numpy()] = True
+    with torch.no_grad():
+        fixed = loss.plan.map(q0)
+    held = loss.numpy_terms.held(moving, fixed.numpy())
+    assert 0 < len(held.radii) < len(loss.numpy_terms.radii)
+    assert float(held.collision_held.max()) > 0  # some arm pairs within their margin: the held share counts
+    g = torch.Generator().manual_seed(29)
+    for _ in range(3):
+        q = q0.clone()
+        q[:, index] = (yumi.lower_limits[index] + (yumi.upper_limits[index] - yumi.lower_limits[index])
+                       * torch.rand(8, len(index), generator=g, dtype=torch.float64))  # any hand, some closed on themselves
+        with torch.no_grad():
+            P = loss.plan.map(q).numpy()
+        a, b = held.forward(P), loss.numpy_terms.forward(P)
+        np.testing.assert_allclose(a[0], b[0], rtol=1e-12, atol=1e-12)
+        G = np.linspace(0.5, 1.5, a[0].size).reshape(a[0].shape)
+        np.testing.assert_allclose(held.backward(G, a[1])[:, moving], loss.numpy_terms.backward(G, b[1])[:, moving], rtol=1e-12, atol=1e-12)
+    assert float(b[0][:, 4].max()) > 0  # the collision term acts
