@@ -175,7 +175,7 @@ def main() -> int:
             full = "the default epochs" if info["train_s"] < 0.98 * args.train_seconds else "stopped by the time limit"
             fingers = min(len(report.fingers[s]) for s in ("left", "right"))
             starts = info.get("starts", "1").split(" ")[0]
-            tried = f", the best of {starts} starts," if starts not in ("", "1") else ""
+            tried = f", the best of {starts} starts" if starts not in ("", "1") else ""
             timing.append(f"Training a robot with 7-joint arms and {fingers}-finger hands ({name}): {info['steps']} steps ({full}{tried}) in "
                           f"{info['train_s']:.0f} s on one thread of 2 loaded cores (target: 600 s): "
                           f"{'met' if info['train_s'] <= 600 else 'NOT met'}.")
