@@ -13,6 +13,17 @@ Adam from the decoder's hands (warm start), every frame at once, the limits by c
 each step (projected gradient), the best point of the whole sequence kept (patience as the
 latent optimisation's). Where the arm and wrist are scored (Table I) nothing changes.
 
+The start is a local optimum's basin: on ``benchmarks/hands.py``'s recordings the decoder leaves the ring
+and little fingers curled at their upper limit in most hand-frames, where their wrist->fingertip
+direction would be best half open, and between the two the error rises first (measured 2026-11-26 on a
+grid of each finger joint). A search of each hand joint's range, frame by frame, before Adam finds the
+objective's better optimum: wrist->tip 16.1° without the speed clamp, 16.7° with it, against 17.05°; but
+there the thumb measure and the pinch are worse (30.0°, r 0.76 without the clamp; 29.2°, 0.78 with it;
+dex-retargeting 27.8°, 0.79): at its optimum this objective gives the fingertips' directions more than the
+thumb's, so the stage keeps the decoder's start. The capsules are not what holds the thumb: over every
+third hand-frame, the thumb's best wrist->tip direction error with no capsule pair penetrating is 11.6° (no
+overlap by the URDF's geometry: 11.2°, collisions allowed: 10.8°), the stage's 13.5°.
+
 It never makes the robot slower: after the descent, each hand joint's step between consecutive
 frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's
 (:func:`step_caps`: its velocity limit times the time the retiming gives the start's segment,

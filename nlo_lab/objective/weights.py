@@ -89,7 +89,12 @@ class LossWeights:
     # the hand stage's weights, measured on benchmarks/hands.py's recordings (2026-11-26, shipped yumi.pt, 30 stage steps
     # after the latent optimisation, before the stage's speed clamp; wrist->tip / thumb / base->tip [deg] / pinch r): none of the three 18.4 / 26.6 /
     # 37.8 / 0.787; tip_dir 4000, finger_dir 1000: 17.4 / 26.3 / 33.1 / 0.785; + thumb_gap 1000: 17.4 / 26.3 / 33.2 /
-    # 0.804 (3000: 17.5 / 26.8 / 33.5 / 0.834); tip_dir 8000: 17.3 / 26.0 / 35.1 / 0.804
+    # 0.804 (3000: 17.5 / 26.8 / 33.5 / 0.834); tip_dir 8000: 17.3 / 26.0 / 35.1 / 0.804.
+    # Again with tip_dir's chord form and the stage of 60 steps of 0.03 rad, speed clamp included (same recordings and
+    # order): these defaults 17.05 / 25.34 / 33.79 / 0.813; tip_dir 6000: 16.95 / 24.91 / 35.34 / 0.812 (+ finger_dir
+    # 1500: 16.97 / 26.11 / 33.66 / 0.813); thumb_gap 2000: 17.11 / 25.39 / 33.89 / 0.817; tip 0 in the stage: 17.07 /
+    # 25.48 / 33.70 / 0.814. No set of these weights gets wrist->tip below dex-retargeting's 16.57 (docs/RESULTS.md,
+    # "Handshapes"; nlo_lab.inference.hand_stage says where the stage stops).
     tip_dir: float = 4000.0
     finger_dir: float = 1000.0
     thumb_gap: float = 1000.0
