@@ -60,8 +60,10 @@ __all__ = [
 _BAND = 64  # anti-diagonals whose distances frechet_distance computes in one numpy pass
 # Frames per forward-kinematics batch of the robot-side metrics: every link's pose and every capsule pair's
 # intermediates of a whole recording at once took 150 kB a frame on YuMi (20,000 frames: 3.8 GB); in chunks
-# the memory stays that of one chunk, whatever the recording's length.
-METRIC_CHUNK_FRAMES = 1000
+# the memory stays that of one chunk, whatever the recording's length. 250, not 1000: with YuMi's 873 capsule
+# pairs (the refit) a 1000-frame chunk's distances lifted a long recording's resident memory by some 450 MB,
+# the peak of the whole retargeting (2026-11-26, benchmarks/reliability.py's recording).
+METRIC_CHUNK_FRAMES = 250
 
 
 def _curve(x: Any, name: str) -> np.ndarray:
