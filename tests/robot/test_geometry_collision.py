@@ -163,3 +163,33 @@ def test_nao_wrist_driven_into_its_legs_is_found():
     assert report["frames"] == 1 and any("legs" in p for p in hit), hit
     # and the fitted capsules see it too
     assert float(robot.capsule_distances(robot.forward_kinematics(__import__("torch").as_tensor(q)[None])).min()) < 0
+
+
+def test_the_prefilters_plane_test_pruned_by_bounding_spheres_is_the_all_planes_test():
+    """The prefilter asks whether all corners of one polytope lie beyond a face plane of the other; it measures the
+    corners only against the planes the bounding sphere leaves open. Same answer as measuring every plane: one plane
+    placed 1 nm or 1 mm above or below the corners' least value, or far below (so that each answer turns on it), the
+    others short of them by 1 mm to 1 m; posed and unposed corners."""
+    from nlo_lab.robot.geometry_collision import PREFILTER_SLACK, _beyond_a_face
+
+    gen = np.random.default_rng(5)
+    shapes = [polytope("a", trimesh.creation.icosphere(subdivisions=2, radius=0.04)),
+              polytope("a", trimesh.creation.box(extents=(0.12, 0.04, 0.03))),
+              polytope("a", trimesh.creation.cylinder(radius=0.02, height=0.1, sections=32))]
+    answers = []
+    for k in range(500):
+        p = shapes[k % 3]
+        T = random_poses(gen, 1, 0.1)[0]
+        posed = p.vertices @ T[:3, :3].T + T[:3, 3]
+        normals = gen.normal(size=(40, 3))
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        least = (posed @ normals.T).min(0)
+        above = gen.uniform(1e-3, 1.0, 40)  # how far each plane's threshold lies above the corners' least value
+        above[gen.integers(40)] = (-1e-9, 1e-9, -1e-3, 1e-3, -0.5)[(k // 3) % 5]  # the one that decides
+        offsets = least + above + DEPTH_TOLERANCE - PREFILTER_SLACK
+        exhaustive = bool((least >= offsets - DEPTH_TOLERANCE + PREFILTER_SLACK).any())
+        centre = T[:3, :3] @ p.centre + T[:3, 3]
+        assert _beyond_a_face(normals, offsets, p.vertices, centre, p.radius, (T[:3, :3], T[:3, 3])) == exhaustive
+        assert _beyond_a_face(normals, offsets, posed, centre, p.radius) == exhaustive
+        answers.append(exhaustive)
+    assert sum(answers) == sum((k // 3) % 5 in (0, 2, 4) for k in range(500))  # the deciding plane below the least value
