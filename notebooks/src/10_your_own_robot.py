@@ -78,7 +78,9 @@ print("\n".join(spec_summary(check_spec(spec_path))))
 #
 # The encoder and decoder learn this robot's joints on the synthetic sign corpus (paper Eq. 10), as
 # `nlo-lab train --robot SPEC.json --out CKPT.pt` does. A few minutes give a usable model; the latent
-# optimisation at retargeting does the rest.
+# optimisation at retargeting does the rest. A robot of your own first tries three starts (`TrainSettings.starts`):
+# seeds 0, 1 and 2 train a while each, and the one with the lowest validation objective goes on. One start can
+# settle where no later step leads out (a drafted Romeo's elbows swung out in some seeds: README, "Your own robot").
 
 # %%
 from nlo_lab.model import save_checkpoint
@@ -86,6 +88,10 @@ from nlo_lab.training import TrainSettings, train_model
 
 trained = train_model(robot, TrainSettings(max_seconds=budget(240, 8), progress=True))
 checkpoint = save_checkpoint(trained.model, spec_path.with_suffix(".pt"), robot)
+chosen = min(trained.starts, key=lambda start: start["val"])
+others = ", ".join(f"{start['val']:.1f}" for start in trained.starts if start is not chosen)
+print(f"the best of {len(trained.starts)} starts: seed {chosen['seed']}, validation objective {chosen['val']:.1f} after its "
+      f"first {chosen['steps']} steps (the others: {others or 'none'})")
 print(f"{trained.steps} steps in {trained.seconds:.0f} s, validation loss {trained.val_loss:.3f}; {checkpoint.name}")
 
 # %% [markdown]
