@@ -78,6 +78,10 @@ def _bound_below(gap: np.ndarray, axis_a: np.ndarray, axis_b: np.ndarray, twice_
 
 
 NEAR_SLACK = 0.02  # [m] NearPairs' candidates: the pairs that may come within their clearance plus this
+# Below this many frames the short-cuts of this module (NearPairs' kept candidates, the hand backward's
+# subsets, the written-out short sums) cost more numpy calls than they save: a frame alone (the live
+# panel, Retargeter.optimize_frame) ran 12.2 -> 14.6 ms with them (30 iterations, CPU, 2026-11-26).
+SMALL_BATCH = 16
 
 
 class NearPairs:
@@ -112,7 +116,7 @@ class NearPairs:
         """Flat indices ``frame * P + pair`` (frame-major) of the pairs to measure, for points ``(B, K, 3)``."""
         B, K = points.shape[:2]
         n_pairs = len(self.pairs)
-        if self.slack <= 0:
+        if self.slack <= 0 or B < SMALL_BATCH:
             return maybe_near(points[:, self.capsule_rows].reshape(B, -1, 2, 3), self.pairs, self.clearance)
         ends = points[:, self.end_rows]
         if self.reference is None or self.reference.shape != ends.shape or self.reference.dtype != ends.dtype:
@@ -141,7 +145,9 @@ class NearPairs:
 
 def _dot3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``(a * b).sum(-1)`` over a last axis of 3, written out: the same sum ((x + y) + z), 10x faster than numpy's
-    reduction over a short last axis (9 against 134 us at (170, 38, 3))."""
+    reduction over a short last axis (9 against 134 us at (170, 38, 3)); for a few frames the five calls cost more."""
+    if a.shape[0] < SMALL_BATCH:
+        return (a * b).sum(-1)
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
@@ -265,7 +271,8 @@ class HandTerms:
         hand stage's terms at 0, ``LossWeights.latent_stage``) adds exactly 0: its items are left out of
         the backward (the thumb vectors stay while the pinch or the thumb gap counts).
         """
-        on = tuple(bool(x) for x in np.any(g != 0, axis=0))  # per HAND_TERMS column
+        # per HAND_TERMS column; for a few frames every item (the subsets' gathers cost more than they save)
+        on = (True,) * 6 if g.shape[0] < SMALL_BATCH else tuple(bool(x) for x in np.any(g != 0, axis=0))
         plan = self._plans.get(on)
         if plan is None:
             kinds = [k for k, c in enumerate(self.columns) if on[c]]  # tip, thumb, tip_dir, finger_dir

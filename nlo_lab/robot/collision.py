@@ -23,6 +23,10 @@ _DIFF_T: dict = {}  # device -> _DIFF as a float64 tensor
 # segment pairs up to which the closest points are computed in numpy (the same
 # function, segment_closest_points, in either library): crossover about 3000 pairs
 NUMPY_MAX_PAIRS = 4096
+# segment_closest_points forms its dot products one at a time above this many pairs (all nine at once held 36
+# floats per pair: the peak of a long recording's collision metric, 1,000 frames x 873 pairs on YuMi); below,
+# at once (fewer calls: the optimisers' few near pairs)
+MANY_PAIRS = 65536
 
 
 # (clamp below, clamp to [0, 1]) per library; np.clip's Python wrapper costs
@@ -51,10 +55,13 @@ def segment_closest_points(E):
     """
     xp, diff = (np, _DIFF) if isinstance(E, np.ndarray) else (torch, _diff_tensor(E.device))
     # float64: a*e - b*b cancels badly in float32 for near-parallel segments
-    d1, d2, r = (diff @ E.reshape(4, -1)).reshape(3, 3, -1)  # each (x, y, z) x n
-    # the five dot products the formula reads, one at a time (all nine at once held 36 floats per pair: the
-    # peak of a long recording's collision metric, 1,000 frames x 873 pairs on YuMi)
-    a, e, b, c, f = ((u * v).sum(0) for u, v in ((d1, d1), (d2, d2), (d1, d2), (d1, r), (d2, r)))
+    D = (diff @ E.reshape(4, -1)).reshape(3, 1, 3, -1)  # (d1, d2, r) x 1 x (x, y, z) x n
+    if D.shape[-1] <= MANY_PAIRS:
+        G = (D * D.swapaxes(0, 1)).sum(2)  # (3, 3, n): every dot product of d1, d2, r
+        a, e, b, c, f = G[0, 0], G[1, 1], G[0, 1], G[0, 2], G[1, 2]
+    else:  # the five the formula reads, one at a time: the same sums, without 36 floats per pair at once
+        d1, d2, r = D[:, 0]
+        a, e, b, c, f = ((u * v).sum(0) for u, v in ((d1, d1), (d2, d2), (d1, d2), (d1, r), (d2, r)))
     lo, unit = _CLAMPS[xp is np]
     a_s, e_s = lo(a, _EPS), lo(e, _EPS)
     denom = a * e - b * b  # >= 0, 0 for parallel segments

@@ -219,8 +219,11 @@ WEIGHT_SETS = {
 @pytest.mark.parametrize("weights", list(WEIGHT_SETS), ids=list(WEIGHT_SETS))
 def test_numpy_fast_path_gives_the_same_values_and_gradients_whichever_hand_weights_are_zero(yumi, exact_targets, random_feasible_pose, weights):
     """The numpy backward leaves out the kinds whose weight is 0 (the latent optimisation's direction terms):
-    the same total, terms (every one, the zero-weight ones too) and gradient as the term functions."""
-    q = random_feasible_pose(yumi, 4, seed=16)
+    the same total, terms (every one, the zero-weight ones too) and gradient as the term functions (SMALL_BATCH
+    frames: fewer visit every item)."""
+    from nlo_lab.objective.numpy_backend import SMALL_BATCH
+
+    q = random_feasible_pose(yumi, SMALL_BATCH, seed=16)
     t = exact_targets(yumi, q)
     tip = t.finger_tip.clone()
     tip[:, :, 0] = tip[:, :, 1] + 0.004  # pinch on the index
@@ -242,11 +245,14 @@ def test_the_numpy_backward_visits_only_the_kinds_with_a_gradient(yumi, exact_ta
     q = random_feasible_pose(yumi, 2, seed=17)
     loss = Objective(yumi, exact_targets(yumi, q), LossWeights().latent_stage(), fused=True)
     hand = loss.numpy_terms.hand
-    g = loss.weights.numpy()[None, 5:].repeat(2, 0)
+    from nlo_lab.objective.numpy_backend import SMALL_BATCH
+
+    g = loss.weights.numpy()[None, 5:].repeat(SMALL_BATCH, 0)  # the gradient of SMALL_BATCH frames' loss
     sel, kind, *_ = hand._active(g)
     K, J = len(loss.plan.finger_side), len(loss.plan.thumb_pairs)
     assert hand.items == 3 * K + J and len(sel) == K + J  # tip and the thumb vectors; not tip_dir, finger_dir
     assert hand._active(0 * g)[5].shape[1] == 0 and hand._active(g + 1)[0] is None  # nothing; everything
+    assert hand._active(g[: SMALL_BATCH - 1])[0] is None  # fewer frames: every item (the gathers would cost more)
 
 
 def test_numpy_fast_path_gives_the_same_hand_terms_values_and_gradients(yumi, exact_targets, random_feasible_pose):
