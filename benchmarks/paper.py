@@ -339,6 +339,8 @@ def main(argv=None) -> int:
     p.add_argument("--no-cache", action="store_true", help="train every model again (the cache is still written)")
     p.add_argument("--no-write", action="store_true", help="print only; leave the results file alone")
     args = p.parse_args(argv)
+    if args.no_write:
+        results_doc.draft_figures()
     torch.set_num_threads(1)  # every training and evaluation runs on one thread (nlo_lab.threads explains why)
     if args.quick:
         args.steps, args.val_every, args.iters, args.limit = min(args.steps, 20), 10, min(args.iters, 10), min(args.limit or 2, 2)

@@ -365,6 +365,8 @@ def main(argv=None) -> int:
     p.add_argument("--skip", default="", help="comma list of parts to skip: table1,init,table3")
     p.add_argument("--no-write", action="store_true", help="print only; leave the results file alone")
     args = p.parse_args(argv)
+    if args.no_write:
+        results_doc.draft_figures()
     if args.quick:
         args.limit = args.limit or 4
         args.ablation_limit = min(args.ablation_limit, 3)

@@ -8,7 +8,8 @@ cores, load average at the start and at the end) and the date.
 
 ``NLO_LAB_RESULTS=PATH`` writes the sections into ``PATH`` (figures into a ``figures/``
 folder beside it) instead of ``docs/RESULTS.md``: ``QUICK=1 make results`` uses it so
-that a short run never replaces the quoted figures.
+that a short run never replaces the quoted figures. A benchmark run with ``--no-write`` calls
+:func:`draft_figures` first, so its plots go to a temporary folder and leave ``docs/figures`` alone.
 """
 
 from __future__ import annotations
@@ -22,11 +23,13 @@ import re
 import shlex
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "RESULTS.md"
 FIGURES = ROOT / "docs" / "figures"
+_DRAFT_FIGURES: Path | None = None  # set by draft_figures(): a --no-write run's plots go there
 _LOAD_AT_START = os.getloadavg() if hasattr(os, "getloadavg") else None  # this module is imported when a benchmark starts
 
 HEADER = """# nlo_lab results
@@ -47,9 +50,21 @@ def results_path() -> Path:
 
 
 def figures_dir() -> Path:
-    """The figures folder beside the results file (``docs/figures`` by default)."""
+    """The figures folder beside the results file (``docs/figures`` by default; after
+    :func:`draft_figures`, its temporary folder)."""
+    if _DRAFT_FIGURES is not None:
+        return _DRAFT_FIGURES
     env = os.environ.get("NLO_LAB_RESULTS")
     return Path(env).resolve().parent / "figures" if env else FIGURES
+
+
+def draft_figures() -> Path:
+    """Send this run's figures to a new temporary folder (a ``--no-write`` run: printing
+    numbers must not redraw the figures the docs show); returns the folder."""
+    global _DRAFT_FIGURES
+    _DRAFT_FIGURES = Path(tempfile.mkdtemp(prefix="nlo_lab_figures_"))
+    print(f"figures of this run (not the docs'): {_DRAFT_FIGURES}", file=sys.stderr)
+    return _DRAFT_FIGURES
 
 
 def cpu_model() -> str:

@@ -179,3 +179,22 @@ def test_the_check_names_sections_without_a_full_stamp_and_text_outside_the_sect
     assert "results check: section old" in capsys.readouterr().out
     out.write_text(out.read_text().split("<!-- BEGIN old")[0])
     assert results.check(out) == [] and results.run(["--check", "--out", str(out)]) == 0
+
+
+def test_draft_figures_keep_a_no_write_run_out_of_the_docs(tools, monkeypatch):
+    results_doc = tools[0]
+    monkeypatch.delenv("NLO_LAB_RESULTS", raising=False)
+    monkeypatch.setattr(results_doc, "_DRAFT_FIGURES", None)
+    assert results_doc.figure_path("x.png").parent == ROOT / "docs" / "figures"
+    folder = results_doc.draft_figures()
+    path = results_doc.figure_path("x.png")
+    assert path.parent == folder and folder.is_dir() and ROOT / "docs" not in path.parents
+
+
+def test_quality_no_write_names_its_draft_figures_folder():
+    """The command a developer runs to check numbers: --no-write says where its plots went (not docs/figures)."""
+    run = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "quality.py"), "--robot", "nao", "--skip", "table1,init,table3",
+                          "--no-write"], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert run.returncode == 0, run.stderr[-2000:]
+    folder = re.search(r"figures of this run \(not the docs'\): (\S+)", run.stderr)
+    assert folder and Path(folder.group(1)).is_dir() and Path(folder.group(1)).resolve() != (ROOT / "docs" / "figures").resolve()
