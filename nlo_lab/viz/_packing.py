@@ -58,37 +58,55 @@ def _pack(obj, out: list[bytes]) -> None:
 
 
 def _as_keys(items) -> tuple[np.ndarray, np.ndarray] | None:
-    """``(times (K,), values (K, N))`` when ``items`` are animation keys of float vectors, else None."""
+    """``(times (K,), values (K, N))`` when ``items`` are animation keys of float vectors, else None.
+
+    The times are all ints (frame numbers) or all floats (a retimed trajectory's, see
+    :func:`nlo_lab.viz.tracks.set_key_times`); ``times.dtype`` says which.
+    """
     if len(items) < 2:
         return None
     first = items[0]
     if type(first) is not dict or list(first) != ["time", "value"] or type(first["value"]) is not list:
         return None
     n = len(first["value"])
-    if not 0 < n < 16:
+    time_type = type(first["time"])
+    if not 0 < n < 16 or time_type not in (int, float):
         return None
     times, values = [], []
     for key in items:
         if type(key) is not dict or list(key) != ["time", "value"]:
             return None
         t, v = key["time"], key["value"]
-        if type(t) is not int or not 0 <= t < 2**32 or type(v) is not list or len(v) != n or any(type(x) is not float for x in v):
+        if type(t) is not time_type or (time_type is int and not 0 <= t < 2**32):
+            return None
+        if type(v) is not list or len(v) != n or any(type(x) is not float for x in v):
             return None
         times.append(t)
         values.append(v)
-    return np.array(times, dtype=np.int64), np.array(values, dtype=np.float64)
+    return np.array(times, dtype=np.int64 if time_type is int else np.float64), np.array(values, dtype=np.float64)
 
 
 _HEAD = np.frombuffer(b"\x82\xa4time", dtype=np.uint8)  # fixmap(2), "time"
+
+
+def _float32s(values: np.ndarray) -> np.ndarray:
+    """``(K, N, 5)`` bytes: each float as msgpack's float 32 (tag 0xCA, big-endian)."""
+    k, n = values.shape
+    out = np.empty((k, n, 5), dtype=np.uint8)
+    out[:, :, 0] = 0xCA
+    out[:, :, 1:] = values.astype(">f4").view(np.uint8).reshape(k, n, 4)
+    return out
 
 
 def _pack_keys(times: np.ndarray, values: np.ndarray) -> bytes:
     """The keys' bytes, as umsgpack writes them: ints in their shortest form, floats as float32."""
     k, n = values.shape
     middle = np.frombuffer(b"\xa5value" + bytes([0x90 | n]), dtype=np.uint8)  # "value", fixarray(n)
-    floats = np.empty((k, n, 5), dtype=np.uint8)
-    floats[:, :, 0] = 0xCA  # float 32
-    floats[:, :, 1:] = values.astype(">f4").view(np.uint8).reshape(k, n, 4)
+    floats = _float32s(values)
+    if times.dtype.kind == "f":  # float times: float32 like the values, one block
+        block = np.concatenate([np.broadcast_to(_HEAD, (k, len(_HEAD))), _float32s(times[:, None]).reshape(k, 5),
+                                np.broadcast_to(middle, (k, len(middle))), floats.reshape(k, 5 * n)], axis=1)
+        return block.tobytes()
     # the time's encoding depends on its size: positive fixint, uint8, uint16, uint32
     kind = np.searchsorted(np.array([128, 256, 2**16]), times, side="right")
     blocks = []
