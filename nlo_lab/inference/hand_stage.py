@@ -195,6 +195,7 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
         return q0.index_copy(1, index, x)  # the hand joints from x, the others as given
 
     chains = HandChains.build(robot, loss_fn.plan, index) if paths.hand_chains and index.numel() else None
+    fixed_points = None  # q0's points, mapped once (the hand chains' arms; the start's collision verdicts)
     if chains is not None:  # the arms' points and the wrists' poses, fixed for the whole stage
         with torch.no_grad():
             fixed_points = loss_fn.plan.map(q0)
@@ -229,9 +230,11 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
             x = within_speed(best_q[:, index], step_caps(q0, robot.velocity_limits, float(targets.fps))[:, index])
             best_q = angles(x)
             loss, _, terms = evaluate(x)
-        # never a new self-collision: such a frame keeps the start's hands
+        # never a new self-collision: such a frame keeps the start's hands (the start's verdicts only when needed)
         cull = paths.cull_far_pairs
-        kept = penetrating(robot, best_q, cull) & ~penetrating(robot, q0, cull)
+        kept = penetrating(robot, best_q, cull)
+        if bool(kept.any()):
+            kept &= ~penetrating(robot, q0, cull, points=fixed_points)
         if bool(kept.any()):
             best_q = torch.where(kept[:, None], angles(x0), best_q)
             loss, _, terms = evaluate(best_q[:, index])
@@ -257,25 +260,27 @@ def within_speed(x: torch.Tensor, cap: torch.Tensor) -> torch.Tensor:
     return torch.as_tensor(out, device=x.device)
 
 
-def penetrating(robot: Robot, q: torch.Tensor, cull: bool = False) -> torch.Tensor:
+def penetrating(robot: Robot, q: torch.Tensor, cull: bool = False, points: torch.Tensor | None = None) -> torch.Tensor:
     """``(T,)`` bool: some checked capsule pair of ``q (T, n)`` penetrates (surface distance < 0), as the metrics count it.
 
     ``cull``: the faster form, the same verdicts: the capsules' end points from the objective's point plan (one FK of
     the points it maps, not of every link), and a pair's exact distance only where the separating-axis bound
     (:func:`~nlo_lab.objective.numpy_backend.maybe_near`) does not clear it of contact (most of YuMi's pairs are
-    centimetres apart in every frame)."""
+    centimetres apart in every frame). ``points``: with ``cull``, the plan's points of ``q`` (``(T, K, 3)``,
+    ``point_plan(robot).map(q)``) where the caller has them already; else they are mapped here."""
     if q.shape[0] == 0 or not robot.spec.collision_pairs:
         return torch.zeros(q.shape[0], dtype=torch.bool, device=q.device)
     with torch.no_grad():
         if not cull:
             return (robot.capsule_distances(robot.forward_kinematics(q)) < 0).any(-1)
         plan = point_plan(robot, q.dtype, q.device)
-        points = plan.map(q, analytic_gradient=True).cpu().numpy()  # (T, K, 3)
-    T, pairs = points.shape[0], robot.pair_capsules
+        mapped = plan.map(q, analytic_gradient=True) if points is None else points.detach()
+        positions = mapped.cpu().numpy()  # (T, K, 3)
+    T, pairs = positions.shape[0], robot.pair_capsules
     radii = plan.pair_radii.cpu().numpy().astype(np.float64)
-    near = maybe_near(points[:, plan.capsule_end_rows.cpu().numpy()].reshape(T, -1, 2, 3), pairs, radii + CULL_SLACK)
+    near = maybe_near(positions[:, plan.capsule_end_rows.cpu().numpy()].reshape(T, -1, 2, 3), pairs, radii + CULL_SLACK)
     frame, pair = np.divmod(near, len(pairs))
-    ends = points[frame[:, None], plan.pair_points.cpu().numpy().reshape(-1, 4)[pair]]  # (n, 4, 3): a0, a1, b0, b1
+    ends = positions[frame[:, None], plan.pair_points.cpu().numpy().reshape(-1, 4)[pair]]  # (n, 4, 3): a0, a1, b0, b1
     dist = segment_closest_points(ends.transpose(1, 2, 0).astype(np.float64))[3]
     out = np.zeros(T, dtype=bool)
     out[frame[dist - radii[pair] < 0]] = True

@@ -125,6 +125,8 @@ def test_the_hand_stage_never_adds_a_self_collision(yumi, demonstration_from_rob
     assert not bool(penetrating(yumi, out.q).any())
     assert bool(out.kept.any())
     torch.testing.assert_close(out.q[out.kept], open_hand[out.kept])
+    fast = refine_hands(yumi, open_hand, t, weights, iterations=60, lr=0.1, fast=True)  # the start's points from the hand chains
+    assert not bool(penetrating(yumi, fast.q).any()) and bool(fast.kept.any())
     # with the collision term the stage moves towards the fist as far as the capsules allow
     guarded = refine_hands(yumi, open_hand, t, LossWeights(), iterations=60, lr=0.1)
     assert not bool(penetrating(yumi, guarded.q).any())
@@ -247,3 +249,37 @@ def test_held_terms_give_the_terms_and_hand_gradient_of_the_whole_objective(yumi
         G = np.linspace(0.5, 1.5, a[0].size).reshape(a[0].shape)
         np.testing.assert_allclose(held.backward(G, a[1])[:, moving], loss.numpy_terms.backward(G, b[1])[:, moving], rtol=1e-12, atol=1e-12)
     assert float(b[0][:, 4].max()) > 0  # the collision term acts
+
+
+def test_penetrating_takes_the_points_mapped_already(yumi):
+    """The hand stage passes the start's points it mapped once: the same verdicts as mapping them here."""
+    g = torch.Generator().manual_seed(28)
+    lo, hi = yumi.lower_limits, yumi.upper_limits
+    q = lo + (hi - lo) * torch.rand(200, lo.shape[0], generator=g, dtype=lo.dtype)
+    with torch.no_grad():
+        points = point_plan(yumi, q.dtype).map(q)
+    verdicts = penetrating(yumi, q, cull=True)
+    assert 10 < int(verdicts.sum()) < len(q) - 10
+    assert torch.equal(penetrating(yumi, q, cull=True, points=points), verdicts)
+
+
+def test_the_start_s_collisions_are_measured_only_when_the_stage_s_hands_collide(yumi, demonstration_from_robot, random_feasible_pose,
+                                                                                   monkeypatch):
+    """A stage whose hands stay free of collision asks ``penetrating`` once (its own output), not for the start too."""
+    import nlo_lab.inference.hand_stage as stage
+
+    q = random_feasible_pose(yumi, 4, seed=29).to(yumi.lower_limits.dtype)
+    t = targets_from_demonstration(demonstration_from_robot(yumi, q), dtype=yumi.lower_limits.dtype)
+    calls = []
+    real = stage.penetrating
+
+    def counted(robot, angles, cull=False, points=None):
+        calls.append(points is not None)
+        return real(robot, angles, cull, points=points)
+
+    monkeypatch.setattr(stage, "penetrating", counted)
+    for fast in (False, True):
+        calls.clear()
+        out = refine_hands(yumi, q, t, iterations=5, fast=fast)
+        assert not bool(penetrating(yumi, out.q).any())
+        assert calls == [False]
