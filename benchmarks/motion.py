@@ -93,7 +93,7 @@ def time_170(weights: LossWeights) -> tuple[float, float, float]:
     retarget(demo, robot, model=model, weights=weights)  # warm-up
     times: dict[str, list[float]] = {"ours": [], "paper": []}
     for _ in range(3):  # interleaved, so that both see the same load
-        for key, w, st in (("ours", weights, None), ("paper", LossWeights(smooth=0.0), OptimizeSettings(lr=0.01))):
+        for key, w, st in (("ours", weights, None), ("paper", LossWeights(smooth=0.0), OptimizeSettings.paper())):
             t0 = time.perf_counter()
             retarget(demo, robot, model=model, weights=w, settings=st)
             times[key].append(time.perf_counter() - t0)

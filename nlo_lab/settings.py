@@ -31,6 +31,7 @@ from nlo_lab.errors import SettingsError, SettingsTypeError
 
 __all__ = [
     "ITERATIONS_RANGE",
+    "LATENT_ITERATIONS",
     "PATIENCE_RANGE",
     "EPOCHS_RANGE",
     "BATCH_RANGE",
@@ -56,6 +57,9 @@ __all__ = [
 
 # Stated ranges of budgets and sizes (a value outside is refused before any work).
 ITERATIONS_RANGE = (0, 10_000)  # Adam or IK steps; 0 = the start point. The paper's longest budget is 600
+# The latent optimisation's default budget (nlo_lab.inference.OptimizeSettings, the command line, batch, the lab):
+# 40 Rprop steps on a recording, measured against the paper's 100 Adam steps in nlo_lab.inference.settings.
+LATENT_ITERATIONS = 40
 PATIENCE_RANGE = (1, ITERATIONS_RANGE[1] + 1)  # evaluations without improvement (iterations + 1: never stop early)
 EPOCHS_RANGE = (1, 10_000)  # passes over the training frames (30 by default)
 BATCH_RANGE = (1, 1_000_000)  # frames per training step

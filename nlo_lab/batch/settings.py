@@ -21,6 +21,7 @@ from typing import Any
 import nlo_lab
 from nlo_lab.batch.inputs import file_sha256
 from nlo_lab.paths import CHECKPOINTS_DIR, ROBOTS_DIR
+from nlo_lab.settings import LATENT_ITERATIONS
 
 __all__ = ["BatchSettings", "robot_files"]
 
@@ -79,7 +80,7 @@ class BatchSettings:
 
     robot: str
     init: str = "encoder"
-    iterations: int = 100
+    iterations: int = LATENT_ITERATIONS
     seed: int = 0
     weights: Any = ()
     viewer: bool = False

@@ -20,7 +20,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--limit", type=ranged_int(*LIMIT_RANGE), default=None,
                    help=f"evaluate only the first N sequences, {LIMIT_RANGE[0]}..{LIMIT_RANGE[1]}")
     p.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=None,
-                   help=f"iterations of the latent and joint-space methods, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
+                   help=f"iterations of the latent and joint-space methods, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: each method's:"
+                        " robot-ready latent methods 40 Rprop steps, paper mode 100 Adam steps, joint_space 100)")
     p.add_argument("--mode", default="robot-ready", choices=LazyChoices("nlo_lab.evaluation", "EVALUATION_MODES"), metavar="MODE",
                    help="%(choices)s: robot-ready = the shipped defaults (smoothness term, warm start, latent methods retimed); "
                         "paper = the paper's objective, frames independent, no retiming (default: robot-ready)")

@@ -14,7 +14,7 @@ from typing import NoReturn
 
 from nlo_lab import settings
 from nlo_lab.errors import NloLabError, SettingsError
-from nlo_lab.settings import arg_type, check_int, check_positive
+from nlo_lab.settings import LATENT_ITERATIONS, arg_type, check_int, check_positive
 from nlo_lab.threads import THREADS_RANGE
 
 __all__ = [
@@ -37,7 +37,7 @@ __all__ = [
 # Stated ranges of the numeric flags: a value outside is refused (exit 2, one line) before any work.
 # They are the settings' own (nlo_lab.settings, nlo_lab.threads): a flag and the setting it fills agree.
 MAX_SEED = settings.SEED_RANGE[1]  # numpy's and torch's generators both take it
-ITERS_RANGE = settings.ITERATIONS_RANGE  # Adam steps; 0 = the start point. The paper's longest budget is 600
+ITERS_RANGE = settings.ITERATIONS_RANGE  # optimiser steps; 0 = the start point. The paper's longest budget is 600
 EPOCHS_RANGE = settings.EPOCHS_RANGE  # passes over the training frames (30 by default)
 LIMIT_RANGE = settings.COUNT_RANGE  # sequences of a split to evaluate
 BATCH_RANGE = settings.BATCH_RANGE  # training frames per step
@@ -112,7 +112,8 @@ def add_optimisation_flags(parser: argparse.ArgumentParser, weights_example: str
     """
     parser.add_argument("--init", default="encoder", choices=LazyChoices("nlo_lab.inference", "INITS"), metavar="INIT",
                         help="initialisation of the latent code: %(choices)s (default: encoder)")
-    parser.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=100,
-                        help=f"latent optimisation budget, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: 100)")
+    parser.add_argument("--iters", type=ranged_int(*ITERS_RANGE), default=LATENT_ITERATIONS,
+                        help=f"latent optimisation budget, {ITERS_RANGE[0]}..{ITERS_RANGE[1]} (default: {LATENT_ITERATIONS}:"
+                             " Rprop steps on a recording, see docs/DESIGN.md)")
     parser.add_argument("--weights", default=None,
                         help=f"loss weights, each {WEIGHT_RANGE[0]:g}..{WEIGHT_RANGE[1]:g}, e.g. {weights_example}")

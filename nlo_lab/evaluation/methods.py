@@ -88,8 +88,11 @@ class BaselineSettings:
     """Settings shared by the methods (override with ``dataclasses.replace``).
 
     Attributes:
-        iterations: Adam steps of the latent methods and of ``joint_space`` (same budget).
-        patience: early stop after this many evaluations without improvement.
+        iterations: the budget of the latent methods and of ``joint_space`` (the same for all); None: each
+            method's default: in robot-ready mode the pipeline's (``OptimizeSettings()``: 40 Rprop steps on a
+            sequence), in paper mode the paper's 100 Adam steps (``OptimizeSettings.paper()``); ``joint_space``
+            100 Adam steps (``JointOptimizeSettings()``).
+        patience: Adam's early stop after this many evaluations without improvement.
         random_sigma: σ of ``latent_random``'s start ``N(0, σ²)`` (1 = the latent prior).
         seed: seed of the random initialisation.
         joint_lr: Adam step size of ``joint_space`` [rad].
@@ -105,7 +108,7 @@ class BaselineSettings:
             ``tip``, ``thumb``, ``pinch``).
     """
 
-    iterations: int = 100
+    iterations: int | None = None
     patience: int = 5
     random_sigma: float = 1.0
     seed: int = 0
@@ -121,7 +124,8 @@ class BaselineSettings:
         check_choice("evaluation mode", self.mode, EVALUATION_MODES)
         if self.weights is not None and not isinstance(self.weights, LossWeights):
             raise SettingsError(f"weights must be a LossWeights, got {type(self.weights).__name__}")
-        validate_fields(self, lambda name, v: check_int(name, v, *ITERATIONS_RANGE), names=("iterations", "ik_iterations"))
+        validate_fields(self, lambda name, v: v if v is None and name == "iterations" else check_int(name, v, *ITERATIONS_RANGE),
+                        names=("iterations", "ik_iterations"))
         validate_fields(self, lambda name, v: check_int(name, v, *SEED_RANGE), names=("seed",))
         validate_fields(self, lambda name, v: check_int(name, v, *PATIENCE_RANGE), names=("patience",))
         validate_fields(self, lambda name, v: check_range(name, v, *RATE_RANGE),
@@ -135,6 +139,18 @@ class BaselineSettings:
         if self.weights is not None:
             return self.weights
         return LossWeights.paper() if self.mode == "paper" else LossWeights()
+
+    @property
+    def latent_iterations(self) -> int:
+        """The latent methods' budget: ``iterations``, else the mode's (robot-ready: the pipeline's, paper: the paper's)."""
+        if self.iterations is not None:
+            return self.iterations
+        return OptimizeSettings.paper().iterations if self.mode == "paper" else OptimizeSettings().iterations
+
+    @property
+    def joint_iterations(self) -> int:
+        """``joint_space``'s budget: ``iterations``, else :class:`JointOptimizeSettings`' default."""
+        return self.iterations if self.iterations is not None else JointOptimizeSettings().iterations
 
     @property
     def retime(self) -> bool:
@@ -174,8 +190,9 @@ def _latent(name: str, robot, demo, settings: BaselineSettings, model, init: str
     to the velocity limits in robot-ready mode (as :meth:`~nlo_lab.pipeline.Retargeter.__call__` does). The
     pipeline's hand stage runs in robot-ready mode after an optimisation (not in paper mode, not for 'Init')."""
     hand = OptimizeSettings.hand_iterations if settings.mode == "robot-ready" and iterations > 0 else 0
+    stepper = "adam" if settings.mode == "paper" else None  # paper: the paper's Adam; robot-ready: the pipeline's rule
     opt = OptimizeSettings(init=init, iterations=iterations, patience=settings.patience, latent_sigma=settings.random_sigma, seed=settings.seed,
-                           hand_iterations=hand)
+                           hand_iterations=hand, stepper=stepper)
     retargeter = RetargetConfig(robot, opt, settings.loss_weights, model=model, chunk_frames=None, retime=settings.retime).build()
     start = time.perf_counter()
     r = retargeter.optimize(retargeter.inputs(demo))
@@ -185,7 +202,7 @@ def _latent(name: str, robot, demo, settings: BaselineSettings, model, init: str
 
 
 def latent_encoder(robot: Robot, demo, settings: BaselineSettings | None = None, *, model: RetargetModel | None = None, **_) -> MethodResult:
-    """The method: encoder initialisation, then ``settings.iterations`` latent steps.
+    """The method: encoder initialisation, then ``settings.latent_iterations`` latent steps.
 
     Args:
         robot: a loaded robot.
@@ -194,7 +211,7 @@ def latent_encoder(robot: Robot, demo, settings: BaselineSettings | None = None,
         model: the robot's :class:`~nlo_lab.model.RetargetModel` (default: the shipped checkpoint).
     """
     s = settings or BaselineSettings()
-    return _latent("latent_encoder", robot, demo, s, model, "encoder", s.iterations)
+    return _latent("latent_encoder", robot, demo, s, model, "encoder", s.latent_iterations)
 
 
 def encoder_only(robot: Robot, demo, settings: BaselineSettings | None = None, *, model: RetargetModel | None = None, **_) -> MethodResult:
@@ -206,7 +223,7 @@ def encoder_only(robot: Robot, demo, settings: BaselineSettings | None = None, *
 def latent_random(robot: Robot, demo, settings: BaselineSettings | None = None, *, model: RetargetModel | None = None, **_) -> MethodResult:
     """Latent optimisation from ``N(0, settings.random_sigma²)``. Args as :func:`latent_encoder`."""
     s = settings or BaselineSettings()
-    return _latent("latent_random", robot, demo, s, model, "random", s.iterations)
+    return _latent("latent_random", robot, demo, s, model, "random", s.latent_iterations)
 
 
 def joint_space(robot: Robot, demo, settings: BaselineSettings | None = None, **_) -> MethodResult:
@@ -214,7 +231,7 @@ def joint_space(robot: Robot, demo, settings: BaselineSettings | None = None, **
     s = settings or BaselineSettings()
     start = time.perf_counter()
     targets = targets_from_demonstration(demo, dtype=robot.lower_limits.dtype, device=robot.lower_limits.device)
-    r = optimize_joints(robot, targets, JointOptimizeSettings(iterations=s.iterations, patience=s.patience, lr=s.joint_lr), fast=True,
+    r = optimize_joints(robot, targets, JointOptimizeSettings(iterations=s.joint_iterations, patience=s.patience, lr=s.joint_lr), fast=True,
                         weights=s.loss_weights)
     return MethodResult("joint_space", _numpy(r.q), time.perf_counter() - start, list(r.history), r.iterations)
 

@@ -3,7 +3,7 @@
 - :mod:`~nlo_lab.inference.settings`: :class:`OptimizeSettings`, :class:`JointOptimizeSettings`, :data:`INITS`.
 - :mod:`~nlo_lab.inference.fast_paths`: :class:`FastPaths`, which evaluation of the decoder, objective and FK runs.
 - :mod:`~nlo_lab.inference.numpy_descent`: the loss and gradient of one iteration in numpy (a few frames).
-- :mod:`~nlo_lab.inference.descent`: the one descent (Adam, best point, patience), :class:`OptimizeResult`.
+- :mod:`~nlo_lab.inference.descent`: the one descent (Adam or Rprop, best point, patience), :class:`OptimizeResult`.
 - :mod:`~nlo_lab.inference.latent`: latent optimisation (:func:`initial_latent`, :func:`sequence_start`,
   :func:`optimize_latent`, :func:`optimize_stream`).
 - :mod:`~nlo_lab.inference.joint_space`: the joint-space baseline (:func:`optimize_joints`).
@@ -16,22 +16,34 @@ The pipeline that assembles inference with the metrics (:class:`~nlo_lab.pipelin
 :func:`~nlo_lab.pipeline.retarget`) comes after the metrics: :mod:`nlo_lab.pipeline`.
 """
 
-from nlo_lab.inference.descent import Adam, OptimizeResult, descend, frozen, join_results, smoothness_term
+from nlo_lab.inference.descent import STEPPERS, Adam, OptimizeResult, Rprop, descend, frozen, join_results, smoothness_term
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
 from nlo_lab.inference.inputs import RetargetInputs
 from nlo_lab.inference.joint_space import optimize_joints
 from nlo_lab.inference.latent import initial_latent, optimize_latent, optimize_stream, sequence_start
 from nlo_lab.inference.retime import retime_times, segment_durations
-from nlo_lab.inference.settings import INITS, JOINT_INITS, JOINT_LIMITS, PAPER_LR, SMOOTH_LR, JointOptimizeSettings, OptimizeSettings
+from nlo_lab.inference.settings import (
+    INITS,
+    JOINT_INITS,
+    JOINT_LIMITS,
+    PAPER_ITERATIONS,
+    PAPER_LR,
+    PAPER_PATIENCE,
+    RPROP_LR,
+    SMOOTH_LR,
+    JointOptimizeSettings,
+    OptimizeSettings,
+)
 from nlo_lab.inference.trajectory import FORMAT_VERSION, RobotTrajectory, TrajectoryError
 
 __all__ = [
     # settings
-    "INITS", "JOINT_INITS", "JOINT_LIMITS", "PAPER_LR", "SMOOTH_LR", "OptimizeSettings", "JointOptimizeSettings",
+    "INITS", "JOINT_INITS", "JOINT_LIMITS", "PAPER_LR", "SMOOTH_LR", "RPROP_LR", "PAPER_ITERATIONS", "PAPER_PATIENCE",
+    "OptimizeSettings", "JointOptimizeSettings",
     # fast paths
     "FastPaths", "fast_paths",
     # descent
-    "OptimizeResult", "Adam", "descend", "frozen", "smoothness_term", "join_results",
+    "OptimizeResult", "Adam", "Rprop", "STEPPERS", "descend", "frozen", "smoothness_term", "join_results",
     # latent, joint_space
     "initial_latent", "sequence_start", "optimize_latent", "optimize_stream", "optimize_joints",
     # retime, trajectory

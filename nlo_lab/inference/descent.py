@@ -22,11 +22,14 @@ import numpy as np
 import torch
 
 from nlo_lab.objective import LossWeights, Targets, smoothness_loss
+from nlo_lab.settings import check_choice
 
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
 
-__all__ = ["OptimizeResult", "Adam", "descend", "frozen", "smoothness_term", "join_results"]
+__all__ = ["OptimizeResult", "Adam", "Rprop", "STEPPERS", "descend", "frozen", "smoothness_term", "join_results"]
+
+STEPPERS = ("adam", "rprop")  # descend's step rules: the paper's Adam, or Rprop (class Rprop)
 
 
 @dataclass
@@ -158,6 +161,42 @@ class Adam:
         x.addcdiv_(self.m, denom, value=-self.lr / bias1)
 
 
+class Rprop:
+    """Resilient backpropagation (Riedmiller & Braun 1993, the iRprop- variant of Igel & Hüsken 2000) on one
+    tensor or array: each coordinate moves by its own step against the sign of its gradient; the step grows by
+    ``grow`` while the sign holds and shrinks by ``shrink`` where it flips (and that coordinate then waits one
+    step), within ``[min_step, max_step]``; the first step is ``lr``.
+
+    For a full-batch, deterministic loss (latent optimisation: every frame every step) the step adapts to each
+    coordinate's own course: a latent that must travel far (an arm leaving a self-collision) speeds up
+    geometrically where Adam's stays at ``lr``, and one that oscillates slows down. Only the gradient's sign is
+    used, so the arithmetic is a handful of element-wise ops.
+    """
+
+    def __init__(self, x: torch.Tensor | np.ndarray, lr: float, grow: float = 1.2, shrink: float = 0.5,
+                 min_step: float = 1e-6, max_step: float = 0.1):
+        self.grow, self.shrink, self.min_step, self.max_step = grow, shrink, min_step, max_step
+        if isinstance(x, np.ndarray):
+            self.step_size, self.previous = np.full_like(x, lr), np.zeros_like(x)
+        else:
+            self.step_size, self.previous = torch.full_like(x, lr), torch.zeros_like(x)
+
+    @torch.no_grad()
+    def update(self, x: torch.Tensor | np.ndarray, grad: torch.Tensor | np.ndarray) -> None:
+        agree = grad * self.previous  # > 0: the sign held, < 0: it flipped
+        if isinstance(x, np.ndarray):  # the same steps on arrays (the numpy descent)
+            step = np.where(agree > 0, np.minimum(self.step_size * self.grow, self.max_step),
+                            np.where(agree < 0, np.maximum(self.step_size * self.shrink, self.min_step), self.step_size))
+            grad = np.where(agree < 0, 0.0, grad)  # iRprop-: a coordinate whose sign flipped waits one step
+            x -= step * np.sign(grad)
+        else:
+            step = torch.where(agree > 0, (self.step_size * self.grow).clamp_(max=self.max_step),
+                               torch.where(agree < 0, (self.step_size * self.shrink).clamp_(min=self.min_step), self.step_size))
+            grad = torch.where(agree < 0, 0.0, grad)
+            x.sub_(step * grad.sign())
+        self.step_size, self.previous = step, grad
+
+
 def descend(
     params: torch.Tensor,
     evaluate: Callable[[torch.Tensor], tuple[torch.Tensor, torch.Tensor, torch.Tensor | dict]],
@@ -167,8 +206,10 @@ def descend(
     lr: float,
     callback,
     per_sample: bool = True,
+    stepper: str = "adam",
 ):
-    """Adam on ``params`` (B, ...) with per-sample best tracking and patience.
+    """Adam (or ``stepper="rprop"``: :class:`Rprop`, ``lr`` its first step) on ``params`` (B, ...) with per-sample
+    best tracking and patience.
 
     ``params`` a tensor (autograd gives the gradient unless ``evaluate`` returns it), or a
     numpy array (``evaluate`` returns arrays and the gradient: a descent without torch,
@@ -184,7 +225,8 @@ def descend(
         ``(best_x, best_q, best_loss, best_terms, history, steps)``.
     """
     x = params.copy() if isinstance(params, np.ndarray) else params.detach().clone().requires_grad_(True)
-    adam = Adam(x, lr)
+    check_choice("stepper", stepper, STEPPERS)
+    adam = Adam(x, lr) if stepper == "adam" else Rprop(x, lr)
     best_loss = best_x = best_q = best_terms = None
     history: list[float] = []
     best_mean, stale, steps = float("inf"), 0, 0

@@ -35,7 +35,7 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.inference.descent import OptimizeResult, descend, frozen, join_results, smoothness_term
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
 from nlo_lab.inference.numpy_descent import NumpyLatentLoss
-from nlo_lab.inference.settings import PAPER_LR, SMOOTH_LR, OptimizeSettings
+from nlo_lab.inference.settings import OptimizeSettings
 from nlo_lab.model import EncoderInput
 from nlo_lab.objective import TERMS, LossWeights, Objective, Targets, step_cost
 
@@ -205,12 +205,13 @@ def optimize_latent(
         return torch.add(total, z.pow(2).flatten(1).sum(1).to(dtype), alpha=weights.latent), q, terms
 
     with frozen(model):
-        lr = settings.lr if settings.lr is not None else (PAPER_LR if smooth is None else SMOOTH_LR)
+        stepper, lr, patience = settings.step_rule(coupled=smooth is not None)
         start_z = z0.to(_model_dtype(model))
         numpy_loss = NumpyLatentLoss.build(model, robot, loss_fn, weights.latent) if paths.numpy_iteration and smooth is None else None
         if numpy_loss is not None:  # the same descent on arrays, loss and gradient written out
             evaluate, start_z = numpy_loss, start_z.detach().cpu().numpy()
-        found = descend(start_z, evaluate, None, settings.iterations, settings.patience, lr, callback, per_sample=smooth is None)
+        found = descend(start_z, evaluate, None, settings.iterations, patience, lr, callback, per_sample=smooth is None,
+                        stepper=stepper)
     z, q, loss, terms, history, steps = (torch.from_numpy(a) if isinstance(a, np.ndarray) else a for a in found)
     return OptimizeResult(q, z, history, dict(zip(TERMS, terms.unbind(1), strict=True)), loss, steps, time.perf_counter() - start, init)
 

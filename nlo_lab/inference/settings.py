@@ -1,6 +1,28 @@
-"""What the optimisers are told: start, budget, step size, collision form.
+"""What the optimisers are told: start, budget, step rule, step size, collision form.
 
-Step size: Adam ``lr = 0.01`` on ``z`` (:data:`PAPER_LR`). Measured on 4 clips of the
+Step rule and budget. A recording, its frames coupled by the smoothness term (the pipeline's
+default), is optimised by 40 steps of Rprop (:class:`~nlo_lab.inference.descent.Rprop`: each latent
+coordinate's step grows by 1.2 while its gradient's sign holds, halves where it flips, first step
+0.005, at most 0.1); frames optimised independently (a frame alone, the paper's objective) by Adam,
+at most ``iterations`` steps with the patience stop (the paper's: 100 steps of 0.01, patience 5,
+:meth:`OptimizeSettings.paper`). The paper's Adam moves every latent coordinate by about ``lr`` per
+step; an arm that must travel out of a self-collision then takes the whole budget (the 170-frame
+recording ``mediapipe_right_hand_170f``: YuMi's right upper arm in its forearm over 107 frames,
+still paying at step 100). Rprop's steps grow geometrically where the way is long. Measured
+(2026-11-26, shipped yumi.pt, ``LossWeights()``; mean latent loss of ``holistic_both_hands_47f`` /
+``holistic_world_97f`` / ``mediapipe_right_hand_170f``): Adam 0.005, 100 steps 9798 / 2452 / 2863; Rprop
+30 steps 9491 / 2404 / 2789, 40 steps 8746 / 2338 / 2768. Table I, robot-ready mode (YuMi, 25 test
+sequences; mean Fréchet, sequences with a self-collision, largest slowdown): Adam 100 steps, patience
+5: 0.0863 m, 2, 1.31; Rprop 40: 0.0885 m, 0, 1.29 (30: 0.0911 m, 1; 50: 0.0868 m, 0; 100: 0.0846 m, 0);
+NAO 0.0456 m with either, Pepper 0.0708 -> 0.0693 m. ``benchmarks/motion.py``, YuMi: self-collision frames
+56 -> 0, largest joint step 0.834 -> 0.596 rad. The hand measures of ``benchmarks/hands.py`` (wrist->tip,
+thumb, base->tip [deg], pinch r) after the hand stage: Adam 17.03 / 25.42 / 33.83 / 0.813 (at lr 0.0045 or
+0.0055: 17.08 / 25.32 / 33.89 / 0.812, 17.05 / 25.07 / 33.90 / 0.808); Rprop 40: 17.16 / 25.24 / 34.13 /
+0.807 (the stage's patience ends it after 10 steps on ``holistic_both_hands_47f``). Rprop's loss rises
+for up to ~20 evaluations once its steps have grown, before it falls below its earlier best: a
+patience stop would end it there, so Rprop runs its whole budget (the best point is kept).
+
+Adam's step size: ``lr = 0.01`` on ``z`` (:data:`PAPER_LR`). Measured on 4 clips of the
 synthetic test split with a YuMi model (mean Fréchet, encoder alone 0.216 m): lr 0.003
 -> 0.179 m, 0.01 -> 0.172 m, 0.03 -> 0.172 m but the patience stop fires after a few
 steps on some clips (Adam's first steps overshoot), 0.1 -> 0.207 m (stops after 5 steps
@@ -18,13 +40,27 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from nlo_lab.errors import SettingsError
+from nlo_lab.inference.descent import STEPPERS
 from nlo_lab.objective import COLLISION_FORMS
-from nlo_lab.settings import ITERATIONS_RANGE, PATIENCE_RANGE, RATE_RANGE, SEED_RANGE, check_bool, check_choice, check_int, check_range
+from nlo_lab.settings import (
+    ITERATIONS_RANGE,
+    LATENT_ITERATIONS,
+    PATIENCE_RANGE,
+    RATE_RANGE,
+    SEED_RANGE,
+    check_bool,
+    check_choice,
+    check_int,
+    check_range,
+)
 
 __all__ = [
     "INITS",
     "PAPER_LR",
     "SMOOTH_LR",
+    "RPROP_LR",
+    "PAPER_ITERATIONS",
+    "PAPER_PATIENCE",
     "JOINT_INITS",
     "JOINT_LIMITS",
     "OptimizeSettings",
@@ -34,6 +70,8 @@ __all__ = [
 INITS = ("encoder", "random", "train-stats", "zeros")
 PAPER_LR = 0.01  # Adam step on z, frames independent (module docstring)
 SMOOTH_LR = 0.005  # the same with the smoothness term coupling the frames
+RPROP_LR = 0.005  # Rprop's first step on z (it then adapts per coordinate)
+PAPER_ITERATIONS, PAPER_PATIENCE = 100, 5  # the paper's budget and early stop (Adam)
 JOINT_INITS = ("neutral", "midpoint", "zeros")
 JOINT_LIMITS = ("clamp", "penalty")
 
@@ -46,10 +84,12 @@ class OptimizeSettings:
         init: initial latent: ``"encoder"`` (neural initialisation), ``"random"``
             (N(0, latent_sigma²)), ``"train-stats"`` (N(mean, std²) of the
             training latents) or ``"zeros"``.
-        iterations: maximum number of Adam steps (>= 0; 0 = the start point).
-        patience: stop after this many evaluations without improvement.
-        lr: Adam step size on ``z``; None: :data:`PAPER_LR` (0.01) when the frames are
-            independent, :data:`SMOOTH_LR` (0.005) with the smoothness term (module docstring).
+        iterations: the budget: steps of the step rule (>= 0; 0 = the start point); default
+            40 (``nlo_lab.settings.LATENT_ITERATIONS``), the paper's 100 in :meth:`paper`.
+        patience: Adam's early stop: after this many evaluations without improvement (the hand
+            stage's too); Rprop runs its whole budget (module docstring).
+        lr: the first step on ``z``; None: Adam :data:`PAPER_LR` (0.01) when the frames are
+            independent, :data:`SMOOTH_LR` (0.005) with the smoothness term; Rprop :data:`RPROP_LR` (0.005).
         latent_sigma: σ of the random initialisation.
         warm_start: in :func:`~nlo_lab.inference.optimize_stream`, frame t starts from frame
             t-1's best z; in :func:`~nlo_lab.inference.optimize_latent` with smoothing on, the
@@ -58,6 +98,9 @@ class OptimizeSettings:
             latent from in :func:`~nlo_lab.inference.sequence_start` (0 = its own only).
         seed: seed of the random initialisations.
         collision_form: ``"hinge"`` or ``"paper"`` (see :func:`nlo_lab.objective.collision_loss`).
+        stepper: the step rule, ``"rprop"`` or ``"adam"`` (:data:`~nlo_lab.inference.descent.STEPPERS`);
+            None: Rprop when the smoothness term couples the frames (a recording through the pipeline),
+            Adam otherwise (a frame alone, the paper's objective); see :meth:`step_rule`.
         hand_iterations: Adam steps of the hand stage after the latent optimisation of a recording
             (:func:`~nlo_lab.inference.hand_stage.refine_hands`: the hand joints alone on the same
             objective; 0 = none; robots without hand joints skip it).
@@ -65,21 +108,18 @@ class OptimizeSettings:
     """
 
     init: str = "encoder"
-    iterations: int = 100
-    patience: int = 5
+    iterations: int = LATENT_ITERATIONS
+    patience: int = PAPER_PATIENCE
     lr: float | None = None
     latent_sigma: float = 1.0
     warm_start: bool = True
     warm_window: int = 2
     seed: int = 0
     collision_form: str = "hinge"
+    stepper: str | None = None
     # the hand stage's steps, measured by benchmarks/hands.py (2026-11-26, shipped yumi.pt, the chord tip_dir): 30 of
     # 0.05 rad left wrist->tip / thumb / base->tip [deg] / pinch r at 17.26 / 27.06 / 34.30 / 0.790, 60 of 0.03 at
-    # 17.05 / 25.33 / 33.79 / 0.813 (100 of 0.03: 17.01 / 25.14 / 33.73 / 0.815; 0.05 rad oscillates around its best).
-    # Fewer steps cost every measure (replayed on the latent optimisation's outputs, 2026-11-26 14:05 UTC): 40 of 0.04
-    # 17.20 / 26.75 / 34.16 / 0.798, 45 of 0.035 17.18 / 26.29 / 34.12 / 0.802; Rprop (first step 0.02 rad, at most
-    # 0.05) 30 steps 17.12 / 26.12 / 34.28 / 0.830, 60 steps 16.98 / 25.50 / 34.05 / 0.816 with one hand-frame into
-    # self-collision; scipy's L-BFGS-B, the limits as bounds, 15 iterations 17.59 / 24.69 / 36.14 / 0.839, slower per call.
+    # 17.05 / 25.33 / 33.79 / 0.813 (100 of 0.03: 17.01 / 25.14 / 33.73 / 0.815; 0.05 rad oscillates around its best)
     hand_iterations: int = 60
     hand_lr: float = 0.03
 
@@ -97,6 +137,21 @@ class OptimizeSettings:
         object.__setattr__(self, "latent_sigma", check_range("latent_sigma", self.latent_sigma, *RATE_RANGE))
         object.__setattr__(self, "warm_start", check_bool("warm_start", self.warm_start))
         check_choice("collision_form", self.collision_form, COLLISION_FORMS)
+        if self.stepper is not None:
+            check_choice("stepper", self.stepper, STEPPERS)
+
+    @classmethod
+    def paper(cls, **overrides) -> OptimizeSettings:
+        """The paper's optimisation: 100 Adam steps with patience 5 (lr 0.01 on the paper's objective,
+        whose frames are independent); ``overrides`` as the fields."""
+        return cls(**{"iterations": PAPER_ITERATIONS, "patience": PAPER_PATIENCE, "stepper": "adam", **overrides})
+
+    def step_rule(self, coupled: bool) -> tuple[str, float, int]:
+        """``(stepper, first step, patience)`` for frames ``coupled`` by the smoothness term or not."""
+        stepper = self.stepper or ("rprop" if coupled else "adam")
+        if stepper == "rprop":
+            return stepper, self.lr if self.lr is not None else RPROP_LR, ITERATIONS_RANGE[1] + 1
+        return stepper, self.lr if self.lr is not None else (SMOOTH_LR if coupled else PAPER_LR), self.patience
 
 
 @dataclass(frozen=True)

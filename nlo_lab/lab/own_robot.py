@@ -19,6 +19,7 @@ import torch
 from nlo_lab.paths import ROBOTS_DIR
 from nlo_lab.robot import Robot, load_robot
 from nlo_lab.robot.spec import spec_text
+from nlo_lab.settings import LATENT_ITERATIONS
 
 __all__ = ["LESSON_URDF", "lesson_urdf", "spec_variant", "retarget_report"]
 
@@ -45,7 +46,7 @@ def spec_variant(spec: str | os.PathLike, name: str, edit: Callable[[dict], None
     return load_robot(path)
 
 
-def retarget_report(robot: Robot, demo, model, iterations: int = 100) -> dict[str, float]:
+def retarget_report(robot: Robot, demo, model, iterations: int = LATENT_ITERATIONS) -> dict[str, float]:
     """Retarget ``demo`` with ``model`` and measure what a spec's fields change (one table row):
 
     ``direction_deg`` (the arms' direction error, :func:`nlo_lab.evaluation.direction_error`),

@@ -38,6 +38,7 @@ from nlo_lab.objective import TERMS, LossWeights, Targets
 from nlo_lab.paths import BUNDLED_ROBOTS
 from nlo_lab.pipeline import RetargetConfig, Retargeter
 from nlo_lab.robot import load_robot
+from nlo_lab.settings import LATENT_ITERATIONS
 from nlo_lab.threads import single_thread
 from nlo_lab.viz import RetargetScene
 from nlo_lab.viz.tracks import set_key_times, tick_ms
@@ -94,7 +95,7 @@ class RetargetPanel:
         model_loader: Callable[[Any], Any] | None = None,
         weights: LossWeights | None = None,
         init: str = "encoder",
-        iterations: int = 100,
+        iterations: int = LATENT_ITERATIONS,
         frame_iterations: int = 30,
         frame: int = 0,
         view: Any = "auto",

@@ -12,16 +12,19 @@ from nlo_lab.inference import OptimizeSettings, RetargetInputs, optimize_latent,
 from nlo_lab.metrics import velocity_violations
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import LossWeights
+from nlo_lab.robot import load_robot
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 @pytest.fixture(scope="module")
 def clip():
-    """A test clip (178 frames) with a motion too fast for NAO's joints at the recorded rate after 8 iterations.
+    """A test clip (178 frames) with a motion too fast for the robot's joints at the recorded rate after 8 iterations.
 
-    introduction_10 was that clip until NAO's capsules were refitted (b2c5964); of the 25 test clips, hospital_07,
-    introduction_01 and introduction_07 need retiming now."""
+    introduction_10 was that clip for NAO until NAO's capsules were refitted (b2c5964); of the 25 test clips, hospital_07,
+    introduction_01 and introduction_07 needed retiming then. Since a recording's latent optimisation runs Rprop
+    (docs/DESIGN.md), NAO's output of no test clip needs retiming after 8 steps; YuMi's of hospital_07 does (159
+    velocity violations), so the robot-ready test runs on YuMi."""
     demo = sign_corpus("test")[6]
     assert demo.name == "hospital_07"
     return demo
@@ -53,13 +56,14 @@ def test_paper_mode_optimises_the_paper_objective_and_does_not_retime(nao, clip)
     assert not np.allclose(r.angles, smoothed.q.double().numpy(), atol=1e-4), "the smoothness term made no difference"
 
 
-def test_robot_ready_mode_retimes_the_latent_methods_and_scores_on_the_retimed_time_base(nao, clip):
-    model = load_pretrained(nao)
+def test_robot_ready_mode_retimes_the_latent_methods_and_scores_on_the_retimed_time_base(clip):
+    yumi = load_robot("yumi")
+    model = load_pretrained(yumi)
     s = BaselineSettings(iterations=8)
-    r = run_method("latent_encoder", nao, clip, s, model=model)
-    np.testing.assert_allclose(r.times, retime_times(r.angles, clip.fps, nao.velocity_limits.double().numpy()))
-    assert velocity_violations(nao, r.angles, fps=clip.fps) > 0, "pick a clip that needs retiming"
-    ev = {m: evaluate(nao, [clip], BaselineSettings(iterations=8, mode=m), methods=["latent_encoder", "joint_space"], model=model,
+    r = run_method("latent_encoder", yumi, clip, s, model=model)
+    np.testing.assert_allclose(r.times, retime_times(r.angles, clip.fps, yumi.velocity_limits.double().numpy()))
+    assert velocity_violations(yumi, r.angles, fps=clip.fps) > 0, "pick a clip that needs retiming"
+    ev = {m: evaluate(yumi, [clip], BaselineSettings(iterations=8, mode=m), methods=["latent_encoder", "joint_space"], model=model,
                       progress=False) for m in EVALUATION_MODES}
     ready, paper = ev["robot-ready"].scores, ev["paper"].scores
     assert ready["latent_encoder"][clip.name].velocity_violations == 0
