@@ -38,7 +38,8 @@ print([(d.name, len(d)) for d in demos])
 #
 # Every method is `method(robot, demo, settings) -> MethodResult(angles (T, n), seconds, ...)`.
 # `BaselineSettings` holds the shared budget: the latent methods and joint-space optimisation get the
-# same number of Adam steps. The supervised network first needs labels: joint-space optimisation of
+# same number of steps (`iterations`): Adam steps on the angles for joint space; for the latent methods the
+# pipeline's step rule (Rprop on a whole recording in robot-ready mode, the paper's Adam in paper mode). The supervised network first needs labels: joint-space optimisation of
 # training frames (the paper's NN learns from an optimiser's output); it is trained once and cached.
 
 # %%
