@@ -41,7 +41,8 @@ from ``optimization.extra["hand_seconds"]``), dex-retargeting's
 per hand-frame (each ``retarget`` call, its setup not counted). The four measures again on the
 hand-frames where no method's hand goes through itself (like for like: dex-retargeting does not avoid it).
 Then the targets of issue 27. Unless ``--no-write``, the tables replace the ``hands`` section of
-``docs/RESULTS.md``.
+``docs/RESULTS.md``. What the hands could do at best, per frame and within the hand stage's speed clamp:
+``benchmarks/hands_frontier.py``.
 """
 
 from __future__ import annotations

@@ -24,18 +24,16 @@ thumb's, so the stage keeps the decoder's start. The capsules are not what holds
 third hand-frame, the thumb's best wrist->tip direction error with no capsule pair penetrating is 11.6° (no
 overlap by the URDF's geometry: 11.2°, collisions allowed: 10.8°), the stage's 13.5°.
 
-The speed clamp, not the start, is what binds (measured 2026-11-26 14:00-14:10 UTC on the same 360 hand-frames, by
-an exhaustive search outside the library): each finger's one joint on a grid of 48 values, the thumb's two on 40 x
-40 (20 x 20 frame by frame), the capsule pairs of a hand (the thumb against its palm and each finger) as
-constraints, the cost the measures themselves (mean angles in degrees: wrist->tip 1, thumb->tips 0.2, base->tip 0.5,
-and 11.5 per hand length of the thumb-index distance off the human's). Frame by frame the optimum is wrist->tip
-16.1°, thumb 26.6°, base->tip 30.4°, pinch r 0.78, free of collision, but its hands jump between frames: clamped to
-the start's speed it is 17.1°. Over the whole trajectory, every step within the clamp's caps (dynamic programming,
-the thumb and the fingers in turn): 16.75 / 25.8 / 32.3 / 0.78 at those weights, 16.72 / 27.7 / 32.8 / 0.78 (thumb
-0.15, base->tip 0.4, distance 17.2), 16.22 / 28.5 / 32.4 / 0.77 (0.1, 0.3, 5.7); from the second, this stage's 60
-steps end at 16.57 / 27.3 / 32.7 / 0.78. Within the clamp, none of the trajectories this search found for the
-6-actuator hand gets wrist->tip below dex-retargeting's 16.57° with the thumb measure and the pinch still ahead of
-its (27.8°, 0.79): a start search trades the thumb and the pinch for the wrist->tip direction.
+The speed clamp, not the start, is what binds (``benchmarks/hands_frontier.py``, 2026-11-26 14:16 UTC, load 0.5-1.3:
+an exhaustive search over grids of each finger's joint, 48 values, and the thumb's two, 24 x 24, the capsule pairs
+of a hand as constraints, the cost the measures themselves). Frame by frame the best handshapes reach wrist->tip
+16.09° (thumb 26.5°, base->tip 30.4°, pinch r 0.77; 15.5° with the thumb weighed less), free of collision, but they
+jump between frames: held to the start's speed they are at 17.1°. Over the whole trajectory, every step within the
+clamp's caps (dynamic programming), the search reaches wrist->tip / thumb / base->tip / pinch r 16.75 / 26.0 / 32.2
+/ 0.78, or 16.26 / 28.2 / 32.3 / 0.77 with the thumb and base->tip weighed less, and this stage from there ends at
+16.63-16.67° with the pinch at 0.77-0.78. Within the clamp, none of these trajectories of the 6-actuator hand gets
+wrist->tip below dex-retargeting's 16.57° with the thumb measure and the pinch still ahead of its (27.8°, 0.79): a
+start search trades the thumb and the pinch for the wrist->tip direction.
 
 It never makes the robot slower: after the descent, each hand joint's step between consecutive
 frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's
