@@ -24,14 +24,15 @@ thumb's, so the stage keeps the decoder's start. The capsules are not what holds
 third hand-frame, the thumb's best wrist->tip direction error with no capsule pair penetrating is 11.6° (no
 overlap by the URDF's geometry: 11.2°, collisions allowed: 10.8°), the stage's 13.5°.
 
-The speed clamp, not the start, is what binds (``benchmarks/hands_frontier.py``, 2026-11-26 14:16 UTC, load 0.5-1.3:
-an exhaustive search over grids of each finger's joint, 48 values, and the thumb's two, 24 x 24, the capsule pairs
-of a hand as constraints, the cost the measures themselves). Frame by frame the best handshapes reach wrist->tip
-16.09° (thumb 26.5°, base->tip 30.4°, pinch r 0.77; 15.5° with the thumb weighed less), free of collision, but they
-jump between frames: held to the start's speed they are at 17.1°. Over the whole trajectory, every step within the
-clamp's caps (dynamic programming), the search reaches wrist->tip / thumb / base->tip / pinch r 16.75 / 26.0 / 32.2
-/ 0.78, or 16.26 / 28.2 / 32.3 / 0.77 with the thumb and base->tip weighed less, and this stage from there ends at
-16.63-16.67° with the pinch at 0.77-0.78. Within the clamp, none of these trajectories of the 6-actuator hand gets
+The speed clamp, not the start, is what binds (``benchmarks/hands_frontier.py``, 2026-11-26 14:30 UTC, load 4.0, the
+latent optimisation's 40 Rprop steps: an exhaustive search over grids of each finger's joint, 48 values, and the
+thumb's two, 24 x 24, the capsule pairs of a hand as constraints, the cost the measures themselves). Frame by frame
+the best handshapes reach wrist->tip 16.09° (thumb 26.5°, base->tip 30.4°, pinch r 0.77; 15.5° with the thumb
+weighed less), free of collision, but they jump between frames: held to the start's speed they are at 17.2°. Over
+the whole trajectory, every step within the clamp's caps (dynamic programming), the search reaches wrist->tip /
+thumb / base->tip / pinch r 16.73 / 26.4 / 32.5 / 0.78, or 16.22 / 29.0 / 32.5 / 0.77 with the thumb and base->tip
+weighed less, and this stage from there ends at 16.66-16.82° with the pinch at 0.77-0.78 (from the latent
+optimisation's hands: 17.16°, 0.81). Within the clamp, none of these trajectories of the 6-actuator hand gets
 wrist->tip below dex-retargeting's 16.57° with the thumb measure and the pinch still ahead of its (27.8°, 0.79): a
 start search trades the thumb and the pinch for the wrist->tip direction.
 

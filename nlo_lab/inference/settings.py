@@ -120,10 +120,14 @@ class OptimizeSettings:
     # the hand stage's steps, measured by benchmarks/hands.py (2026-11-26, shipped yumi.pt, the chord tip_dir): 30 of
     # 0.05 rad left wrist->tip / thumb / base->tip [deg] / pinch r at 17.26 / 27.06 / 34.30 / 0.790, 60 of 0.03 at
     # 17.05 / 25.33 / 33.79 / 0.813 (100 of 0.03: 17.01 / 25.14 / 33.73 / 0.815; 0.05 rad oscillates around its best).
-    # Fewer steps cost every measure (replayed on the latent optimisation's outputs, 2026-11-26 14:05 UTC): 40 of 0.04
-    # 17.20 / 26.75 / 34.16 / 0.798, 45 of 0.035 17.18 / 26.29 / 34.12 / 0.802; Rprop (first step 0.02 rad, at most
-    # 0.05) 30 steps 17.12 / 26.12 / 34.28 / 0.830, 60 steps 16.98 / 25.50 / 34.05 / 0.816 with one hand-frame into
-    # self-collision; scipy's L-BFGS-B, the limits as bounds, 15 iterations 17.59 / 24.69 / 36.14 / 0.839, slower per call.
+    # Fewer steps cost every measure (replayed on the latent optimisation's outputs, then 100 Adam steps, 2026-11-26 14:05
+    # UTC): 40 of 0.04 17.20 / 26.75 / 34.16 / 0.798, 45 of 0.035 17.18 / 26.29 / 34.12 / 0.802; Rprop (first step 0.02
+    # rad, at most 0.05) 30 steps 17.12 / 26.12 / 34.28 / 0.830, 60 steps 16.98 / 25.50 / 34.05 / 0.816 with one
+    # hand-frame into self-collision; scipy's L-BFGS-B, the limits as bounds, 15 iterations 17.59 / 24.69 / 36.14 / 0.839,
+    # slower per call. From the 40 Rprop steps' latents (14:30 UTC): 60 of 0.03 17.16 / 25.24 / 34.13 / 0.807, 40 of 0.03
+    # 17.23 / 25.41 / 34.33 / 0.805, 30 of 0.03 17.33 / 25.54 / 34.69 / 0.807, 60 of 0.02 17.15 / 24.83 / 34.02 / 0.808,
+    # 80 of 0.02 17.12 / 24.66 / 33.89 / 0.810 (0.02 runs every step on the 47-frame clip, where 0.03's patience stops
+    # after 10).
     hand_iterations: int = 60
     hand_lr: float = 0.03
 
