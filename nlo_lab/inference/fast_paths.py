@@ -11,7 +11,9 @@ values and gradients), taken only when a caller asks for it by an argument:
   (exact capsule distances only for the pairs that may be within their margin);
 * FK's ``analytic_gradient`` (the closed-form derivative of the mapped points);
 * and for a few frames the whole iteration in numpy (loss and gradient written out, no
-  autograd: :mod:`nlo_lab.inference.numpy_descent`).
+  autograd: :mod:`nlo_lab.inference.numpy_descent`); for more frames, or a sequence with the
+  smoothness term, the iteration's gradient chained by hand through FK, the terms and the smoothness
+  term (``written_gradient``; the decoder's own graph only).
 
 :class:`FastPaths` holds one such choice; :meth:`FastPaths.for_frames` makes it from the
 batch size, with the measured crossovers below. Nothing is process-wide: the pipeline
@@ -55,6 +57,8 @@ class FastPaths:
             the objective have numpy forms and no sequence term couples the frames.
         hand_chains: the hand stage maps only the points its hand joints move, by FK from the wrists
             down (:class:`~nlo_lab.inference.hand_stage.HandChains`; the arms are fixed there).
+        written_gradient: latent optimisation chains the gradient by hand where ``numpy_iteration`` does not
+            apply (:class:`~nlo_lab.inference.numpy_descent.WrittenGradientLoss`; needs ``fused_objective``).
     """
 
     decoder: str = "paper"
@@ -63,10 +67,11 @@ class FastPaths:
     analytic_fk: bool = False
     numpy_iteration: bool = False
     hand_chains: bool = False
+    written_gradient: bool = False
 
     def __post_init__(self) -> None:
         check_choice("decoder form", self.decoder, DECODER_FORMS)
-        for name in ("fused_objective", "cull_far_pairs", "analytic_fk", "numpy_iteration", "hand_chains"):
+        for name in ("fused_objective", "cull_far_pairs", "analytic_fk", "numpy_iteration", "hand_chains", "written_gradient"):
             if not isinstance(getattr(self, name), bool):
                 raise SettingsError(f"FastPaths {name} must be True or False, got {getattr(self, name)!r}")
 
@@ -86,6 +91,7 @@ class FastPaths:
             analytic_fk=True,
             numpy_iteration=cpu and frames <= DECODER_NUMPY_MAX_BATCH,
             hand_chains=True,
+            written_gradient=cpu,
         )
 
     def objective_options(self) -> dict[str, bool]:

@@ -34,7 +34,7 @@ import torch
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference.descent import OptimizeResult, descend, frozen, join_results, smoothness_term
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
-from nlo_lab.inference.numpy_descent import NumpyLatentLoss
+from nlo_lab.inference.numpy_descent import NumpyLatentLoss, WrittenGradientLoss
 from nlo_lab.inference.settings import OptimizeSettings
 from nlo_lab.model import EncoderInput
 from nlo_lab.objective import TERMS, LossWeights, Objective, Targets, step_cost
@@ -208,8 +208,13 @@ def optimize_latent(
         stepper, lr, patience = settings.step_rule(coupled=smooth is not None)
         start_z = z0.to(_model_dtype(model))
         numpy_loss = NumpyLatentLoss.build(model, robot, loss_fn, weights.latent) if paths.numpy_iteration and smooth is None else None
+        written = None
+        if numpy_loss is None and paths.written_gradient and start_z.device.type == "cpu":
+            written = WrittenGradientLoss.build(model, robot, loss_fn, weights.latent, targets, weights.smooth, anchor, paths.decoder)
         if numpy_loss is not None:  # the same descent on arrays, loss and gradient written out
             evaluate, start_z = numpy_loss, start_z.detach().cpu().numpy()
+        elif written is not None:  # the same loss and gradient, FK and the terms without an autograd graph
+            evaluate = written
         found = descend(start_z, evaluate, None, settings.iterations, patience, lr, callback, per_sample=smooth is None,
                         stepper=stepper)
     z, q, loss, terms, history, steps = (torch.from_numpy(a) if isinstance(a, np.ndarray) else a for a in found)

@@ -13,6 +13,13 @@ the frozen decoder (:class:`~nlo_lab.model.numpy_backend.DecoderPlan`), FK's map
 (:class:`~nlo_lab.objective.numpy_backend.PointTerms`, the hand terms included), each forward
 then each backward in reverse order. The tests hold it equal to the readable torch path
 (values and gradients) and the optimisation's result equal either way.
+
+A recording's frames (a batch, coupled by the smoothness term) take :class:`WrittenGradientLoss`:
+the same chain where the numpy decoder does not pay (its stacked small matmuls do not batch):
+the decoder in torch (its own small autograd graph), FK's points and their closed-form
+gradient (:meth:`~nlo_lab.robot.point_gradient.MapPoints.points`, ``gradient``), the terms and the
+smoothness term (:class:`~nlo_lab.objective.numpy_backend.SmoothTerm`) in numpy, without an autograd
+graph through FK and the terms.
 """
 
 from __future__ import annotations
@@ -20,15 +27,17 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+import torch
 
-from nlo_lab.objective import Objective
-from nlo_lab.robot.point_gradient import NumpyPointMap
+from nlo_lab.objective import Objective, Targets
+from nlo_lab.objective.numpy_backend import SmoothTerm
+from nlo_lab.robot.point_gradient import MapPoints, NumpyPointMap
 
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.model import RetargetModel
     from nlo_lab.robot import Robot
 
-__all__ = ["NumpyLatentLoss"]
+__all__ = ["NumpyLatentLoss", "WrittenGradientLoss"]
 
 
 class NumpyLatentLoss:
@@ -74,3 +83,57 @@ class NumpyLatentLoss:
         g_q = self.points.backward(g_points, point_state)
         g_z = self.decoder.backward(g_q, decoder_state) + (2.0 * self.latent_weight) * z
         return loss, q, terms, g_z.astype(z.dtype, copy=False)
+
+
+class WrittenGradientLoss:
+    """``z (B, N_r, k)`` tensor -> the latent loss ``(B,)`` (+ the smoothness term), the angles, the unweighted
+    terms and ``dL/dz``, as :func:`~nlo_lab.inference.optimize_latent`'s torch evaluation computes them.
+
+    Build it with :meth:`build`, which declines (None) where the objective has no numpy terms.
+    """
+
+    def __init__(self, model: RetargetModel, robot: Robot, objective: Objective, latent_weight: float, smooth: SmoothTerm | None,
+                 decoder_form: str):
+        self.model, self.robot, self.objective, self.smooth, self.form = model, robot, objective, smooth, decoder_form
+        self.latent_weight = float(latent_weight)
+        self.weights = objective.weights.numpy()
+        self.dtype = robot.lower_limits.dtype
+        self._g_terms: dict[int, np.ndarray] = {}
+
+    @classmethod
+    def build(cls, model: RetargetModel, robot: Robot, objective: Objective, latent_weight: float, targets: Targets,
+              smooth_weight: float, anchor: torch.Tensor | None, decoder_form: str) -> WrittenGradientLoss | None:
+        """The loss of ``objective`` (built with ``fused=True``, on the CPU) and, where it applies
+        (:func:`~nlo_lab.inference.smoothness_term`'s rule), the smoothness term; None without numpy terms."""
+        if objective.numpy_terms is None or len(objective.weights) != objective.numpy_terms.n_terms:
+            return None
+        coupled = smooth_weight != 0 and targets.fps is not None and len(targets) + (anchor is not None) >= 2
+        smooth = SmoothTerm(float(targets.fps), robot.velocity_limits, smooth_weight, anchor, robot.lower_limits.dtype) if coupled else None
+        return cls(model, robot, objective, latent_weight, smooth, decoder_form)
+
+    def __call__(self, z: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """``loss (B,)``, ``q (B, n)``, ``terms (B, len(TERMS))`` (unweighted) and ``dL/dz`` (``z``'s shape)."""
+        plan = self.objective.plan
+        tree = self.robot.tree
+        z_leaf = z.detach().requires_grad_(True)
+        with torch.enable_grad():
+            q_graph = self.model.decode(z_leaf, self.form).to(self.dtype)  # the decoder's own graph, for its backward
+        q = q_graph.detach()
+        poses, points = MapPoints.points(q, tree, plan.body, plan.vectors)
+        terms, term_state = self.objective.numpy_terms.forward(points.numpy())
+        z_np = z.detach().numpy()
+        latent = (z_np * z_np).reshape(len(z_np), -1).sum(1)
+        loss = terms @ self.weights + (self.latent_weight * latent).astype(terms.dtype, copy=False)
+        if self.smooth is not None:
+            smooth, smooth_state = self.smooth.forward(q.numpy())
+            loss = loss + smooth
+        g_terms = self._g_terms.get(len(terms))
+        if g_terms is None:  # backward of sum(loss): each term's gradient is its weight
+            g_terms = self._g_terms[len(terms)] = np.tile(self.weights, (len(terms), 1)).astype(terms.dtype)
+        g_points = torch.from_numpy(self.objective.numpy_terms.backward(g_terms, term_state))
+        g_q = MapPoints.gradient(g_points, poses, points, tree, plan.body, plan.vectors)
+        if self.smooth is not None:
+            g_q = g_q + torch.from_numpy(self.smooth.backward(np.ones(len(q), dtype=terms.dtype), smooth_state))
+        (g_z,) = torch.autograd.grad(q_graph, z_leaf, g_q.reshape(q_graph.shape))
+        g_z = g_z + (2.0 * self.latent_weight) * z.detach()
+        return torch.from_numpy(np.ascontiguousarray(loss)), q, torch.from_numpy(terms), g_z

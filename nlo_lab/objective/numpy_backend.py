@@ -37,11 +37,11 @@ from torch.autograd.function import once_differentiable
 from nlo_lab.objective.near_pairs import CULL_SLACK
 from nlo_lab.objective.points import PointPlan
 from nlo_lab.objective.targets import Targets
-from nlo_lab.objective.terms import CHORD_EPS, UNIT_EPS, in_wrist_frame, pinch_activation, unit
-from nlo_lab.objective.weights import CONTACT_SCALE, TERMS
+from nlo_lab.objective.terms import CHORD_EPS, UNIT_EPS, in_wrist_frame, pinch_activation, smoothness_scale, unit
+from nlo_lab.objective.weights import CONTACT_SCALE, SMOOTH_MAX_STEP, SMOOTH_STEP_WIDTH, TERMS
 from nlo_lab.robot.collision import segment_closest_points
 
-__all__ = ["PointTerms", "HandTerms", "NearPairs", "NEAR_SLACK", "point_terms", "maybe_near"]
+__all__ = ["PointTerms", "HandTerms", "NearPairs", "NEAR_SLACK", "SmoothTerm", "point_terms", "maybe_near"]
 
 
 
@@ -334,7 +334,10 @@ class PointTerms:
     def __init__(self, rows, finger_row, row_term, goal, mask, pair_points, pair_radii, margins, form: str, hand: HandTerms,
                  capsule_rows, pair_capsules):
         self.rows = np.ascontiguousarray(rows)
-        self.rows_t = np.ascontiguousarray(self.rows.T)
+        # the rows combine a few of the points (YuMi: 32 of 174; the others are capsule ends): products over those only
+        self.row_points = np.flatnonzero(np.any(self.rows != 0, axis=0))
+        self.rows_used = np.ascontiguousarray(self.rows[:, self.row_points])  # (V, K_used)
+        self.rows_used_t = np.ascontiguousarray(self.rows_used.T)
         self.fingers = np.flatnonzero(finger_row)
         self.term_of_row = np.eye(4, dtype=self.rows.dtype)[np.asarray(row_term, dtype=np.int64)]  # (V, 4)
         self.goal = np.ascontiguousarray(goal)
@@ -435,7 +438,7 @@ class PointTerms:
     def forward(self, P: np.ndarray):
         """Terms ``(B, len(TERMS))`` (``TERMS`` order) and what the backward needs, for points ``P (B, K, 3)`` (B = T)."""
         goal, mask = self.goal, self.mask
-        v = _rows_times(self.rows, P)  # (B, V, 3)
+        v = _rows_times(self.rows_used, P[:, self.row_points])  # (B, V, 3): rows @ P, the unused points left out
         f = self.fingers
         norm = unit = None
         if f.size:
@@ -477,7 +480,8 @@ class PointTerms:
         if f.size:
             gu = gv[:, f]
             gv[:, f] = (gu - unit * _dot3(unit, gu)[..., None]) / norm
-        gP = _rows_times(self.rows_t, gv)  # (B, K, 3), contiguous: the pairs' gradients are added in place
+        gP = np.zeros(g.shape[:1] + self.rows.shape[1:] + (3,), dtype=gv.dtype)  # (B, K, 3): the pairs' gradients are added in place
+        gP[:, self.row_points] = _rows_times(self.rows_used_t, gv)  # rowsᵀ @ gv on the points the rows use
         if coll is not None:
             near, slope, w, u = coll
             frame, pair = np.divmod(near, self.radii.shape[0])
@@ -512,3 +516,46 @@ def point_terms(points: torch.Tensor, plan: PointTerms) -> torch.Tensor:
         plan: the objective's :class:`PointTerms` (built for the same T frames).
     """
     return _PointTermsFn.apply(points, plan)
+
+
+class SmoothTerm:
+    """The weighted smoothness term of a sequence in numpy, with its gradient written out.
+
+    ``w * smoothness_loss(q)`` (:func:`~nlo_lab.objective.terms.smoothness_loss`; with ``anchor``, frame 0
+    pays its step from that fixed frame, as :func:`nlo_lab.inference.smoothness_term`): per step
+    ``Δ = q_t - q_{t-1}``, ``Σ_j (Δ_j c_j)² + Σ_j ((|Δ_j| - MAX_STEP)_+ / WIDTH)²`` with ``c = fps / s``;
+    its derivative in ``Δ`` is ``2 Δ c² + 2 (|Δ| - MAX_STEP)_+ sign(Δ) / WIDTH²``, and ``Δ_t`` moves
+    ``q_t`` up and ``q_{t-1}`` down. Tested equal to the torch term, values and gradients.
+
+    Args:
+        fps: frame rate [1/s]; velocity_limits: ``(n,)`` [rad/s]; weight: ``LossWeights.smooth``;
+        anchor: ``(n,)`` the fixed frame before the first, or None; dtype: torch dtype of the angles.
+    """
+
+    def __init__(self, fps: float, velocity_limits: torch.Tensor, weight: float, anchor: torch.Tensor | None, dtype: torch.dtype):
+        # the torch term's arithmetic: fps / s in the angles' dtype
+        self.scale = (fps / smoothness_scale(velocity_limits.detach().cpu()).to(dtype)).numpy()
+        self.weight = float(weight)
+        self.anchor = None if anchor is None else anchor.detach().cpu().to(dtype).numpy().reshape(1, -1)
+
+    def forward(self, q: np.ndarray):
+        """``q (T, n)`` -> the weighted term per frame ``(T,)`` and what the backward needs."""
+        full = q if self.anchor is None else np.concatenate([self.anchor, q])
+        step = full[1:] - full[:-1]  # (S, n): S = T - 1, or T with the anchor
+        speed = step * self.scale
+        jump = np.maximum(np.abs(step) - SMOOTH_MAX_STEP, 0.0) / SMOOTH_STEP_WIDTH
+        cost = (speed * speed).sum(-1) + (jump * jump).sum(-1)
+        out = np.zeros(len(q), dtype=q.dtype)
+        out[len(q) - len(cost):] = cost
+        return self.weight * out, (step, speed, jump)
+
+    def backward(self, g: np.ndarray, state) -> np.ndarray:
+        """``(T, n)``: the gradient of ``sum(g * term)`` in ``q``, ``g (T,)``."""
+        step, speed, jump = state
+        T = len(g)
+        g_cost = (self.weight * g[T - len(step):])[:, None]  # the frames that pay a step
+        g_step = g_cost * (2.0 * speed * self.scale + (2.0 / SMOOTH_STEP_WIDTH) * jump * np.sign(step))
+        g_q = np.zeros((T, step.shape[1]), dtype=step.dtype)
+        g_q[T - len(step):] += g_step  # Δ_t = q_t - q_(t-1)
+        g_q[: T - 1] -= g_step[len(step) - (T - 1):]  # ... and q_(t-1) down (with the anchor, Δ_0 moves no free frame)
+        return g_q

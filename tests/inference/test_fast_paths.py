@@ -12,6 +12,7 @@ from nlo_lab.corpus import corpus_clip
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import FastPaths, OptimizeSettings, RetargetInputs, fast_paths, optimize_joints, optimize_latent
 from nlo_lab.inference.fast_paths import DECODER_NUMPY_MAX_BATCH
+from nlo_lab.inference.numpy_descent import WrittenGradientLoss
 from nlo_lab.model import load_pretrained
 from nlo_lab.pipeline import RetargetConfig
 
@@ -36,13 +37,13 @@ def _raise(*args, **kwargs):
 
 
 def test_the_choice_by_batch_size():
-    assert FastPaths.readable() == FastPaths() == FastPaths("paper", False, False, False, False, False)
+    assert FastPaths.readable() == FastPaths() == FastPaths("paper", False, False, False, False, False, False)
     one, many = FastPaths.for_frames(1), FastPaths.for_frames(1000)
-    assert one == FastPaths("numpy", True, True, True, True, True)
+    assert one == FastPaths("numpy", True, True, True, True, True, True)
     edge, above = FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH), FastPaths.for_frames(DECODER_NUMPY_MAX_BATCH + 1)
     assert edge.decoder == "numpy" and edge.numpy_iteration and above.decoder == "node-major" and not above.numpy_iteration
-    assert many == FastPaths("node-major", True, True, True, False, True)  # the numpy terms at any batch on the CPU
-    assert FastPaths.for_frames(1, "meta") == FastPaths("node-major", False, True, True, False, True)  # numpy forms: the CPU only
+    assert many == FastPaths("node-major", True, True, True, False, True, True)  # the numpy terms at any batch on the CPU
+    assert FastPaths.for_frames(1, "meta") == FastPaths("node-major", False, True, True, False, True, False)  # numpy forms: the CPU only
     assert fast_paths(True, 1) == one and fast_paths(False, 1) == FastPaths() and fast_paths(many, 1) is many
     assert one.objective_options() == {"fused": True, "cull": True, "analytic_fk": True}
 
@@ -61,7 +62,17 @@ def test_latent_optimisation_gives_the_same_result_fast_or_readable(nao64, model
     """float64 end to end: every form agrees to rounding, so 15 Adam steps end at the same point."""
     x = inputs.index(slice(0, frames))
     settings = OptimizeSettings(iterations=15, patience=15)
-    runs = {fast: optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder, fast=fast) for fast in (True, False)}
+    written = []
+    real = WrittenGradientLoss.__call__
+    def spy(self, z):
+        written.append(len(z))
+        return real(self, z)
+
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(WrittenGradientLoss, "__call__", spy)
+        runs = {fast: optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder, fast=fast) for fast in (True, False)}
+    # one frame alone: the numpy iteration; 12 frames, coupled by the smoothness term: the gradient written out
+    assert written == ([] if frames == 1 else [frames] * 16)
     torch.testing.assert_close(runs[True].q, runs[False].q, atol=1e-8, rtol=1e-8)
     np.testing.assert_allclose(runs[True].history, runs[False].history, rtol=1e-9)
     assert runs[True].iterations == runs[False].iterations == 15
@@ -84,11 +95,13 @@ def test_optimisers_run_the_readable_forms_unless_asked(nao64, model64, inputs, 
     monkeypatch.setattr(decoder, "decode_numpy", _raise)
     monkeypatch.setattr(total, "point_terms", _raise)
     monkeypatch.setattr(NumpyLatentLoss, "__call__", _raise)
+    monkeypatch.setattr(WrittenGradientLoss, "__call__", _raise)
     settings = OptimizeSettings(iterations=2, patience=2)
     for frames in (1, 12):
         x = inputs.index(slice(0, frames))
         optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder)
-        for fast in (True, FastPaths(decoder="numpy"), FastPaths(fused_objective=True), FastPaths(numpy_iteration=True, decoder="numpy", fused_objective=True)):
+        for fast in (True, FastPaths(decoder="numpy"), FastPaths(fused_objective=True), FastPaths(numpy_iteration=True, decoder="numpy", fused_objective=True),
+                     FastPaths(written_gradient=True, fused_objective=True)):
             with pytest.raises(AssertionError, match="fast path"):
                 optimize_latent(model64, nao64, x.targets, settings, encoder_input=x.encoder, fast=fast)
 

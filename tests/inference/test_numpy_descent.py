@@ -104,3 +104,42 @@ def test_it_declines_when_the_objective_has_a_term_without_a_numpy_form(robot):
     fused = Objective(robot, x.targets, fused=True)
     fused.weights = torch.cat([fused.weights, torch.zeros(1, dtype=fused.weights.dtype)])  # one more term, even at weight 0
     assert NumpyLatentLoss.build(_model(robot), robot, fused, 1.0) is None
+
+
+@pytest.mark.parametrize("kind", ["graph", "mlp"])
+@pytest.mark.parametrize("anchored", [False, True])
+def test_written_gradient_loss_equals_the_readable_torch_loss(robot, kind, anchored):
+    """A recording's batch, smoothness term on (frame 0 anchored to the frame before or not): the loss, angles,
+    terms and gradient of WrittenGradientLoss are the readable path's (the paper's decoder, the term functions,
+    autograd through FK and the smoothness term)."""
+    from nlo_lab.inference import smoothness_term
+    from nlo_lab.inference.numpy_descent import WrittenGradientLoss
+
+    frames = 6
+    model, x = _model(robot, kind), _inputs(frames)
+    weights = LossWeights(latent=0.3, smooth=25.0)  # a larger weight than the default: the smoothness gradient counts
+    gen = torch.Generator().manual_seed(3)
+    z = 2 * torch.randn(frames, *model.latent_shape, dtype=torch.float64, generator=gen)
+    anchor = robot.neutral_q.double() + 0.3 if anchored else None
+    written = WrittenGradientLoss.build(model, robot, Objective(robot, x.targets, weights, fused=True, cull=True, analytic_fk=True),
+                                        weights.latent, x.targets, weights.smooth, anchor, "node-major")
+    loss, q, terms, grad = written(z)
+    zr = z.clone().requires_grad_(True)
+    ref_q = model.decode(zr)
+    ref_total, ref_terms = Objective(robot, x.targets, weights)(ref_q)
+    ref_loss = ref_total + smoothness_term(robot, x.targets, weights, anchor)(ref_q) + weights.latent * zr.pow(2).flatten(1).sum(1)
+    (ref_grad,) = torch.autograd.grad(ref_loss.sum(), zr)
+    for got, want in ((loss, ref_loss), (q, ref_q), (terms, ref_terms), (grad, ref_grad)):
+        torch.testing.assert_close(got, want.detach(), atol=1e-9, rtol=1e-9)
+    assert float(ref_grad.abs().max()) > 0
+    # the smoothness term is in: without it the loss differs
+    assert not torch.allclose(ref_loss, ref_total + weights.latent * zr.pow(2).flatten(1).sum(1))
+
+
+def test_written_gradient_loss_declines_without_numpy_terms(robot):
+    from nlo_lab.inference.numpy_descent import WrittenGradientLoss
+
+    x = _inputs(3)
+    assert WrittenGradientLoss.build(_model(robot), robot, Objective(robot, x.targets), 1.0, x.targets, 10.0, None, "node-major") is None
+    without = WrittenGradientLoss.build(_model(robot), robot, Objective(robot, x.targets, fused=True), 1.0, x.targets, 0.0, None, "node-major")
+    assert without is not None and without.smooth is None  # smooth = 0: frames independent
