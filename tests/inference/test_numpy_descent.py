@@ -106,9 +106,9 @@ def test_it_declines_when_the_objective_has_a_term_without_a_numpy_form(robot):
     assert NumpyLatentLoss.build(_model(robot), robot, fused, 1.0) is None
 
 
-@pytest.mark.parametrize("kind", ["graph", "mlp"])
+@pytest.mark.parametrize("kind, form", [("graph", "node-major"), ("graph", "numpy"), ("mlp", "paper")])
 @pytest.mark.parametrize("anchored", [False, True])
-def test_written_gradient_loss_equals_the_readable_torch_loss(robot, kind, anchored):
+def test_written_gradient_loss_equals_the_readable_torch_loss(robot, kind, form, anchored):
     """A recording's batch, smoothness term on (frame 0 anchored to the frame before or not): the loss, angles,
     terms and gradient of WrittenGradientLoss are the readable path's (the paper's decoder, the term functions,
     autograd through FK and the smoothness term)."""
@@ -122,7 +122,7 @@ def test_written_gradient_loss_equals_the_readable_torch_loss(robot, kind, ancho
     z = 2 * torch.randn(frames, *model.latent_shape, dtype=torch.float64, generator=gen)
     anchor = robot.neutral_q.double() + 0.3 if anchored else None
     written = WrittenGradientLoss.build(model, robot, Objective(robot, x.targets, weights, fused=True, cull=True, analytic_fk=True),
-                                        weights.latent, x.targets, weights.smooth, anchor, "node-major")
+                                        weights.latent, x.targets, weights.smooth, anchor, form)
     loss, q, terms, grad = written(z)
     zr = z.clone().requires_grad_(True)
     ref_q = model.decode(zr)
