@@ -13,6 +13,20 @@ Adam from the decoder's hands (warm start), every frame at once, the limits by c
 each step (projected gradient), the best point of the whole sequence kept (patience as the
 latent optimisation's). Where the arm and wrist are scored (Table I) nothing changes.
 
+Only the hands the clip shows move: a hand without a finger target in any frame has nothing to follow,
+so its joints keep the latent optimisation's values bit for bit, its points stay the start's (the hand
+chains map the seen hands alone) and its hand-term items are left out (they are masked to 0). Before,
+such a hand moved with the others under the collision and smoothness terms alone (Adam's steps are
+about ``lr`` whatever the gradient's size: on ``benchmarks/hands.py``'s recordings up to 0.27 rad, a
+smoothing nothing scores); it still counts there as fixed capsules and a constant share of the
+smoothness term, so the seen hand feels it as before. The seen hand's result is unchanged (at most
+1.2e-6 rad apart on those recordings, float32 sums; the four measures and the retimed duration the same
+to the printed digits), and the stage's time there drops by a fifth (refine_hands' thread time on the
+pipeline's inputs, medians of 5: 2.19 -> 1.75 ms per frame, 2026-11-26 14:40 UTC, load 3.4): two of
+their four clips never show the left hand. A
+seen hand keeps moving in the frames that do not show it: the smoothness term carries it between the
+frames that do, and those frames cost nothing apart (the frames are one batch).
+
 The start is a local optimum's basin: on ``benchmarks/hands.py``'s recordings the decoder leaves the ring
 and little fingers curled at their upper limit in most hand-frames, where their wrist->fingertip
 direction would be best half open, and between the two the error rises first (measured 2026-11-26 on a
@@ -56,6 +70,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -78,10 +93,10 @@ if TYPE_CHECKING:  # annotations only: no import at run time
 __all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "step_caps", "HandStageResult", "HandChains"]
 
 
-def hand_joint_mask(robot: Robot) -> torch.Tensor:
-    """``(n,)`` bool: the actuated joints that move a link below a wrist link (the fingers)."""
+def hand_joint_mask(robot: Robot, sides: Sequence[str] = SIDES) -> torch.Tensor:
+    """``(n,)`` bool: the actuated joints that move a link below a wrist link (the fingers) of ``sides``."""
     mask = torch.zeros(robot.n_joints, dtype=torch.bool)
-    for side in ("left", "right"):
+    for side in sides:
         wrist = robot.arm(side).wrist
         for link in robot.model.subtree(wrist):
             joint = robot.model.parent_joint(link)
@@ -106,7 +121,9 @@ class HandChains:
 
     Args:
         robot: the robot; plan: the objective's :class:`~nlo_lab.objective.PointPlan`;
-        index: ``(h,)`` the hand joints' indices in ``q`` (:func:`hand_joint_mask`).
+        index: ``(h,)`` the hand joints' indices in ``q`` (:func:`hand_joint_mask` of ``sides``).
+        sides: the hands whose points are mapped (the hand stage's: those with finger targets); the
+            other hand's points stay ``q0``'s, as the arms'.
 
     Raises:
         RobotDescriptionError: a joint below a wrist is driven from above it (a mimic of an arm joint):
@@ -115,9 +132,9 @@ class HandChains:
 
     ROOT = "__wrists__"  # the hand tree's root: each wrist hangs from it at the identity
 
-    def __init__(self, robot: Robot, plan, index: torch.Tensor):
+    def __init__(self, robot: Robot, plan, index: torch.Tensor, sides: Sequence[str] = SIDES):
         model = robot.model
-        wrists = [robot.arm(side).wrist for side in SIDES]
+        wrists = [robot.arm(side).wrist for side in sides]
         below = {w: set(model.subtree(w)) - {w} for w in wrists}
         hand_links = set().union(*below.values())
         joints = [JointInfo(f"{self.ROOT}{w}", "fixed", self.ROOT, w, np.eye(4), np.array([1.0, 0.0, 0.0]), 0.0, 0.0) for w in wrists]
@@ -136,10 +153,10 @@ class HandChains:
         self.wrists = wrists
 
     @classmethod
-    def build(cls, robot: Robot, plan, index: torch.Tensor) -> HandChains | None:
+    def build(cls, robot: Robot, plan, index: torch.Tensor, sides: Sequence[str] = SIDES) -> HandChains | None:
         """The hand chains, or None where a joint below a wrist does not move with the hand joints alone."""
         try:
-            return cls(robot, plan, index)
+            return cls(robot, plan, index, sides)
         except RobotDescriptionError:
             return None
 
@@ -180,8 +197,10 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
                  anchor: torch.Tensor | None = None, fast: bool | FastPaths = False) -> HandStageResult:
     """Optimise the hand joints of ``q (T, n)`` on the objective of ``targets``, the other joints kept.
 
+    Only the hands with a finger target in some frame of ``targets`` move; a hand never seen keeps ``q``'s joints.
+
     Args:
-        robot: the robot; without hand joints ``q`` comes back unchanged (0 steps).
+        robot: the robot; without hand joints (or no hand seen) ``q`` comes back unchanged (0 steps).
         q: ``(T, n)`` start angles [rad] (the latent optimisation's).
         targets: :class:`~nlo_lab.objective.Targets` of the T frames.
         weights: the objective's weights (:class:`~nlo_lab.objective.LossWeights`), as the latent optimisation's.
@@ -196,7 +215,9 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     dtype = robot.lower_limits.dtype
     targets = targets.to(dtype=dtype)
     q0 = q.detach().to(dtype)
-    hand = hand_joint_mask(robot).to(q0.device)
+    # only the hands with a finger target in some frame: an unseen hand keeps the start's joints (nothing to follow)
+    seen = [side for k, side in enumerate(SIDES) if bool(targets.finger_mask[:, k].any())]
+    hand = hand_joint_mask(robot, seen).to(q0.device)
     index = hand.nonzero().flatten()
     paths = fast_paths(fast, len(targets), targets.shoulder.device)
     loss_fn = Objective(robot, targets, weights, collision_form, **paths.objective_options())
@@ -206,7 +227,7 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     def angles(x: torch.Tensor) -> torch.Tensor:
         return q0.index_copy(1, index, x)  # the hand joints from x, the others as given
 
-    chains = HandChains.build(robot, loss_fn.plan, index) if paths.hand_chains and index.numel() else None
+    chains = HandChains.build(robot, loss_fn.plan, index, seen) if paths.hand_chains and index.numel() else None
     fixed_points = None  # q0's points, mapped once (the hand chains' arms; the start's collision verdicts)
     if chains is not None:  # the arms' points and the wrists' poses, fixed for the whole stage
         with torch.no_grad():

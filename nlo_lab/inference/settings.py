@@ -103,7 +103,8 @@ class OptimizeSettings:
             Adam otherwise (a frame alone, the paper's objective); see :meth:`step_rule`.
         hand_iterations: Adam steps of the hand stage after the latent optimisation of a recording
             (:func:`~nlo_lab.inference.hand_stage.refine_hands`: the hand joints alone on the same
-            objective; 0 = none; robots without hand joints skip it).
+            objective, of the hands the recording shows: a hand never seen keeps the latent optimisation's
+            joints; 0 = none; robots without hand joints skip it).
         hand_lr: its step [rad].
     """
 

@@ -239,7 +239,19 @@ class HandTerms:
             [i[0] for i in items], [i[1] for i in items], np.arange(*plan.rows["wrist_axes"].indices(K_points)), side,
             plan.hand_length.cpu().numpy()[side], [k for *_, k in items], v_hat.cpu().numpy(), mask.cpu().numpy(), goal.cpu().numpy(),
             (active * pair_mask).cpu().numpy().astype(plan.hand_length.cpu().numpy().dtype), below.cpu().numpy(),
-        )
+        ).observed()
+
+    def observed(self) -> HandTerms:
+        """These terms without the items unobserved in every frame (a hand never seen in a clip: its
+        fingers and thumb pairs), or themselves when all count somewhere. Those items add exactly 0 to
+        every term and gradient (masked; the pinch's activation and the thumb gap carry the mask too)."""
+        keep = self.mask[..., 0].any(0)  # (M,)
+        if keep.all():
+            return self
+        pair = keep[self.pairs]  # the thumb vectors stay the last items
+        return HandTerms(self.plus[keep], self.minus[keep], self.axes, self.side[keep], self.length[keep, 0],
+                         self.kind[keep].argmax(1), self.v_hat[:, keep], self.mask[:, keep, 0], self.pinch_goal[:, pair],
+                         self.pinch_weight[:, pair], self.gap_below[:, pair])
 
     columns = [0, 1, 3, 4]  # the output columns of the kinds tip, thumb, tip_dir, finger_dir (HAND_TERMS order; 2: pinch)
 

@@ -283,3 +283,29 @@ def test_the_start_s_collisions_are_measured_only_when_the_stage_s_hands_collide
         out = refine_hands(yumi, q, t, iterations=5, fast=fast)
         assert not bool(penetrating(yumi, out.q).any())
         assert calls == [False]
+
+
+def test_a_hand_never_seen_keeps_the_start_joints_and_the_seen_hand_is_refined_alike_fast_and_readable(yumi, demonstration_from_robot,
+                                                                                                       random_feasible_pose):
+    """A clip that shows only the right hand: the left hand's joints come back bit for bit the start's (nothing
+    to follow: only the latent stage moves it), the right hand's are refined, and the fast stage (the hand chains
+    of the right hand alone, the numpy terms without the left hand's items) gives the readable stage's result."""
+    y64 = yumi.to(dtype=torch.float64)
+    q = random_feasible_pose(yumi, 5, seed=32).to(torch.float64)
+    t = targets_from_demonstration(demonstration_from_robot(y64, q), dtype=torch.float64)
+    mask = t.finger_mask.clone()
+    mask[:, 0] = False  # the left hand unseen in every frame
+    t = dataclasses.replace(t, finger_mask=mask)
+    left, right = hand_joint_mask(y64, ["left"]), hand_joint_mask(y64, ["right"])
+    assert left.sum() == right.sum() == 6 and not bool((left & right).any())
+    start = q.clone()
+    start[:, left | right] = 0.4
+    a = refine_hands(y64, start, t, iterations=8, fast=True)
+    b = refine_hands(y64, start, t, iterations=8, fast=False)
+    for out in (a, b):
+        assert out.steps > 0 and torch.equal(out.q[:, ~right], start[:, ~right])  # the left hand and the arms: the start's
+        assert float((out.q[:, right] - start[:, right]).abs().max()) > 0.05
+    torch.testing.assert_close(a.q, b.q, rtol=1e-7, atol=1e-9)
+    torch.testing.assert_close(a.loss, b.loss, rtol=1e-7, atol=1e-9)
+    none = dataclasses.replace(t, finger_mask=torch.zeros_like(mask))
+    assert torch.equal(refine_hands(y64, start, none, iterations=8, fast=True).q, start)  # no hand seen: nothing moves

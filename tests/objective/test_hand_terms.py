@@ -337,3 +337,32 @@ def test_thumb_gap_follows_the_human_both_ways_but_not_below_what_the_hand_can_d
     assert cost(0.7, 0.5) == pytest.approx(0.04, rel=1e-5) and cost(0.3, 0.5) == pytest.approx(0.04, rel=1e-5)  # both ways (UNIT_EPS)
     assert cost(0.05, 0.05) == 0.0 and cost(0.15, 0.1) == 0.0  # below d_min: nothing pushes apart
     assert cost(0.5, 0.1) == pytest.approx(0.09, rel=1e-5)  # drawn down to d_min = 0.2, not to 0.1
+
+
+def test_the_numpy_hand_terms_leave_out_a_hand_never_seen_and_give_the_same_values_and_gradients(yumi, exact_targets, random_feasible_pose):
+    """A clip that never shows the left hand (HandTerms.observed): its items are left out of the numpy form,
+    whose values and gradients stay those of the term functions."""
+    q = random_feasible_pose(yumi, 4, seed=31)
+    t = exact_targets(yumi, q)
+    mask = t.finger_mask.clone()
+    mask[:, 0] = False  # the left hand never seen
+    mask[1, 1, 2] = False  # and one right finger unseen in one frame: it stays (seen in the others)
+    t = dataclasses.replace(t, finger_mask=mask)
+    start = (q + 0.1).clamp(yumi.lower_limits, yumi.upper_limits)
+    weights = LossWeights(tip=3.0, thumb=5.0, pinch=7.0, tip_dir=11.0, finger_dir=13.0, thumb_gap=17.0)
+    out = []
+    for fused in (True, False):
+        x = start.clone().requires_grad_(True)
+        loss = Objective(yumi, t, weights, fused=fused)
+        total, terms = loss(x)
+        total.sum().backward()
+        out.append((total.detach(), terms.detach(), x.grad))
+        if fused:
+            hand, plan = loss.numpy_terms.hand, loss.plan
+            K = len(plan.finger_side)
+            right = int((plan.finger_side == 1).sum()), int((plan.pair_side == 1).sum())
+            assert 0 < right[0] < K and hand.items == 3 * right[0] + right[1]  # the right hand's items alone
+            assert bool((hand.side == 1).all())
+    for a, b in zip(*out, strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-9, atol=1e-9)
+    assert float(out[0][1][:, TERMS.index("tip")].min()) > 0
