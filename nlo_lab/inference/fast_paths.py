@@ -58,7 +58,8 @@ class FastPaths:
         hand_chains: the hand stage maps only the points its hand joints move, by FK from the wrists
             down (:class:`~nlo_lab.inference.hand_stage.HandChains`; the arms are fixed there).
         written_gradient: latent optimisation chains the gradient by hand where ``numpy_iteration`` does not
-            apply (:class:`~nlo_lab.inference.numpy_descent.WrittenGradientLoss`; needs ``fused_objective``).
+            apply (:class:`~nlo_lab.inference.numpy_descent.WrittenGradientLoss`; needs ``fused_objective``),
+            and so does the hand stage (:class:`~nlo_lab.inference.hand_stage.HandStageLoss`; with ``hand_chains``).
     """
 
     decoder: str = "paper"

@@ -25,7 +25,11 @@ to the printed digits), and the stage's time there drops by a fifth (refine_hand
 pipeline's inputs, medians of 5: 2.19 -> 1.75 ms per frame, 2026-11-26 14:40 UTC, load 3.4): two of
 their four clips never show the left hand. A
 seen hand keeps moving in the frames that do not show it: the smoothness term carries it between the
-frames that do, and those frames cost nothing apart (the frames are one batch).
+frames that do (and leaving those frames out would save nothing: every frame is one batch).
+
+The fast form (``FastPaths.hand_chains`` and ``written_gradient``, the pipeline's on the CPU) evaluates each
+step's loss and gradient without an autograd graph (:class:`HandStageLoss`: FK of the hand chains, the numpy
+terms and the smoothness term chained by hand; tested equal to autograd through the readable objective).
 
 The start is a local optimum's basin: on ``benchmarks/hands.py``'s recordings the decoder leaves the ring
 and little fingers curled at their upper limit in most hand-frames, where their wrist->fingertip
@@ -70,9 +74,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -82,15 +86,16 @@ from nlo_lab.human.demonstration import SIDES
 from nlo_lab.inference.descent import descend, smoothness_term
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
 from nlo_lab.objective import CULL_SLACK, LossWeights, Objective, Targets, point_plan
-from nlo_lab.objective.numpy_backend import maybe_near
+from nlo_lab.objective.numpy_backend import PointTerms, SmoothTerm, maybe_near
 from nlo_lab.robot.collision import segment_closest_points
 from nlo_lab.robot.kinematics import KinematicTree
+from nlo_lab.robot.point_gradient import MapPoints
 from nlo_lab.robot.urdf import JointInfo
 
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
 
-__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "step_caps", "HandStageResult", "HandChains"]
+__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "step_caps", "HandStageResult", "HandChains", "HandStageLoss"]
 
 
 def hand_joint_mask(robot: Robot, sides: Sequence[str] = SIDES) -> torch.Tensor:
@@ -170,6 +175,56 @@ class HandChains:
         return points.index_copy(1, self.rows, world)
 
 
+class HandStageLoss:
+    """The hand stage's loss ``(T,)`` and its gradient in the hand joints ``x (T, h)``, chained by hand: the fast
+    form of :func:`refine_hands`' evaluation (``FastPaths.written_gradient``), the same numbers without an
+    autograd graph per step (the tests hold the two equal, values and gradients).
+
+    Forward: the hand chains' points in the wrist frames (:meth:`MapPoints.points
+    <nlo_lab.robot.point_gradient.MapPoints.points>`), ``p = R_wrist p_local + t_wrist`` into the start's
+    points, the held numpy terms (:meth:`~nlo_lab.objective.numpy_backend.PointTerms.held`) weighted, and the
+    smoothness term of the whole angles (:class:`~nlo_lab.objective.numpy_backend.SmoothTerm`). Backward: the
+    terms' gradient onto the points, ``g_local = R_wristᵀ g_p`` on the hands' rows, FK's closed form
+    (:meth:`MapPoints.gradient <nlo_lab.robot.point_gradient.MapPoints.gradient>`), plus the smoothness
+    term's gradient in the hand joints' columns.
+
+    Args:
+        chains: the :class:`HandChains`; terms: the held numpy terms; weights: ``(len(TERMS),)`` the objective's;
+        points: ``(T, K, 3)`` the start's points; wrists: ``(T, 2, 3, 4)`` the wrists' poses at the start;
+        start: ``(T, n)`` the start's angles; index: ``(h,)`` the hand joints; smooth: the smoothness term or None.
+    """
+
+    def __init__(self, chains: HandChains, terms: PointTerms, weights: torch.Tensor, points: torch.Tensor, wrists: torch.Tensor,
+                 start: torch.Tensor, index: torch.Tensor, smooth: SmoothTerm | None):
+        self.chains, self.terms, self.smooth, self.start, self.index = chains, terms, smooth, start, index
+        self.weights = weights.detach().cpu().numpy()
+        self.points = points.detach().cpu().numpy()
+        self.pose = wrists[:, chains.side]  # (T, k_h, 3, 4) each row's wrist
+        self.rows, self.columns = chains.rows.cpu().numpy(), index.cpu().numpy()
+        self.g_terms = np.tile(self.weights, (len(start), 1))  # the backward of sum(loss): each term's gradient is its weight
+
+    def __call__(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """``loss (T,)``, the angles ``(T, n)``, the unweighted terms ``(T, len(TERMS))`` and ``dL/dx (T, h)``."""
+        c, x = self.chains, x.detach()
+        poses, local = MapPoints.points(x, c.tree, c.body, c.vectors)  # (T, k_h, 3) in the wrist frames
+        R = self.pose[..., :3]
+        world = (R @ local[..., None])[..., 0] + self.pose[..., 3]  # as HandChains.__call__
+        P = self.points.copy()
+        P[:, self.rows] = world.numpy()
+        terms, state = self.terms.forward(P)
+        loss = terms @ self.weights
+        full = self.start.index_copy(1, self.index, x)
+        if self.smooth is not None:
+            smooth, smooth_state = self.smooth.forward(full.numpy())
+            loss = loss + smooth
+        g_points = self.terms.backward(self.g_terms.astype(terms.dtype, copy=False), state)
+        g_local = (R.mT @ torch.from_numpy(g_points[:, self.rows])[..., None])[..., 0]
+        g_x = MapPoints.gradient(g_local, poses, local, c.tree, c.body, c.vectors)
+        if self.smooth is not None:
+            g_x = g_x + torch.from_numpy(self.smooth.backward(np.ones(len(x), dtype=terms.dtype), smooth_state)[:, self.columns])
+        return torch.from_numpy(np.ascontiguousarray(loss)), full, torch.from_numpy(terms), g_x
+
+
 @dataclass
 class HandStageResult:
     """What :func:`refine_hands` found.
@@ -228,16 +283,23 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
         return q0.index_copy(1, index, x)  # the hand joints from x, the others as given
 
     chains = HandChains.build(robot, loss_fn.plan, index, seen) if paths.hand_chains and index.numel() else None
-    fixed_points = None  # q0's points, mapped once (the hand chains' arms; the start's collision verdicts)
+    fixed_points = held = None  # q0's points, mapped once (the hand chains' arms; the start's collision verdicts)
     if chains is not None:  # the arms' points and the wrists' poses, fixed for the whole stage
         with torch.no_grad():
             fixed_points = loss_fn.plan.map(q0)
             wrist_poses = robot.forward_kinematics_links(q0, chains.wrists)[..., :3, :]
-        held = None  # with the numpy terms: the capsule pairs of the arms alone measured once
-        if loss_fn.numpy_terms is not None:
+        if loss_fn.numpy_terms is not None:  # with the numpy terms: the capsule pairs of the arms alone measured once
             moving = np.zeros(fixed_points.shape[1], dtype=bool)
             moving[chains.rows.cpu().numpy()] = True
             held = loss_fn.numpy_terms.held(moving, fixed_points.cpu().numpy())
+
+    written = None  # the descent's loss and gradient chained by hand (FastPaths.written_gradient), where it applies
+    if (chains is not None and held is not None and fixed_points is not None and paths.written_gradient
+            and len(loss_fn.weights) == held.n_terms):
+        numpy_smooth = None  # the smoothness term where it applies (smoothness_term's rule), in numpy
+        if smooth is not None and targets.fps is not None:
+            numpy_smooth = SmoothTerm(float(targets.fps), robot.velocity_limits, weights.smooth, anchor, dtype)
+        written = HandStageLoss(chains, held, loss_fn.weights, fixed_points, wrist_poses, q0, index, numpy_smooth)
 
     def evaluate(x):
         full = angles(x)
@@ -255,8 +317,8 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     if index.numel() == 0 or len(targets) == 0:
         iterations = 0
     x0 = q0[:, index].clamp(lo, hi)
-    _, best_q, loss, terms, history, steps = descend(x0, evaluate, project, iterations, patience, lr, None,
-                                                      per_sample=smooth is None)
+    step: Callable[[torch.Tensor], Any] = evaluate if written is None else written
+    _, best_q, loss, terms, history, steps = descend(x0, step, project, iterations, patience, lr, None, per_sample=smooth is None)
     best_q = best_q.detach()
     with torch.no_grad():
         if targets.fps is not None and len(targets) > 1:  # never slower than the start

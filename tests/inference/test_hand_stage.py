@@ -309,3 +309,63 @@ def test_a_hand_never_seen_keeps_the_start_joints_and_the_seen_hand_is_refined_a
     torch.testing.assert_close(a.loss, b.loss, rtol=1e-7, atol=1e-9)
     none = dataclasses.replace(t, finger_mask=torch.zeros_like(mask))
     assert torch.equal(refine_hands(y64, start, none, iterations=8, fast=True).q, start)  # no hand seen: nothing moves
+
+
+@pytest.mark.parametrize("anchored", [False, True])
+def test_hand_stage_loss_written_out_equals_the_readable_loss_and_gradient(yumi, demonstration_from_robot, random_angles, anchored):
+    """HandStageLoss (FastPaths.written_gradient: FK of the hand chains, the held numpy terms and the smoothness
+    term chained by hand) against autograd through the readable objective and smoothness term (float64)."""
+    import numpy as np
+
+    from nlo_lab.inference.hand_stage import HandChains, HandStageLoss
+    from nlo_lab.objective.numpy_backend import SmoothTerm
+
+    y64 = yumi.to(dtype=torch.float64)
+    q0 = random_angles(y64, 7, seed=33).to(torch.float64)  # arms anywhere: some pairs within their margins
+    t = targets_from_demonstration(demonstration_from_robot(y64, random_angles(y64, 7, seed=34)), dtype=torch.float64)
+    weights = LossWeights()
+    anchor = random_angles(y64, 1, seed=35)[0].to(torch.float64) if anchored else None
+    index = hand_joint_mask(y64).nonzero().flatten()
+    fused = Objective(y64, t, weights, fused=True)
+    chains = HandChains.build(y64, fused.plan, index)
+    moving = np.zeros(fused.plan.vectors.shape[0], dtype=bool)
+    moving[chains.rows.numpy()] = True
+    with torch.no_grad():
+        fixed = fused.plan.map(q0)
+        wrists = y64.forward_kinematics_links(q0, chains.wrists)[..., :3, :]
+    smooth = SmoothTerm(float(t.fps), y64.velocity_limits, weights.smooth, anchor, torch.float64)
+    written = HandStageLoss(chains, fused.numpy_terms.held(moving, fixed.numpy()), fused.weights, fixed, wrists, q0, index, smooth)
+    readable, smooth_torch = Objective(y64, t, weights), smoothness_term(y64, t, weights, anchor)
+    g = torch.Generator().manual_seed(36)
+    lo, hi = y64.lower_limits[index], y64.upper_limits[index]
+    for _ in range(2):
+        x = (lo + (hi - lo) * torch.rand(7, len(index), generator=g, dtype=torch.float64)).requires_grad_(True)
+        full = q0.index_copy(1, index, x)
+        total, terms = readable(full)
+        total = total + smooth_torch(full)
+        (grad,) = torch.autograd.grad(total.sum(), x)
+        loss, q, terms_w, grad_w = written(x.detach())
+        torch.testing.assert_close(loss, total.detach(), rtol=1e-10, atol=1e-10)
+        torch.testing.assert_close(terms_w, terms.detach(), rtol=1e-10, atol=1e-10)
+        torch.testing.assert_close(q, full.detach(), rtol=0, atol=0)
+        torch.testing.assert_close(grad_w, grad, rtol=1e-9, atol=1e-9)
+        assert float(grad.abs().min()) > 0 and float(terms.detach()[:, 4].max()) > 0  # every hand joint pulled; the collision term acts
+
+
+def test_the_fast_hand_stage_takes_the_written_gradient(yumi, demonstration_from_robot, random_feasible_pose, monkeypatch):
+    """refine_hands(fast=True) descends on HandStageLoss, and its result is the readable stage's (float64)."""
+    import nlo_lab.inference.hand_stage as hand_stage
+
+    calls = []
+    original = hand_stage.HandStageLoss.__call__
+    monkeypatch.setattr(hand_stage.HandStageLoss, "__call__", lambda self, x: calls.append(1) or original(self, x))
+    q = random_feasible_pose(yumi, 6, seed=37).to(torch.float64)
+    y64 = yumi.to(dtype=torch.float64)
+    t = targets_from_demonstration(demonstration_from_robot(y64, q), dtype=torch.float64)
+    start = q.clone()
+    start[:, hand_joint_mask(y64)] = 0.4
+    a = refine_hands(y64, start, t, iterations=10, fast=True)
+    assert len(calls) == a.steps + 1 > 1  # every evaluation of the descent
+    b = refine_hands(y64, start, t, iterations=10, fast=False)
+    torch.testing.assert_close(a.q, b.q, rtol=1e-7, atol=1e-9)
+    torch.testing.assert_close(a.loss, b.loss, rtol=1e-7, atol=1e-9)
