@@ -199,7 +199,11 @@ class HandStageLoss:
         self.chains, self.terms, self.smooth, self.start, self.index = chains, terms, smooth, start, index
         self.weights = weights.detach().cpu().numpy()
         self.points = points.detach().cpu().numpy()
-        self.pose = wrists[:, chains.side]  # (T, k_h, 3, 4) each row's wrist
+        pose = wrists[:, chains.side].detach().cpu().numpy()  # (T, k_h, 3, 4) each row's wrist [R | t]
+        # R's columns and rows, contiguous: R p and Rᵀ g written out over the 3 (torch's stacked 3x3 products cost 3x)
+        self.R_columns = [np.ascontiguousarray(pose[..., :, j]) for j in range(3)]
+        self.R_rows = [np.ascontiguousarray(pose[..., i, :3]) for i in range(3)]
+        self.t = np.ascontiguousarray(pose[..., 3])
         self.rows, self.columns = chains.rows.cpu().numpy(), index.cpu().numpy()
         self.g_terms = np.tile(self.weights, (len(start), 1))  # the backward of sum(loss): each term's gradient is its weight
 
@@ -207,10 +211,9 @@ class HandStageLoss:
         """``loss (T,)``, the angles ``(T, n)``, the unweighted terms ``(T, len(TERMS))`` and ``dL/dx (T, h)``."""
         c, x = self.chains, x.detach()
         poses, local = MapPoints.points(x, c.tree, c.body, c.vectors)  # (T, k_h, 3) in the wrist frames
-        R = self.pose[..., :3]
-        world = (R @ local[..., None])[..., 0] + self.pose[..., 3]  # as HandChains.__call__
+        p, (c0, c1, c2) = local.numpy(), self.R_columns
         P = self.points.copy()
-        P[:, self.rows] = world.numpy()
+        P[:, self.rows] = c0 * p[..., 0:1] + c1 * p[..., 1:2] + c2 * p[..., 2:3] + self.t  # R p + t, as HandChains.__call__
         terms, state = self.terms.forward(P)
         loss = terms @ self.weights
         full = self.start.index_copy(1, self.index, x)
@@ -218,7 +221,8 @@ class HandStageLoss:
             smooth, smooth_state = self.smooth.forward(full.numpy())
             loss = loss + smooth
         g_points = self.terms.backward(self.g_terms.astype(terms.dtype, copy=False), state)
-        g_local = (R.mT @ torch.from_numpy(g_points[:, self.rows])[..., None])[..., 0]
+        g, (r0, r1, r2) = g_points[:, self.rows], self.R_rows
+        g_local = torch.from_numpy(r0 * g[..., 0:1] + r1 * g[..., 1:2] + r2 * g[..., 2:3])  # Rᵀ g
         g_x = MapPoints.gradient(g_local, poses, local, c.tree, c.body, c.vectors)
         if self.smooth is not None:
             g_x = g_x + torch.from_numpy(self.smooth.backward(np.ones(len(x), dtype=terms.dtype), smooth_state)[:, self.columns])

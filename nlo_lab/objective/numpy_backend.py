@@ -259,7 +259,8 @@ class HandTerms:
         """Writes the terms ``(B, 6)`` (``HAND_TERMS`` order) into ``out``; returns what the backward needs."""
         d = P[:, self.plus] - P[:, self.minus]  # (B, M, 3)
         A = P[:, self.axes].reshape(P.shape[0], 2, 3, 3)[:, self.side]  # (B, M, 3, 3): rows = the wrist axes a_i
-        v = np.einsum("bmij,bmj->bmi", A, d) / self.length  # (B, M, 3); einsum: 2x np.matmul's stacked 3x3s
+        # (B, M, 3): v_i = Σ_j a_ij d_j, written out over j (einsum 56 against ~25 us at 170 frames, 19 items)
+        v = (A[..., 0] * d[..., 0:1] + A[..., 1] * d[..., 1:2] + A[..., 2] * d[..., 2:3]) / self.length
         n = np.where(self.direction, np.sqrt(_dot3(v, v)[..., None] + UNIT_EPS), 1.0)  # (B, M, 1)
         w = v / n
         r = np.where(self.mask, w - self.v_hat, 0.0)
@@ -312,7 +313,7 @@ class HandTerms:
         g_w = 2.0 * r * (g[:, self.columns] @ kind.T)[..., None]  # (B, M, 3)
         g_w = np.where(direction, (g_w - w * _dot3(w, g_w)[..., None]) / n, g_w)
         g_v = g_w / length  # with the 1/l of v
-        g_d = np.einsum("bmi,bmij->bmj", g_v, A)  # Σ_i g_v,i a_i
+        g_d = g_v[..., 0:1] * A[:, :, 0] + g_v[..., 1:2] * A[:, :, 1] + g_v[..., 2:3] * A[:, :, 2]  # Σ_i g_v,i a_i (einsum: 2x slower)
         g_A = g_v[..., None] * d[:, :, None, :]  # (B, M, 3, 3): onto axis i, coordinates c
         g_axes = np.matmul(side_sum, g_A.reshape(B, M, 9)).reshape(B, 6, 3)
         if pairs is not None:
