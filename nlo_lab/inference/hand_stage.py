@@ -30,6 +30,10 @@ frames that do (and leaving those frames out would save nothing: every frame is 
 The fast form (``FastPaths.hand_chains`` and ``written_gradient``, the pipeline's on the CPU) evaluates each
 step's loss and gradient without an autograd graph (:class:`HandStageLoss`: FK of the hand chains, the numpy
 terms and the smoothness term chained by hand; tested equal to autograd through the readable objective).
+With the hands the clip shows alone, ``benchmarks/hands.py --no-write`` (2026-11-26 14:51-14:52 UTC, load
+0.6-1.5, two alternating runs each) measured the stage at 1.65 / 1.99 ms per frame before both changes
+(40b3537) and 1.05 / 1.06 ms after them (2723715); the whole retarget 4.21 / 4.95 -> 3.52 / 3.61 ms per frame,
+every handshape measure the same.
 
 The start is a local optimum's basin: on ``benchmarks/hands.py``'s recordings the decoder leaves the ring
 and little fingers curled at their upper limit in most hand-frames, where their wrist->fingertip
