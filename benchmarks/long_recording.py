@@ -117,7 +117,7 @@ def main(argv=None) -> int:
         text = "\n".join([
             f"## Long recordings on {args.robot}", "", results_doc.stamp(),
             f"- `nlo-lab retarget FILE --robot {args.robot} --out DIR --json` in a fresh process per length"
-            f" (iterations: {args.iters or 'default, 100'}); the recording: test-split clips concatenated"
+            f" (iterations: {args.iters or 'the defaults, ' + results_doc.default_budget()}); the recording: test-split clips concatenated"
             " (two arms, two hands, 20 fps). Wall time depends on what else the machine runs; CPU time"
             " (user + system) is what one free core would take.",
             f"- {verdict}", f"- {load}", "", *table, ""])

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from results_doc import stamp, update_section  # noqa: E402
+from results_doc import default_budget, stamp, update_section  # noqa: E402
 
 from nlo_lab.corpus import sign_corpus  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
@@ -148,16 +148,6 @@ def targets_table(results: dict[str, list[dict]], timing: tuple[float, float, fl
     return "\n".join(lines), ok_all
 
 
-def _budget() -> str:
-    """The default latent budget and step rule of a recording, as the pipeline runs it (nlo_lab.inference.settings)."""
-    from nlo_lab.inference import OptimizeSettings
-
-    settings = OptimizeSettings()
-    rule, _, patience = settings.step_rule(coupled=True)
-    stop = f", patience {patience}" if rule == "adam" else ", no early stop"
-    return f"{settings.iterations} {dict(rprop='Rprop', adam='Adam')[rule]} steps on the latent code{stop}, then the hand stage's {settings.hand_iterations} Adam steps"
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--robots", default="yumi,nao,pepper")
@@ -180,7 +170,7 @@ def main(argv=None) -> int:
     body = "\n\n".join([
         "## Robot-ready motion (issue 14)",
         stamp().strip(),
-        f"- smoothness weight {weights.smooth:g}; shipped checkpoints; the pipeline's default optimisation ({_budget()}); "
+        f"- smoothness weight {weights.smooth:g}; shipped checkpoints; the pipeline's default optimisation ({default_budget()}); "
         "retiming to the published joint velocity limits (`nlo_lab.inference.retime`)",
         "Per input: Fréchet distance of the samples (retiming moves samples in time, not in space); "
         "'speed / limit at recorded rate' = largest joint speed over its limit had the frames played 1/fps apart; "

@@ -180,7 +180,7 @@ def main(argv=None) -> int:
     only_local = all(local_only(addresses) for addresses in seen.values())
     lines = [
         "### A long recording",
-        f"- `nlo-lab retarget FILE --robot {args.robot} --out DIR --json` (the defaults: 100 iterations) on {args.frames} frames "
+        f"- `nlo-lab retarget FILE --robot {args.robot} --out DIR --json` (the defaults: {results_doc.default_budget()}) on {args.frames} frames "
         f"(test-split clips concatenated, two arms and hands, 20 fps: {args.frames / 20 / 60:.1f} min), a fresh process",
         f"- wall {long['seconds']:.1f} s, CPU {long['cpu_s']:.1f} s (user + system), peak resident memory "
         f"{long['peak_mb']:.0f} MB ({long['peak_mb'] / 1024:.2f} GiB); viewer.html {long['viewer_mb']:.1f} MB; "

@@ -37,6 +37,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import results_doc  # noqa: E402
+from signals import default_signals  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 ARGV = ["retarget", "demo:introduction_06", "--robot", "nao"]
@@ -70,7 +71,8 @@ def caught(pid: int) -> int:
 def once(cmd: list[str], env: dict) -> tuple[float, float] | None:
     """Seconds from before the spawn to Python's SIGINT handler and to the first SIGTERM handler."""
     start = time.monotonic()
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            preexec_fn=default_signals)  # an ignored SIGINT would never get Python's handler
     sigint = None
     try:
         while proc.poll() is None:

@@ -46,10 +46,19 @@ ARGV = ["retarget", "demo:introduction_06", "--robot", "nao", "--iters", "20", "
 EARLY = (0.0, 0.005, 0.01, 0.015, 0.02, 0.03, 0.04, 0.05, 0.07, 0.1, 0.14, 0.2)  # s: Python's start, then the imports
 
 
+def default_signals() -> None:
+    """In a child, before its program starts: SIGINT, SIGTERM and SIGHUP at their defaults, as a terminal gives them.
+    Started in the background of a shell without job control (``cmd &`` in a script), this benchmark inherits SIGINT
+    ignored, its children too, and a program rightly leaves an ignored signal ignored: the sweep would then measure
+    runs that cannot be interrupted (seen 2026-11-26: every SIGINT run 'finished')."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def run_once(folder: Path, sig: int | None, delay: float) -> dict:
     out = folder / "out"
     proc = subprocess.Popen([sys.executable, "-m", "nlo_lab.cli", *ARGV, "--out", str(out)], cwd=folder,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_signals)
     start = time.perf_counter()
     if sig is not None:
         time.sleep(delay)
