@@ -54,12 +54,18 @@ def test_refine_hands_lowers_the_objective_moving_only_the_hands_inside_their_li
     assert float((after.finger_tip - before.finger_tip).norm(dim=-1).max()) > 0.01
 
 
-def test_fast_and_readable_hand_stage_agree(yumi, demonstration_from_robot, random_feasible_pose):
-    q = random_feasible_pose(yumi, 3, seed=22).to(torch.float64)
+def _opened_hands(yumi, demonstration_from_robot, random_feasible_pose, frames: int, seed: int):
+    """float64 YuMi, a start with every hand joint at 0.4 rad, and the targets of a feasible pose's demonstration."""
+    q = random_feasible_pose(yumi, frames, seed=seed).to(torch.float64)
     y64 = yumi.to(dtype=torch.float64)
     t = targets_from_demonstration(demonstration_from_robot(y64, q), dtype=torch.float64)
     start = q.clone()
     start[:, hand_joint_mask(y64)] = 0.4
+    return y64, start, t
+
+
+def test_fast_and_readable_hand_stage_agree(yumi, demonstration_from_robot, random_feasible_pose):
+    y64, start, t = _opened_hands(yumi, demonstration_from_robot, random_feasible_pose, 3, 22)
     a = refine_hands(y64, start, t, iterations=5, fast=True)
     b = refine_hands(y64, start, t, iterations=5, fast=False)
     torch.testing.assert_close(a.q, b.q, rtol=1e-7, atol=1e-9)
@@ -359,11 +365,7 @@ def test_the_fast_hand_stage_takes_the_written_gradient(yumi, demonstration_from
     calls = []
     original = hand_stage.HandStageLoss.__call__
     monkeypatch.setattr(hand_stage.HandStageLoss, "__call__", lambda self, x: calls.append(1) or original(self, x))
-    q = random_feasible_pose(yumi, 6, seed=37).to(torch.float64)
-    y64 = yumi.to(dtype=torch.float64)
-    t = targets_from_demonstration(demonstration_from_robot(y64, q), dtype=torch.float64)
-    start = q.clone()
-    start[:, hand_joint_mask(y64)] = 0.4
+    y64, start, t = _opened_hands(yumi, demonstration_from_robot, random_feasible_pose, 6, 37)
     a = refine_hands(y64, start, t, iterations=10, fast=True)
     assert len(calls) == a.steps + 1 > 1  # every evaluation of the descent
     b = refine_hands(y64, start, t, iterations=10, fast=False)

@@ -62,8 +62,10 @@ def test_it_declines_where_a_piece_has_no_numpy_form(robot):
     assert isinstance(_model(robot).decoder, GraphDecoder) and isinstance(_model(robot, "mlp").decoder, MLPDecoder)
 
 
-def test_the_descent_on_arrays_is_the_descent_on_tensors():
-    """descend() on a numpy array (gradient from evaluate) takes the steps it takes on a tensor (autograd)."""
+@pytest.mark.parametrize("stepper,lr,patience", [("adam", 0.1, 40), ("adam", 0.05, 41), ("rprop", 0.05, 41)])
+def test_the_descent_on_arrays_is_the_descent_on_tensors(stepper, lr, patience):
+    """descend() on a numpy array (gradient from evaluate) takes the steps it takes on a tensor (autograd), with each
+    step rule."""
     target = torch.tensor([[1.0, -2.0, 0.5], [0.0, 3.0, -1.0]], dtype=torch.float64)
 
     def on_tensor(x):
@@ -76,8 +78,8 @@ def test_the_descent_on_arrays_is_the_descent_on_tensors():
         return loss, x, loss[:, None], 2 * (x - t) + 0.04 * x**3
 
     start = torch.zeros(2, 3, dtype=torch.float64)
-    a = descend(start, on_tensor, None, 40, 40, 0.1, None)
-    b = descend(start.numpy(), on_array, None, 40, 40, 0.1, None)
+    a = descend(start, on_tensor, None, 40, patience, lr, None, stepper=stepper)
+    b = descend(start.numpy(), on_array, None, 40, patience, lr, None, stepper=stepper)
     assert isinstance(b[0], np.ndarray) and a[5] == b[5] == 40
     for x, y in zip(a[:4], b[:4], strict=True):
         torch.testing.assert_close(torch.from_numpy(np.asarray(y)), x, atol=1e-12, rtol=1e-12)

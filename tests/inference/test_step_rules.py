@@ -70,27 +70,6 @@ def test_rprop_travels_where_adam_crawls():
     assert float(adam[0].max()) < 0.2  # 30 steps of about 0.005
 
 
-@pytest.mark.parametrize("stepper", ["adam", "rprop"])
-def test_each_step_rule_on_arrays_is_the_one_on_tensors(stepper):
-    target = torch.tensor([[1.0, -2.0, 0.5], [0.0, 3.0, -1.0]], dtype=torch.float64)
-
-    def on_tensor(x):
-        loss = ((x - target) ** 2).sum(1) + (x**4).sum(1) * 0.01
-        return loss, x, loss[:, None]
-
-    def on_array(x):
-        t = target.numpy()
-        loss = ((x - t) ** 2).sum(1) + (x**4).sum(1) * 0.01
-        return loss, x, loss[:, None], 2 * (x - t) + 0.04 * x**3
-
-    start = torch.zeros(2, 3, dtype=torch.float64)
-    a = descend(start, on_tensor, None, 40, 41, 0.05, None, stepper=stepper)
-    b = descend(start.numpy(), on_array, None, 40, 41, 0.05, None, stepper=stepper)
-    for x, y in zip(a[:4], b[:4], strict=True):
-        torch.testing.assert_close(torch.from_numpy(np.asarray(y)), x, atol=1e-12, rtol=1e-12)
-    np.testing.assert_allclose(a[4], b[4], rtol=1e-12)
-
-
 def test_unknown_step_rule_is_refused():
     with pytest.raises(SettingsError, match="stepper"):
         OptimizeSettings(stepper="sgd")
