@@ -35,6 +35,17 @@ With the hands the clip shows alone, ``benchmarks/hands.py --no-write`` (2026-11
 (40b3537) and 1.05 / 1.06 ms after them (2723715); the whole retarget 4.21 / 4.95 -> 3.52 / 3.61 ms per frame,
 every handshape measure the same.
 
+It evaluates only what moves (:func:`compact_terms`): the residual rows and capsule pairs that reach a point below a
+wrist, over the points they use (YuMi, both hands seen: 82 of 174); the arms' rows (ee, ori, elbow) are a constant
+per frame, added to their terms. The hand chains are built once per plan and hands, and the result's loss and terms
+after the speed clamp come from the same form without a gradient (:meth:`HandStageLoss.value`). On
+``benchmarks/hands.py``'s four recordings, the latent optimisation's outputs kept and the stage alone timed (thread
+time, medians of 5, two alternating runs each, 2026-11-26 17:07 UTC, load 1.5): 1.27 / 0.98 ms per frame before,
+0.97 / 0.94 after, the hands bit for bit the same (every evaluation's loss, terms and gradient equal to the previous
+form's there). What remains is per evaluation, not per frame: one costs about 1.3 ms at 47 frames and 1.9 ms at 170
+(FK of the hand chains 0.3, the terms 0.65, their backward 0.3-0.4), a few hundred numpy and torch calls whatever
+the frames, and the descent takes 60 of them on every clip but the shortest.
+
 The start is a local optimum's basin: on ``benchmarks/hands.py``'s recordings the decoder leaves the ring
 and little fingers curled at their upper limit in most hand-frames, where their wrist->fingertip
 direction would be best half open, and between the two the error rises first (measured 2026-11-26 on a
@@ -78,6 +89,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -90,7 +102,7 @@ from nlo_lab.human.demonstration import SIDES
 from nlo_lab.inference.descent import descend, smoothness_term
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
 from nlo_lab.objective import CULL_SLACK, LossWeights, Objective, Targets, point_plan
-from nlo_lab.objective.numpy_backend import PointTerms, SmoothTerm, maybe_near
+from nlo_lab.objective.numpy_backend import HandTerms, PointTerms, SmoothTerm, maybe_near
 from nlo_lab.robot.collision import segment_closest_points
 from nlo_lab.robot.kinematics import KinematicTree
 from nlo_lab.robot.point_gradient import MapPoints
@@ -99,7 +111,7 @@ from nlo_lab.robot.urdf import JointInfo
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
 
-__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "step_caps", "HandStageResult", "HandChains", "HandStageLoss"]
+__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "step_caps", "HandStageResult", "HandChains", "HandStageLoss", "compact_terms"]
 
 
 def hand_joint_mask(robot: Robot, sides: Sequence[str] = SIDES) -> torch.Tensor:
@@ -115,6 +127,9 @@ def hand_joint_mask(robot: Robot, sides: Sequence[str] = SIDES) -> torch.Tensor:
             if name in robot.joint_names:
                 mask[robot.joint_names.index(name)] = True
     return mask
+
+
+_CHAINS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # plan -> {(hand joints, sides): HandChains | None}
 
 
 class HandChains:
@@ -163,11 +178,18 @@ class HandChains:
 
     @classmethod
     def build(cls, robot: Robot, plan, index: torch.Tensor, sides: Sequence[str] = SIDES) -> HandChains | None:
-        """The hand chains, or None where a joint below a wrist does not move with the hand joints alone."""
-        try:
-            return cls(robot, plan, index, sides)
-        except RobotDescriptionError:
-            return None
+        """The hand chains, or None where a joint below a wrist does not move with the hand joints alone.
+
+        Built once per plan (kept while it lives, as :func:`~nlo_lab.objective.point_plan` keeps the plan), hand
+        joints and sides: the hand tree's constants cost about a millisecond, a tenth of a short clip's stage."""
+        kept = _CHAINS.setdefault(plan, {}) if getattr(plan, "robot", None) is robot else {}  # the plan's own robot
+        key = (tuple(index.tolist()), tuple(sides))
+        if key not in kept:
+            try:
+                kept[key] = cls(robot, plan, index, sides)
+            except RobotDescriptionError:
+                kept[key] = None
+        return kept[key]
 
     def __call__(self, x: torch.Tensor, points: torch.Tensor, wrists: torch.Tensor) -> torch.Tensor:
         """``x (T, h)`` the hand joints -> ``(T, k, 3)``: ``points`` (``q0``'s) with the rows below a wrist mapped for ``x``.
@@ -177,6 +199,58 @@ class HandChains:
         pose = wrists[:, self.side]  # (T, k_h, 3, 4)
         world = (pose[..., :3] @ local[..., None])[..., 0] + pose[..., 3]
         return points.index_copy(1, self.rows, world)
+
+
+def compact_terms(terms: PointTerms, moving: np.ndarray, points: np.ndarray) -> tuple[PointTerms, np.ndarray, np.ndarray, np.ndarray]:
+    """``terms`` on the points the hand stage needs: the moving ones and the fixed ones a term combines with them.
+
+    In the hand stage most of the objective's points do not move (the arms, the body, a hand never seen), and
+    most of its residual rows (ee, ori, elbow) combine only such points. This form keeps the rows and the
+    capsule pairs that reach a moving point, over the points they use: a residual row
+    without a moving point adds a constant per frame to its term and nothing to the gradient of a moving
+    point (as :meth:`PointTerms.held <nlo_lab.objective.numpy_backend.PointTerms.held>` does for the pairs).
+
+    Args:
+        terms: the held numpy terms (``PointTerms.held``, the pairs without a moving end measured once).
+        moving: ``(m,)`` the rows of the plan's points that move (the hand chains' rows, in their order).
+        points: ``(T, K, 3)`` the start's points (the fixed rows' values).
+
+    Returns:
+        ``(compact, keep, at)``, ``constant (T, 4)``: the terms over the points ``points[:, keep]`` (in the plan's
+        order), ``at (m,)`` the moving points' places among them, and the held rows' share of the row terms (ee, ori,
+        elbow, finger) per frame.
+    """
+    moving = np.asarray(moving, dtype=np.int64)
+    K = points.shape[1]
+    is_moving = np.zeros(K, dtype=bool)
+    is_moving[moving] = True
+    live = np.any(terms.rows[:, is_moving] != 0, axis=1)  # (V,) the residual rows that combine a moving point
+    hand = terms.hand
+    pairs = terms.pair_points.reshape(-1, 4)
+    capsules = np.unique(terms.pair_capsules)  # the capsules of the pairs measured each step
+    used = np.zeros(K, dtype=bool)
+    used[np.flatnonzero(np.any(terms.rows[live] != 0, axis=0))] = True
+    for rows in (hand.plus, hand.minus, hand.axes, pairs.reshape(-1), terms.capsule_rows.reshape(-1, 2)[capsules].reshape(-1)):
+        used[rows] = True
+    keep = np.flatnonzero(used | is_moving)  # in the plan's order: the hand terms' sums as the whole terms' (the same rounding)
+    at = np.full(K, -1, dtype=np.int64)
+    at[keep] = np.arange(len(keep))
+    finger_row = np.zeros(len(terms.rows), dtype=bool)
+    finger_row[terms.fingers] = True
+    row_term = terms.term_of_row.argmax(1)
+    kind = hand.kind.argmax(1)
+    compact_hand = HandTerms(at[hand.plus], at[hand.minus], at[hand.axes], hand.side, hand.length[:, 0], kind, hand.v_hat,
+                             hand.mask[..., 0], hand.pinch_goal, hand.pinch_weight, hand.gap_below)
+    capsule_of = np.full(len(terms.capsule_rows) // 2, -1, dtype=np.int64)
+    capsule_of[capsules] = np.arange(len(capsules))
+    out = PointTerms(terms.rows[live][:, keep], finger_row[live], row_term[live], terms.goal[:, live], terms.mask[:, live, 0],
+                     at[pairs].reshape(-1), terms.radii, terms.margins, terms.form, compact_hand,
+                     at[terms.capsule_rows.reshape(-1, 2)[capsules]].reshape(-1), capsule_of[terms.pair_capsules])
+    out.collision_held = terms.collision_held
+    # the held rows' share: the whole terms' row terms at the start less the live rows' (their points do not move)
+    whole = terms.forward(points)[0][:, :4].astype(np.float64)
+    live_part = out.forward(np.ascontiguousarray(points[:, keep]))[0][:, :4].astype(np.float64)
+    return out, keep, at[moving], whole - live_part
 
 
 class HandStageLoss:
@@ -200,37 +274,52 @@ class HandStageLoss:
 
     def __init__(self, chains: HandChains, terms: PointTerms, weights: torch.Tensor, points: torch.Tensor, wrists: torch.Tensor,
                  start: torch.Tensor, index: torch.Tensor, smooth: SmoothTerm | None):
-        self.chains, self.terms, self.smooth, self.start, self.index = chains, terms, smooth, start, index
+        self.chains, self.smooth, self.start, self.index = chains, smooth, start, index
         self.weights = weights.detach().cpu().numpy()
-        self.points = points.detach().cpu().numpy()
+        self.rows, self.columns = chains.rows.cpu().numpy(), index.cpu().numpy()
+        # the terms over the points they need, the moving ones first; the held rows' share a constant per frame
+        self.terms, keep, self.moving, constant = compact_terms(terms, self.rows, points.detach().cpu().numpy())
+        self.fixed = np.ascontiguousarray(points.detach().cpu().numpy()[:, keep])  # (T, K_c, 3): the start's
+        self.constant = constant.astype(self.fixed.dtype)  # (T, 4)
         pose = wrists[:, chains.side].detach().cpu().numpy()  # (T, k_h, 3, 4) each row's wrist [R | t]
         # R's columns and rows, contiguous: R p and Rᵀ g written out over the 3 (torch's stacked 3x3 products cost 3x)
         self.R_columns = [np.ascontiguousarray(pose[..., :, j]) for j in range(3)]
         self.R_rows = [np.ascontiguousarray(pose[..., i, :3]) for i in range(3)]
         self.t = np.ascontiguousarray(pose[..., 3])
-        self.rows, self.columns = chains.rows.cpu().numpy(), index.cpu().numpy()
         self.g_terms = np.tile(self.weights, (len(start), 1))  # the backward of sum(loss): each term's gradient is its weight
+
+    def value(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """``loss (T,)``, the angles ``(T, n)`` and the unweighted terms ``(T, len(TERMS))``, without the gradient."""
+        return self._forward(x)[:3]
 
     def __call__(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """``loss (T,)``, the angles ``(T, n)``, the unweighted terms ``(T, len(TERMS))`` and ``dL/dx (T, h)``."""
-        c, x = self.chains, x.detach()
-        poses, local = MapPoints.points(x, c.tree, c.body, c.vectors)  # (T, k_h, 3) in the wrist frames
-        p, (c0, c1, c2) = local.numpy(), self.R_columns
-        P = self.points.copy()
-        P[:, self.rows] = c0 * p[..., 0:1] + c1 * p[..., 1:2] + c2 * p[..., 2:3] + self.t  # R p + t, as HandChains.__call__
-        terms, state = self.terms.forward(P)
-        loss = terms @ self.weights
-        full = self.start.index_copy(1, self.index, x)
-        if self.smooth is not None:
-            smooth, smooth_state = self.smooth.forward(full.numpy())
-            loss = loss + smooth
-        g_points = self.terms.backward(self.g_terms.astype(terms.dtype, copy=False), state)
-        g, (r0, r1, r2) = g_points[:, self.rows], self.R_rows
+        loss, full, terms, (poses, local, state, smooth_state) = self._forward(x)
+        c = self.chains
+        g_points = self.terms.backward(self.g_terms.astype(self.fixed.dtype, copy=False), state)
+        g, (r0, r1, r2) = g_points[:, self.moving], self.R_rows
         g_local = torch.from_numpy(r0 * g[..., 0:1] + r1 * g[..., 1:2] + r2 * g[..., 2:3])  # Rᵀ g
         g_x = MapPoints.gradient(g_local, poses, local, c.tree, c.body, c.vectors)
         if self.smooth is not None:
-            g_x = g_x + torch.from_numpy(self.smooth.backward(np.ones(len(x), dtype=terms.dtype), smooth_state)[:, self.columns])
-        return torch.from_numpy(np.ascontiguousarray(loss)), full, torch.from_numpy(terms), g_x
+            g_x = g_x + torch.from_numpy(self.smooth.backward(np.ones(len(x), dtype=self.fixed.dtype), smooth_state)[:, self.columns])
+        return loss, full, terms, g_x
+
+    def _forward(self, x: torch.Tensor):
+        c, x = self.chains, x.detach()
+        poses, local = MapPoints.points(x, c.tree, c.body, c.vectors)  # (T, k_h, 3) in the wrist frames
+        p, (c0, c1, c2) = local.numpy(), self.R_columns
+        P = self.fixed.copy()
+        P[:, self.moving] = c0 * p[..., 0:1] + c1 * p[..., 1:2] + c2 * p[..., 2:3] + self.t  # R p + t, as HandChains.__call__
+        terms, state = self.terms.forward(P)
+        terms[:, :4] += self.constant
+        loss = terms @ self.weights
+        full = self.start.index_copy(1, self.index, x)
+        smooth_state = None
+        if self.smooth is not None:
+            smooth, smooth_state = self.smooth.forward(full.numpy())
+            loss = loss + smooth
+        return (torch.from_numpy(np.ascontiguousarray(loss)), full, torch.from_numpy(terms),
+                (poses, local, state, smooth_state))
 
 
 @dataclass
@@ -326,13 +415,14 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
         iterations = 0
     x0 = q0[:, index].clamp(lo, hi)
     step: Callable[[torch.Tensor], Any] = evaluate if written is None else written
+    final = evaluate if written is None else written.value  # the result's loss and terms: no gradient
     _, best_q, loss, terms, history, steps = descend(x0, step, project, iterations, patience, lr, None, per_sample=smooth is None)
     best_q = best_q.detach()
     with torch.no_grad():
         if targets.fps is not None and len(targets) > 1:  # never slower than the start
             x = within_speed(best_q[:, index], step_caps(q0, robot.velocity_limits, float(targets.fps))[:, index])
             best_q = angles(x)
-            loss, _, terms = evaluate(x)
+            loss, _, terms = final(x)
         # never a new self-collision: such a frame keeps the start's hands (the start's verdicts only when needed)
         cull = paths.cull_far_pairs
         kept = penetrating(robot, best_q, cull)
@@ -340,7 +430,7 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
             kept &= ~penetrating(robot, q0, cull, points=fixed_points)
         if bool(kept.any()):
             best_q = torch.where(kept[:, None], angles(x0), best_q)
-            loss, _, terms = evaluate(best_q[:, index])
+            loss, _, terms = final(best_q[:, index])
     return HandStageResult(best_q, loss.detach(), terms.detach(), history, steps, time.perf_counter() - start, kept)
 
 

@@ -371,3 +371,31 @@ def test_the_fast_hand_stage_takes_the_written_gradient(yumi, demonstration_from
     b = refine_hands(y64, start, t, iterations=10, fast=False)
     torch.testing.assert_close(a.q, b.q, rtol=1e-7, atol=1e-9)
     torch.testing.assert_close(a.loss, b.loss, rtol=1e-7, atol=1e-9)
+
+
+def test_compact_terms_keep_only_what_reaches_a_moving_point(yumi, demonstration_from_robot, random_angles):
+    """The hand stage's terms over the points it needs: every moving point, no arm row (ee, ori, elbow: a
+    constant per frame), and the whole held terms' values at the start (the held rows' share as that constant)."""
+    import numpy as np
+
+    from nlo_lab.inference.hand_stage import HandChains, compact_terms
+
+    y64 = yumi.to(dtype=torch.float64)
+    q0 = random_angles(y64, 5, seed=40).to(torch.float64)
+    t = targets_from_demonstration(demonstration_from_robot(y64, random_angles(y64, 5, seed=41)), dtype=torch.float64)
+    index = hand_joint_mask(y64).nonzero().flatten()
+    loss = Objective(y64, t, LossWeights(), fused=True)
+    chains = HandChains.build(y64, loss.plan, index)
+    rows = chains.rows.numpy()
+    moving = np.zeros(loss.plan.vectors.shape[0], dtype=bool)
+    moving[rows] = True
+    with torch.no_grad():
+        fixed = loss.plan.map(q0).numpy()
+    held = loss.numpy_terms.held(moving, fixed)
+    compact, keep, at, constant = compact_terms(held, rows, fixed)
+    assert np.array_equal(keep[at], rows) and len(keep) < fixed.shape[1]
+    assert compact.rows.shape[0] == len(compact.fingers) < held.rows.shape[0]  # only the finger rows move
+    assert float(constant[:, :3].min()) > 0  # ee, ori, elbow: held, and not zero for random arms
+    whole, part = held.forward(fixed)[0], compact.forward(np.ascontiguousarray(fixed[:, keep]))[0]
+    part[:, :4] += constant
+    np.testing.assert_allclose(part, whole, rtol=1e-12, atol=1e-12)
