@@ -99,6 +99,11 @@ class WrittenGradientLoss:
         self.weights = objective.weights.numpy()
         self.dtype = robot.lower_limits.dtype
         self._g_terms: dict[int, np.ndarray] = {}
+        # Every frame's capsule pairs searched every call (NearPairs' slack 0): Rprop's steps move most frames'
+        # capsules farther than the slack between calls, and checking the kept candidates cost more than the search
+        # saved (2026-11-26, YuMi, the 164 calls of the 4 recordings of benchmarks/hands.py: 69 against 92 ms).
+        if objective.numpy_terms is not None:
+            objective.numpy_terms.near_pairs.slack = 0.0
 
     @classmethod
     def build(cls, model: RetargetModel, robot: Robot, objective: Objective, latent_weight: float, targets: Targets,

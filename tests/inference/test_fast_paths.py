@@ -122,3 +122,38 @@ def test_the_pipeline_chooses_by_batch_size_or_takes_the_choice(nao64, model64, 
     readable(demo)  # no fast path at all
     with pytest.raises(AssertionError, match="fast path"):
         built(demo)
+
+
+@pytest.mark.parametrize("name", ["yumi", "nao"])
+def test_sequence_start_costs_its_candidates_the_same_fast_or_readable(robot64, name):
+    """sequence_start with the numpy terms decodes and maps each start latent once and measures its collision term
+    once: each candidate's cost and angles are those of the readable loop (each candidate decoded, the term
+    functions), and the chosen starts the same."""
+    from nlo_lab.inference import initial_latent, sequence_start
+    from nlo_lab.inference.descent import frozen
+    from nlo_lab.inference.latent import _candidate_costs
+    from nlo_lab.objective import TERMS, LossWeights, Objective
+
+    robot = robot64(name)
+    model = load_pretrained(robot).double()
+    x = RetargetInputs.from_demonstration(corpus_clip("introduction_12").slice(0, 20), dtype=torch.float64)
+    gen = torch.Generator().manual_seed(4)
+    z0 = initial_latent(model, x.encoder, OptimizeSettings())
+    z0 = z0 + 1.5 * torch.randn(z0.shape, generator=gen, dtype=z0.dtype)  # starts far apart: candidates differ, some collide
+    weights, T = LossWeights(), len(x.targets)
+    idx = (torch.arange(T)[:, None] + torch.arange(-2, 3)[None]).clamp(0, T - 1)
+    fused = Objective(robot, x.targets, weights, fused=True, cull=True, analytic_fk=True)
+    readable = Objective(robot, x.targets, weights)
+    with frozen(model), torch.no_grad():
+        unary, angles = _candidate_costs(model, fused, z0, idx, weights.latent, "node-major", True)
+        collided = 0.0
+        for k in range(idx.shape[1]):
+            z = z0[idx[:, k]]
+            q = model.decode(z)
+            total, terms = readable(q)
+            torch.testing.assert_close(unary[k], total + weights.latent * z.pow(2).flatten(1).sum(1), atol=1e-9, rtol=1e-9)
+            torch.testing.assert_close(angles[k], q, atol=1e-12, rtol=1e-12)
+            collided = max(collided, float(terms[:, TERMS.index("collision")].max()))
+    assert collided > 0  # the collision term, measured once per start latent, is in the costs
+    fast, slow = (sequence_start(model, robot, x.targets, z0, weights, fast=f) for f in (True, False))
+    assert torch.equal(fast, slow)

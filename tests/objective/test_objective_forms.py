@@ -132,6 +132,38 @@ def test_the_numpy_culling_bound_never_leaves_out_a_near_pair():
     assert (~kept[~close]).mean() > 0.5  # and it does cull
 
 
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_the_culling_search_keeps_exactly_the_pairs_of_the_separating_axis_bound(dtype):
+    """maybe_near takes the separating-axis bound only where the spheres around the segments may be near: the
+    pairs it keeps, in their order, are those of the bound taken on every pair (random segments, crossing,
+    parallel, of any length)."""
+    import numpy as np
+
+    from nlo_lab.objective.numpy_backend import _bound_below, maybe_near
+
+    rng = np.random.default_rng(5)
+    B, C = 300, 7
+    centre = rng.normal(scale=0.15, size=(B, C, 1, 3))
+    direction = rng.normal(size=(B, C, 1, 3))
+    half = direction / np.linalg.norm(direction, axis=-1, keepdims=True) * rng.uniform(0, 0.3, size=(1, C, 1, 1))  # rigid
+    caps = np.concatenate([centre - half, centre + half], 2).astype(dtype)
+    caps[:40, 1] = caps[:40, 0][:, ::-1]  # crossing at their midpoints
+    caps[40:80, 2] = caps[40:80, 0] + np.array([0.0, 0.05, 0.0], dtype=dtype)  # parallel, 5 cm apart
+    axis = caps[80:160, 0, 1] - caps[80:160, 0, 0]  # in line, end to end, 0 to 10 cm apart: there the spheres'
+    shift = 1.0 + rng.uniform(0.0, 0.1, size=(80, 1)) / np.linalg.norm(axis, axis=-1, keepdims=True)  # bound is the bound
+    caps[80:160, 3] = caps[80:160, 0] + (shift * axis)[:, None].astype(dtype)
+    pairs = np.array([(i, j) for i in range(C) for j in range(i + 1, C)])
+    clearance = rng.uniform(0.0, 0.1, size=len(pairs))
+    a, b = caps[:, pairs[:, 0]], caps[:, pairs[:, 1]]  # (B, P, 2, 3)
+    planes = lambda x: np.moveaxis(x, -1, 0)  # noqa: E731  (3, B, P)
+    gap = planes(b[:, :, 0] + b[:, :, 1] - a[:, :, 0] - a[:, :, 1])
+    every = _bound_below(gap, planes(a[:, :, 1] - a[:, :, 0]), planes(b[:, :, 1] - b[:, :, 0]), (2.0 * clearance).astype(dtype))
+    expected = np.flatnonzero(every)  # (B, P): frame-major
+    kept = maybe_near(caps, pairs, clearance)
+    assert 100 < len(expected) < every.size / 2
+    np.testing.assert_array_equal(kept, expected)
+
+
 def test_near_pairs_kept_across_calls_give_bit_for_bit_the_terms_of_a_search_every_call(random_angles, demonstration_from_robot):
     """An optimisation's calls (small steps, and some frames that jump): PointTerms with NearPairs' candidates
     kept across calls against one that searches every pair every call: the same terms and point gradients to
