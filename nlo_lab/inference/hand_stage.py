@@ -46,6 +46,20 @@ form's there). What remains is per evaluation, not per frame: one costs about 1.
 (FK of the hand chains 0.3, the terms 0.65, their backward 0.3-0.4), a few hundred numpy and torch calls whatever
 the frames, and the descent takes 60 of them on every clip but the shortest.
 
+Fewer evaluations cost the handshape (2026-11-26 17:05-17:15 UTC, the same recordings and starts; wrist->tip / thumb
+/ base->tip [deg] / pinch r, the retimed duration summed over the four clips; now 17.16 / 25.24 / 34.13 / 0.807,
+23.92 s): Adam 40 steps of 0.025 rad 17.27 / 25.05 / 34.48 / 0.809, 24.32 s; 30 of 0.025 17.35 / 25.13 / 34.88 /
+0.810; the step decaying geometrically, 30 steps 0.04 -> 0.01 17.38 / 25.67 / 35.02 / 0.801, 40 steps 0.03 -> 0.01
+17.35 / 25.35 / 34.85 / 0.806; Rprop 20 steps (first 0.02, at most 0.05) 17.32 / 25.47 / 34.70 / 0.818. More, smaller
+steps gain on every measure (100 of 0.02, patience 100: 17.10 / 24.73 / 33.86 / 0.809, 23.66 s) at twice the time.
+A second-order step does not take larger ones here: a Levenberg-Marquardt prototype (each frame's Hessian block of
+the terms by finite differences of this gradient, every hand joint's perturbation in one batched evaluation; the
+smoothness term's Gauss-Newton, block-tridiagonal, solved banded; the joints held at a bound out of the step) found
+its quadratic model valid only for steps up to about 0.02-0.05 rad, Adam's own scale (a 0.13 rad step it predicted
+to lower the 97-frame clip's mean loss raised it by 900): the normalised directions, the chord near its minimum and
+the hinges bend the objective within a few hundredths of a radian. Twelve iterations (25 evaluations and 12 batched
+ones) took that clip's mean loss from 8472 to 7834, Adam's 60 steps to 7244.
+
 The start is a local optimum's basin: on ``benchmarks/hands.py``'s recordings the decoder leaves the ring
 and little fingers curled at their upper limit in most hand-frames, where their wrist->fingertip
 direction would be best half open, and between the two the error rises first (measured 2026-11-26 on a
