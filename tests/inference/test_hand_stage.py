@@ -201,6 +201,7 @@ def test_hand_chains_map_the_points_and_their_gradient_as_the_whole_tree(yumi):
     index = hand_joint_mask(y64).nonzero().flatten()
     chains = HandChains.build(y64, plan, index)
     assert chains is not None and 0 < len(chains.rows) < plan.vectors.shape[0]
+    assert HandChains.build(y64, plan, index) is chains  # built once per plan and hands
     g = torch.Generator().manual_seed(27)
     lo, hi = y64.lower_limits, y64.upper_limits
     q0 = lo + (hi - lo) * torch.rand(6, lo.shape[0], generator=g, dtype=lo.dtype)
@@ -355,6 +356,9 @@ def test_hand_stage_loss_written_out_equals_the_readable_loss_and_gradient(yumi,
         torch.testing.assert_close(terms_w, terms.detach(), rtol=1e-10, atol=1e-10)
         torch.testing.assert_close(q, full.detach(), rtol=0, atol=0)
         torch.testing.assert_close(grad_w, grad, rtol=1e-9, atol=1e-9)
+        value = written.value(x.detach())  # the result's evaluation after the clamp: the same, without the gradient
+        for a, b in zip(value, (loss, q, terms_w), strict=True):
+            torch.testing.assert_close(a, b, rtol=0, atol=0)
         assert float(grad.abs().min()) > 0 and float(terms.detach()[:, 4].max()) > 0  # every hand joint pulled; the collision term acts
 
 
