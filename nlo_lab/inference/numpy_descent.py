@@ -16,10 +16,14 @@ then each backward in reverse order. The tests hold it equal to the readable tor
 
 A recording's frames (a batch, coupled by the smoothness term) take :class:`WrittenGradientLoss`:
 the same chain where the numpy decoder does not pay (its stacked small matmuls do not batch):
-the decoder in torch (its own small autograd graph), FK's points and their closed-form
-gradient (:meth:`~nlo_lab.robot.point_gradient.MapPoints.points`, ``gradient``), the terms and the
-smoothness term (:class:`~nlo_lab.objective.numpy_backend.SmoothTerm`) in numpy, without an autograd
-graph through FK and the terms.
+the decoder in torch (the node-major form with its gradient written out,
+:class:`~nlo_lab.model.written_gradient.WrittenDecoder`; else its own small autograd graph), FK's points
+and their closed-form gradient (:meth:`~nlo_lab.robot.point_gradient.MapPoints.points`, ``gradient``,
+summed over the points the terms reach, :meth:`~nlo_lab.objective.numpy_backend.PointTerms.reached`), the
+terms and the smoothness term (:class:`~nlo_lab.objective.numpy_backend.SmoothTerm`) in numpy, without an
+autograd graph. Measured (2026-11-26, YuMi, the 4 recordings of ``benchmarks/hands.py``, one call at 170 /
+47 frames, CPU): the decoder's forward and backward 1110 -> 990 / 457 -> 363 us written out; the points
+with a gradient 25-71 of 174.
 """
 
 from __future__ import annotations
@@ -95,6 +99,9 @@ class WrittenGradientLoss:
     def __init__(self, model: RetargetModel, robot: Robot, objective: Objective, latent_weight: float, smooth: SmoothTerm | None,
                  decoder_form: str):
         self.model, self.robot, self.objective, self.smooth, self.form = model, robot, objective, smooth, decoder_form
+        # the node-major decoder with its gradient written out (frozen weights, LeakyReLU), else autograd through it
+        written = getattr(model.decoder, "written", None) if decoder_form == "node-major" else None
+        self.decoder = written() if written is not None else None
         self.latent_weight = float(latent_weight)
         self.weights = objective.weights.numpy()
         self.dtype = robot.lower_limits.dtype
@@ -120,10 +127,14 @@ class WrittenGradientLoss:
         """``loss (B,)``, ``q (B, n)``, ``terms (B, len(TERMS))`` (unweighted) and ``dL/dz`` (``z``'s shape)."""
         plan = self.objective.plan
         tree = self.robot.tree
-        z_leaf = z.detach().requires_grad_(True)
-        with torch.enable_grad():
-            q_graph = self.model.decode(z_leaf, self.form).to(self.dtype)  # the decoder's own graph, for its backward
-        q = q_graph.detach()
+        if self.decoder is not None:  # no graph: the decoder's gradient written out too
+            q_own, decoder_state = self.decoder.forward(z.detach())
+            q = q_own.to(self.dtype)
+        else:
+            z_leaf = z.detach().requires_grad_(True)
+            with torch.enable_grad():
+                q_graph = self.model.decode(z_leaf, self.form).to(self.dtype)  # the decoder's own graph, for its backward
+            q = q_graph.detach()
         poses, points = MapPoints.points(q, tree, plan.body, plan.vectors)
         terms, term_state = self.objective.numpy_terms.forward(points.numpy())
         z_np = z.detach().numpy()
@@ -136,9 +147,13 @@ class WrittenGradientLoss:
         if g_terms is None:  # backward of sum(loss): each term's gradient is its weight
             g_terms = self._g_terms[len(terms)] = np.tile(self.weights, (len(terms), 1)).astype(terms.dtype)
         g_points = torch.from_numpy(self.objective.numpy_terms.backward(g_terms, term_state))
-        g_q = MapPoints.gradient(g_points, poses, points, tree, plan.body, plan.vectors)
+        columns = torch.from_numpy(self.objective.numpy_terms.reached(term_state))  # the points with a gradient
+        g_q = MapPoints.gradient(g_points, poses, points, tree, plan.body, plan.vectors, columns)
         if self.smooth is not None:
             g_q = g_q + torch.from_numpy(self.smooth.backward(np.ones(len(q), dtype=terms.dtype), smooth_state))
-        (g_z,) = torch.autograd.grad(q_graph, z_leaf, g_q.reshape(q_graph.shape))
+        if self.decoder is not None:
+            g_z = self.decoder.backward(g_q.to(q_own.dtype).reshape(q_own.shape), decoder_state)
+        else:
+            (g_z,) = torch.autograd.grad(q_graph, z_leaf, g_q.reshape(q_graph.shape))
         g_z = g_z + (2.0 * self.latent_weight) * z.detach()
         return torch.from_numpy(np.ascontiguousarray(loss)), q, torch.from_numpy(terms), g_z

@@ -5,6 +5,8 @@
 - :mod:`~nlo_lab.model.decoder`: ``z`` -> joint angles inside the limits (:class:`GraphDecoder`, :class:`MLPDecoder`).
 - :mod:`~nlo_lab.model.numpy_backend`: the frozen graph decoder in numpy, a faster evaluation
   of the same map for small batches (``decoder(z, form="numpy")``).
+- :mod:`~nlo_lab.model.written_gradient`: the frozen graph decoder in torch without an autograd graph, its
+  gradient to ``z`` written out (``GraphDecoder.written()``, a recording's latent optimisation).
 - :mod:`~nlo_lab.model.retarget_model`: :class:`RetargetModel` (encoder + decoder), :func:`build_model`.
 - :mod:`~nlo_lab.model.encoder_input`: :class:`EncoderInput`, what the encoder reads of a demonstration.
 - :mod:`~nlo_lab.model.checkpoint`: save, load, and the shipped checkpoints (:func:`load_pretrained`).

@@ -25,6 +25,7 @@ from nlo_lab.errors import SettingsError
 from nlo_lab.graph import Graph
 from nlo_lab.model.layers import DEFAULT_ACTIVATION, LEAKY_SLOPE, GraphBuffers, GraphLayer, mlp, remap, remap_to_limits, rest_preactivation
 from nlo_lab.model.numpy_backend import DecoderPlan, decode_numpy
+from nlo_lab.model.written_gradient import WrittenDecoder
 from nlo_lab.settings import check_choice
 
 __all__ = ["GraphDecoder", "MLPDecoder", "DECODER_FORMS"]
@@ -142,6 +143,12 @@ class GraphDecoder(nn.Module):
         the gradient to ``z``) while the weights are frozen and on the CPU; None otherwise."""
         return self._weights().get("plan")
 
+    def written(self) -> WrittenDecoder | None:
+        """The ``"node-major"`` form without an autograd graph and its gradient to ``z`` written out
+        (:class:`~nlo_lab.model.written_gradient.WrittenDecoder`) while the weights are frozen and the
+        activation is the default (LeakyReLU); None otherwise."""
+        return self._weights().get("written")
+
     def _node_major_preactivation(self, z: torch.Tensor, w: dict) -> torch.Tensor:
         x = z.transpose(0, 1)  # (N_r, B, k): node-major, see GraphLayer.forward_node_major
         for layer, wl in zip(self.layers, w["layers"], strict=True):
@@ -177,8 +184,10 @@ class GraphDecoder(nn.Module):
         for i, layer in enumerate(self.layers):
             w["layers"].append(layer.node_major_weights(g.edge_index, g.edge_attr, g.node_type, fixed if i == 0 else None))
         if frozen:
-            if self.lower.device.type == "cpu" and self.activation == DEFAULT_ACTIVATION:  # numpy: LeakyReLU only
-                w["plan"] = DecoderPlan(w, len(g.node_type), LEAKY_SLOPE)
+            if self.activation == DEFAULT_ACTIVATION:  # the written-out gradients: LeakyReLU only
+                w["written"] = WrittenDecoder(w, LEAKY_SLOPE)
+                if self.lower.device.type == "cpu":  # numpy: the CPU only
+                    w["plan"] = DecoderPlan(w, len(g.node_type), LEAKY_SLOPE)
             self._weights_cache = (key, w)
         return w
 

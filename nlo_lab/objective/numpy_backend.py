@@ -468,6 +468,20 @@ class PointTerms:
             plan.capsule_end_rows.cpu().numpy(), plan.robot.pair_capsules,
         )
 
+    def reached(self, saved) -> np.ndarray:
+        """Sorted indices of the points whose gradient :meth:`backward` can make non-zero, for the forward that
+        returned ``saved``: the rows' points, the hand terms' and the ends of the capsule pairs it measured (the
+        others' gradient is 0 in every frame)."""
+        static = self.__dict__.get("_static_reached")
+        if static is None:
+            hand = [self.hand.end_points, self.hand.axes] if self.hand.items else []
+            static = self.__dict__["_static_reached"] = np.unique(np.concatenate([self.row_points, *hand]).astype(np.int64))
+        coll = saved[3]
+        if coll is None:
+            return static
+        pairs = np.unique(coll[0] % self.radii.shape[0])
+        return np.union1d(static, self.pair_points.reshape(-1, 4)[pairs])
+
     def forward(self, P: np.ndarray, pairs: bool = True):
         """Terms ``(B, len(TERMS))`` (``TERMS`` order) and what the backward needs, for points ``P (B, K, 3)`` (B = T).
 

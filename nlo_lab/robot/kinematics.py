@@ -370,6 +370,10 @@ class KinematicTree:
 
     def moved_by(self, body: torch.Tensor) -> torch.Tensor:
         """``(M, k)`` 0/1: moving joint ``j`` moves body ``body[i]`` (it is its child frame or an ancestor's)."""
+        fast_key = ("moved_by", id(body))  # the same tensor again (the optimisers pass their plan's): no tolist()
+        hit = self._cache.get(fast_key)
+        if hit is not None and hit[0] is body and hit[1] == body._version:
+            return hit[2]
         key = ("moved_by", body.device, tuple(body.tolist()))
         c = self._cache.get(key)
         if c is None:
@@ -380,6 +384,7 @@ class KinematicTree:
                     D[b - 1, i] = 1.0
                     b = parent[b]
             c = self._cache[key] = torch.as_tensor(D, device=body.device)
+        self._cache[fast_key] = (body, body._version, c)
         return c
 
     def joint_axes(self, device: torch.device, dtype: torch.dtype) -> torch.Tensor:

@@ -50,9 +50,17 @@ class MapPoints(torch.autograd.Function):
 
     @staticmethod
     @torch.no_grad()
-    def gradient(g: torch.Tensor, poses: torch.Tensor, pts: torch.Tensor, tree, body: torch.Tensor, vectors: torch.Tensor) -> torch.Tensor:
-        """``(B, n)``: the gradient of ``sum(g * points)`` in ``q``, from :meth:`points`' results."""
+    def gradient(g: torch.Tensor, poses: torch.Tensor, pts: torch.Tensor, tree, body: torch.Tensor, vectors: torch.Tensor,
+                 columns: torch.Tensor | None = None) -> torch.Tensor:
+        """``(B, n)``: the gradient of ``sum(g * points)`` in ``q``, from :meth:`points`' results.
+
+        ``columns``: the indices of the points whose ``g`` may be non-zero (the others are 0 in every frame); the sums
+        then run over those alone. A latent optimisation's terms reach a third of the points it maps (the capsule
+        ends of the pairs that are near, the rows' points): YuMi, the 4 recordings of ``benchmarks/hands.py``, 25-71
+        of 174."""
         D = tree.moved_by(body).to(g.dtype)  # (M, k)
+        if columns is not None:
+            D, g, pts, vectors = D.index_select(1, columns), g.index_select(1, columns), pts.index_select(1, columns), vectors.index_select(0, columns)
         axis = tree.joint_axes(g.device, g.dtype)  # (M, 3)
         R, o = poses[:, 1:, :3, :3], poses[:, 1:, :3, 3]  # (B, M, 3, 3), (B, M, 3)
         a = (R @ axis[:, :, None])[..., 0]  # (B, M, 3) world axes R a

@@ -125,6 +125,7 @@ def test_written_gradient_loss_equals_the_readable_torch_loss(robot, kind, form,
     anchor = robot.neutral_q.double() + 0.3 if anchored else None
     written = WrittenGradientLoss.build(model, robot, Objective(robot, x.targets, weights, fused=True, cull=True, analytic_fk=True),
                                         weights.latent, x.targets, weights.smooth, anchor, form)
+    assert (written.decoder is not None) == (form == "node-major" and kind == "graph")  # its gradient written out too
     loss, q, terms, grad = written(z)
     zr = z.clone().requires_grad_(True)
     ref_q = model.decode(zr)

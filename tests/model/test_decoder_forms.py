@@ -131,3 +131,46 @@ def test_faster_forms_equal_the_paper_form_on_any_graph(edges):
     for form in ("node-major", "numpy"):
         for a, b in zip(_value_and_grad(dec, z, form), ref, strict=True):
             torch.testing.assert_close(a, b, atol=1e-10, rtol=1e-10)
+
+
+def _written_value_and_grad(dec, z):
+    written = dec.written()
+    q, state = written.forward(z)
+    w = torch.linspace(0.5, 1.5, q.numel(), dtype=q.dtype).view_as(q)
+    return q, written.backward(w, state)
+
+
+@pytest.mark.parametrize("batch", [1, 12])
+def test_the_written_gradient_equals_autograd_through_the_paper_form(robot, batch):
+    """WrittenDecoder (the node-major map without a graph, its gradient to z written out): the paper form's angles
+    and autograd's gradient, on each robot and on a graph with a root and a node of two messages."""
+    dec = _decoder(robot)
+    z = 2 * torch.randn(batch, robot.n_joints, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(9))
+    ref = _value_and_grad(dec, z, "paper")
+    got = _written_value_and_grad(dec, z)
+    for a, b in zip(got, ref, strict=True):
+        torch.testing.assert_close(a, b, atol=1e-10, rtol=1e-10)
+    assert float(ref[1].abs().max()) > 0
+    assert not got[0].requires_grad  # no autograd graph
+
+
+def test_the_written_gradient_equals_autograd_on_any_graph():
+    from nlo_lab.graph import NODE_ARM, NODE_HAND, Graph
+
+    torch.manual_seed(5)
+    edge_index = torch.tensor([[0, 1, 2, 1, 4], [1, 2, 3, 4, 3]])  # a root (no message) and a node with two
+    graph = Graph(tuple(f"j{i}" for i in range(5)), edge_index, torch.randn(5, 6), torch.tensor([NODE_ARM] * 3 + [NODE_HAND] * 2))
+    dec = GraphDecoder(graph, -torch.rand(5) - 0.5, torch.rand(5) + 0.5, latent_per_node=3, widths=(8, 4, 1)).double()
+    dec.requires_grad_(False)
+    z = 3 * torch.randn(4, 5, 3, dtype=torch.float64)  # some angles at their limits (the clamp)
+    for a, b in zip(_written_value_and_grad(dec, z), _value_and_grad(dec, z, "paper"), strict=True):
+        torch.testing.assert_close(a, b, atol=1e-10, rtol=1e-10)
+
+
+def test_the_written_gradient_declines_where_it_cannot_run(robot):
+    """Trainable weights, or another activation than LeakyReLU: None (autograd runs)."""
+    assert _decoder(robot).written() is not None
+    assert _decoder(robot, frozen=False).written() is None
+    sigmoid = GraphDecoder(robot.graph, robot.lower_limits, robot.upper_limits, latent_per_node=3, widths=(16, 8, 1),
+                           activation="sigmoid").double().requires_grad_(False)
+    assert sigmoid.written() is None

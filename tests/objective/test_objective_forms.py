@@ -202,3 +202,25 @@ def test_near_pairs_kept_across_calls_give_bit_for_bit_the_terms_of_a_search_eve
         assert bool((dist >= kept.clearance[pair]).all())
         assert float(a[0][:, 4].max()) > 0  # the collision term acts
     assert reused > 100  # most frames kept their candidates between calls
+
+
+def test_the_points_the_numpy_terms_reach_hold_every_non_zero_gradient(random_angles, demonstration_from_robot):
+    """PointTerms.reached: the backward's point gradient is 0 outside those points (the FK gradient sums over them
+    alone), and they are fewer than all (some capsule pairs far apart)."""
+    import numpy as np
+
+    from nlo_lab.robot import load_robot
+
+    yumi = load_robot("yumi")
+    q = random_angles(yumi, 16, seed=41).to(yumi.lower_limits.dtype)
+    t = targets_from_demonstration(demonstration_from_robot(yumi, random_angles(yumi, 16, seed=42)), dtype=q.dtype)
+    fused = Objective(yumi, t, fused=True)
+    P = fused.plan.map(q).numpy()
+    terms, saved = fused.numpy_terms.forward(P)
+    G = np.linspace(0.5, 1.5, terms.size, dtype=P.dtype).reshape(terms.shape)
+    g = fused.numpy_terms.backward(G, saved)
+    reached = fused.numpy_terms.reached(saved)
+    outside = np.setdiff1d(np.arange(P.shape[1]), reached)
+    assert float(terms[:, 4].max()) > 0 and len(outside) > 0
+    assert not g[:, outside].any()
+    assert np.abs(g[:, reached]).max() > 0

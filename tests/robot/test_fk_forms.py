@@ -84,3 +84,20 @@ def test_numpy_point_map_equals_the_torch_forms(robot, random_angles):
     pts, state = numpy_map.forward(q.numpy())
     torch.testing.assert_close(torch.from_numpy(pts), ref[0], atol=1e-12, rtol=1e-12)
     torch.testing.assert_close(torch.from_numpy(numpy_map.backward(w.numpy(), state)), ref[1], atol=1e-10, rtol=1e-10)
+
+
+def test_the_closed_form_gradient_over_some_columns_is_the_gradient_over_all(robot, random_angles):
+    """MapPoints.gradient(columns=...): where g is 0 outside those points, the same gradient."""
+    from nlo_lab.objective import point_plan
+    from nlo_lab.robot.point_gradient import MapPoints
+
+    plan = point_plan(robot, torch.float64, torch.device("cpu"))
+    q = random_angles(robot, 5, seed=6)
+    poses, pts = MapPoints.points(q, robot.tree, plan.body, plan.vectors)
+    columns = torch.arange(0, pts.shape[1], 3)
+    g = torch.zeros_like(pts)
+    g[:, columns] = torch.randn(len(q), len(columns), 3, dtype=g.dtype, generator=torch.Generator().manual_seed(7))
+    every = MapPoints.gradient(g, poses, pts, robot.tree, plan.body, plan.vectors)
+    some = MapPoints.gradient(g, poses, pts, robot.tree, plan.body, plan.vectors, columns)
+    torch.testing.assert_close(some, every, atol=1e-12, rtol=1e-12)
+    assert float(every.abs().max()) > 0
