@@ -13,7 +13,7 @@ values and gradients), taken only when a caller asks for it by an argument:
 * and for a few frames the whole iteration in numpy (loss and gradient written out, no
   autograd: :mod:`nlo_lab.inference.numpy_descent`); for more frames, or a sequence with the
   smoothness term, the iteration's gradient chained by hand through FK, the terms and the smoothness
-  term (``written_gradient``; the decoder's own graph only).
+  term (``written_gradient``; the node-major decoder's gradient written out too, else its own graph).
 
 :class:`FastPaths` holds one such choice; :meth:`FastPaths.for_frames` makes it from the
 batch size, with the measured crossovers below. Nothing is process-wide: the pipeline
@@ -58,7 +58,8 @@ class FastPaths:
         hand_chains: the hand stage maps only the points its hand joints move, by FK from the wrists
             down (:class:`~nlo_lab.inference.hand_stage.HandChains`; the arms are fixed there).
         written_gradient: latent optimisation chains the gradient by hand where ``numpy_iteration`` does not
-            apply (:class:`~nlo_lab.inference.numpy_descent.WrittenGradientLoss`; needs ``fused_objective``),
+            apply (:class:`~nlo_lab.inference.numpy_descent.WrittenGradientLoss`; needs ``fused_objective``; with the
+            ``"node-major"`` decoder its gradient too, :class:`~nlo_lab.model.written_gradient.WrittenDecoder`),
             and so does the hand stage (:class:`~nlo_lab.inference.hand_stage.HandStageLoss`; with ``hand_chains``).
     """
 

@@ -87,7 +87,7 @@ def initial_latent(model: RetargetModel, inputs, settings: OptimizeSettings) -> 
 @torch.no_grad()
 def sequence_start(model: RetargetModel, robot: Robot, targets: Targets, z0: torch.Tensor, weights: LossWeights | None = None,
                    window: int = 2, collision_form: str = "hinge", anchor: torch.Tensor | None = None,
-                   fast: bool | FastPaths = False) -> torch.Tensor:
+                   fast: bool | FastPaths = False, objective: Objective | None = None) -> torch.Tensor:
     """Warm start along the sequence: per frame, its own start latent or a neighbour's.
 
     Frame t's candidates are ``z0[t - window .. t + window]``. Each candidate costs its
@@ -96,6 +96,8 @@ def sequence_start(model: RetargetModel, robot: Robot, targets: Targets, z0: tor
     ``anchor (n,)`` when given). The cheapest sequence of choices
     is found exactly by dynamic programming (Viterbi), ``O(T (2 window + 1)²)``.
     ``fast``: the decoder's and the objective's forms (:func:`~nlo_lab.inference.fast_paths.fast_paths`).
+    ``objective``: the :class:`Objective` of ``targets``, ``weights``, ``collision_form`` and ``fast``'s options,
+    when the caller has it (:func:`optimize_latent`; building one takes a millisecond or two), else built here.
 
     Returns:
         ``(T, N_r, k)`` start latents (``z0`` itself when smoothing does not apply).
@@ -108,7 +110,7 @@ def sequence_start(model: RetargetModel, robot: Robot, targets: Targets, z0: tor
     dtype = robot.lower_limits.dtype
     targets = targets.to(dtype=dtype)
     paths = fast_paths(fast, T, targets.shoulder.device)
-    loss_fn = Objective(robot, targets, weights, collision_form, **paths.objective_options())
+    loss_fn = objective or Objective(robot, targets, weights, collision_form, **paths.objective_options())
     K = 2 * window + 1
     idx = (torch.arange(T)[:, None] + torch.arange(-window, window + 1)[None]).clamp(0, T - 1)  # (T, K)
     unary, angles = [], []
@@ -223,7 +225,8 @@ def optimize_latent(
         raise SettingsError(f"anchor must be {tuple(robot.lower_limits.shape)}, got {tuple(anchor.shape)}")
     smooth = smoothness_term(robot, targets, weights, anchor)
     if smooth is not None and settings.warm_start:
-        z0 = sequence_start(model, robot, targets, z0, weights, settings.warm_window, settings.collision_form, anchor, paths)
+        z0 = sequence_start(model, robot, targets, z0, weights, settings.warm_window, settings.collision_form, anchor, paths,
+                            objective=loss_fn)
 
     def evaluate(z):
         q = model.decode(z, paths.decoder).to(dtype)
