@@ -56,7 +56,8 @@ def maybe_near(capsules: np.ndarray, pairs: np.ndarray, clearance: np.ndarray) -
     The bound is taken only where the spheres around the segments may be that close,
     ``|m_b - m_a| - (l_a + l_b)/2 < clearance`` (``l``: the longest the segment is in any frame;
     by Cauchy-Schwarz each extent is at most ``l/2``, so the sphere bound is below the
-    separating-axis bound): on the latent optimisation's points a tenth of the frame-pairs. Measured
+    separating-axis bound): on the latent optimisation's points a tenth of the frame-pairs (from
+    ``SMALL_BATCH`` frames; for fewer the bound on every pair: YuMi, 1 frame, 52 -> 28 us). Measured
     (2026-11-26, the 4 recordings of ``benchmarks/hands.py``, YuMi's 873 pairs, the 164 calls of one
     ``retarget`` each): 103 -> 53 ms, the same pairs.
 
@@ -77,6 +78,9 @@ def _near_coordinates_first(c: np.ndarray, pairs: np.ndarray, clearance: np.ndar
     a, b = pairs[:, 0], pairs[:, 1]
     gap = np.take(twice_mid, b, axis=1)
     gap -= np.take(twice_mid, a, axis=1)  # (3, P, B): G = 2 (m_b - m_a)
+    if B < SMALL_BATCH:  # a few frames: the bound on every pair (the spheres' test costs more calls than it saves)
+        twice_clearance = (2.0 * clearance).astype(c.dtype)[:, None]
+        return np.flatnonzero(_bound_below(gap, np.take(axis, a, axis=1), np.take(axis, b, axis=1), twice_clearance).T)
     length2 = gap[0] * gap[0]
     length2 += gap[1] * gap[1]
     length2 += gap[2] * gap[2]  # |G|²

@@ -162,6 +162,9 @@ def test_the_culling_search_keeps_exactly_the_pairs_of_the_separating_axis_bound
     kept = maybe_near(caps, pairs, clearance)
     assert 100 < len(expected) < every.size / 2
     np.testing.assert_array_equal(kept, expected)
+    few = expected[expected < 8 * len(pairs)]  # a few frames: the bound on every pair, no sphere test
+    assert len(few) > 0
+    np.testing.assert_array_equal(maybe_near(caps[:8], pairs, clearance), few)
 
 
 def test_near_pairs_kept_across_calls_give_bit_for_bit_the_terms_of_a_search_every_call(random_angles, demonstration_from_robot):
