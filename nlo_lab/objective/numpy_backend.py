@@ -483,14 +483,16 @@ class PointTerms:
         returned ``saved``: the rows' points, the hand terms' and the ends of the capsule pairs it measured (the
         others' gradient is 0 in every frame)."""
         static = self.__dict__.get("_static_reached")
-        if static is None:
+        if static is None:  # (K,) bool: the rows' and the hand terms' points
             hand = [self.hand.end_points, self.hand.axes] if self.hand.items else []
-            static = self.__dict__["_static_reached"] = np.unique(np.concatenate([self.row_points, *hand]).astype(np.int64))
+            static = self.__dict__["_static_reached"] = np.zeros(self.rows.shape[1], dtype=bool)
+            static[np.concatenate([self.row_points, *hand]).astype(np.int64)] = True
         coll = saved[3]
         if coll is None:
-            return static
-        pairs = np.unique(coll[0] % self.radii.shape[0])
-        return np.union1d(static, self.pair_points.reshape(-1, 4)[pairs])
+            return np.flatnonzero(static)
+        hit = static.copy()
+        hit[self.pair_points.reshape(-1, 4)[coll[0] % self.radii.shape[0]]] = True  # a mask: no sort of the pairs
+        return np.flatnonzero(hit)
 
     def forward(self, P: np.ndarray, pairs: bool = True):
         """Terms ``(B, len(TERMS))`` (``TERMS`` order) and what the backward needs, for points ``P (B, K, 3)`` (B = T).
