@@ -21,7 +21,9 @@ and imports included):
 
 First a calibration: how much more throughput the machine gives two CPU-bound processes at once
 than one (2.0 on an idle 2-core machine; a shared one gives less, and the 2-worker speed-up cannot
-beat it). It prints the times (wall, and the CPU seconds of every process of the run), then each
+beat it). It prints the times (wall, the CPU seconds of every process of the run, and the inputs' own
+time: reading, pose estimation and retargeting summed over the inputs, which splits a run's wall time
+into the per-input work and the rest: start, engine, writing, end), then each
 target with PASS or FAIL: 2 workers >= 1.6x the throughput of 1; 1 worker within 10 % of the plain
 loop; the resumed run < 5 % of the first run's time; the kill -9 run with every input ok (and the
 cluster left running); results identical across 1 and 2 workers; everything listening on 127.0.0.1
@@ -95,15 +97,31 @@ def build_corpus(folder: Path, n: int) -> list[Path]:
 
 
 def plain_loop(inputs: list[Path], out: Path, robot: str, iters: int) -> None:
-    """The baseline, run as its own process: one model, one input after the other, the same files written."""
+    """The baseline, run as its own process: one model, one input after the other, the same files written.
+
+    Prints (JSON, one line) the inputs' own time: reading (the video's pose estimation included) and
+    retargeting, summed over the inputs: what ``results.csv``'s ``seconds`` counts in a batch, so the
+    two runs split alike into the inputs' own time and the rest (start, engine, writing, end)."""
     from nlo_lab.batch import BatchSettings, find_inputs, write_output_folder
     from nlo_lab.human import load_demonstration, load_video
 
     retargeter = BatchSettings(robot, iterations=iters).build()
+    own = 0.0
     for item in find_inputs(inputs, out):
+        start = time.perf_counter()
         demo = load_video(item.path, threads=1) if item.is_video else load_demonstration(item.path)
         result = retargeter(demo)
+        own += time.perf_counter() - start
         write_output_folder(out / item.name, result, demo, retargeter.robot, viewer=False)
+    print(json.dumps({"inputs_seconds": own}))
+
+
+def inputs_seconds(kind: str, out: Path, done: list[subprocess.CompletedProcess]) -> float:
+    """The inputs' own time of a finished run (see :func:`plain_loop`): the plain loops say it; a batch's is
+    the sum of its ``results.csv`` ``seconds`` (each input's time on its worker, pose estimation included)."""
+    if kind in ("loop", "pair"):
+        return sum(json.loads(proc.stdout.strip().splitlines()[-1])["inputs_seconds"] for proc in done)
+    return sum(float(r["seconds"] or 0.0) for r in rows(out))
 
 
 SPIN = "import time\nend = time.process_time() + {seconds}\nn = 0\nwhile time.process_time() < end:\n    n += 1\nprint(n)"
@@ -308,6 +326,7 @@ def main() -> None:
             "w1": "nlo-lab batch --workers 1", "w2": "nlo-lab batch --workers 2"}
     walls: dict[str, list[float]] = {k: [] for k in runs}
     cpus: dict[str, list[float]] = {k: [] for k in runs}
+    owns: dict[str, list[float]] = {k: [] for k in runs}  # the inputs' own time, summed (see plain_loop)
     codes: dict[str, list[int]] = {k: [] for k in runs}
     local_sockets: set[str] = set()
     local_ss: list[str] = []
@@ -329,12 +348,15 @@ def main() -> None:
             seconds, code, sockets, ss = run_watched(batch_cmd(corpus, out, args.robot, args.iters, "--workers", kind[1], "--quiet"))
             local_sockets.update(sockets)
             local_ss[:] = ss or local_ss
+            done = []
         cpu = children_cpu() - cpu_mark[0]  # the run's processes, all of them (they have ended)
         cpu_mark[0] += cpu
         walls[kind].append(seconds)
         cpus[kind].append(cpu)
         codes[kind].append(code)
+        owns[kind].append(inputs_seconds(kind, out, done))
         print(f"  round {rnd + 1}: {runs[kind]:<40} {seconds:8.1f} s  {len(files) / seconds:6.2f} inputs/s  CPU {cpu:7.1f} s  "
+              f"inputs' own {owns[kind][-1]:6.1f} s  "
               f"(load {os.getloadavg()[0]:.1f})", flush=True)
 
     for rnd in range(args.rounds):  # alternating order: a load that comes or goes during the run weighs on each alike
@@ -342,6 +364,7 @@ def main() -> None:
             run(kind, rnd)
     med = {k: float(np.median(v)) for k, v in walls.items()}
     med_cpu = {k: float(np.median(v)) for k, v in cpus.items()}
+    med_own = {k: float(np.median(v)) for k, v in owns.items()}
     last_w2 = work / f"w2_{args.rounds - 1}"
     first_rows = {"1 worker": rows(work / "w1_0"), "2 workers": rows(work / "w2_0")}
     resume_s, resume_proc = timed(batch_cmd(corpus, last_w2, args.robot, args.iters, "--workers", "2", "--quiet"))
@@ -383,7 +406,10 @@ def main() -> None:
          f"the workers reached {speedup / ceiling:.0%} of what two cores gave this work)"),
         (verdict(overhead <= TARGET_OVERHEAD, busy),
          f"1 worker vs the plain loop: {overhead * 100:+.1f} % time ({rounds_text}; target within {TARGET_OVERHEAD:.0%}; "
-         f"CPU seconds of all processes: {(med_cpu['w1'] / med_cpu['loop'] - 1) * 100:+.1f} %)"),
+         f"CPU seconds of all processes: {(med_cpu['w1'] / med_cpu['loop'] - 1) * 100:+.1f} %; where the time goes: the inputs' "
+         f"own time (reading, pose estimation, retargeting) {med_own['loop']:.1f} s in the loop, {med_own['w1']:.1f} s on the worker "
+         f"({(med_own['w1'] / med_own['loop'] - 1) * 100:+.1f} %); the rest (start, engine, writing, end) {med['loop'] - med_own['loop']:.1f} s "
+         f"in the loop, {med['w1'] - med_own['w1']:.1f} s in the batch)"),
         (verdict(resume_share < TARGET_RESUME and resume_proc.returncode == 0 and all(r["status"] == "skipped" for r in resumed)),
          f"resumed run over the finished corpus: {resume_share * 100:.1f} % of the first run's time (target < {TARGET_RESUME:.0%})"),
         (verdict(ext_pass), f"dask scheduler + 2 dask workers, kill -9 of one after {ext['killed_after']} rows: {ext_ok}/{len(files)} "
@@ -428,11 +454,17 @@ def main() -> None:
         "loops, 1 worker, 2 workers; then the reverse): a load that comes or goes weighs on each alike; the figures are "
         "medians over the rounds",
         "",
-        "| run (a fresh process each) | wall [s] (median) | wall [s] (each round) | inputs/s | CPU [s] (all its processes) |",
-        "|---|---:|---:|---:|---:|",
-        *(f"| {label} | {med[k]:.1f} | {spread(walls[k])} | {len(files) / med[k]:.2f} | {med_cpu[k]:.1f} |" for k, label in runs.items()),
-        f"| nlo-lab batch --workers 2, resumed (all skipped) | {resume_s:.2f} | | | |",
-        f"| dask scheduler + 2 dask workers over loopback, one killed -9 | {ext['seconds']:.1f} | | {len(files) / ext['seconds']:.2f} | |",
+        "| run (a fresh process each) | wall [s] (median) | wall [s] (each round) | inputs/s | CPU [s] (all its processes) "
+        "| the inputs' own time [s] (summed) |",
+        "|---|---:|---:|---:|---:|---:|",
+        *(f"| {label} | {med[k]:.1f} | {spread(walls[k])} | {len(files) / med[k]:.2f} | {med_cpu[k]:.1f} | {med_own[k]:.1f} |"
+          for k, label in runs.items()),
+        f"| nlo-lab batch --workers 2, resumed (all skipped) | {resume_s:.2f} | | | | |",
+        f"| dask scheduler + 2 dask workers over loopback, one killed -9 | {ext['seconds']:.1f} | | {len(files) / ext['seconds']:.2f} | | |",
+        "",
+        "The inputs' own time: each input's reading (a video's pose estimation included) and retargeting, summed over the "
+        "inputs (a batch's `results.csv` `seconds`; the plain loop times the same span): what is left of a run's wall time "
+        "is its start (imports, model), the engine, the writing and its end.",
         "",
         *(f"- **{mark}** {text}" for mark, text in targets),
     ]
