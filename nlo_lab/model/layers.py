@@ -209,17 +209,26 @@ class GraphLayer(nn.Module):
         in a handful of batched matmuls over edges and nodes, which at small
         batch is what matters (per-op overhead).
         """
-        receivers = x if w["one_in"] else x.index_select(0, w["dst"])  # one_in: edge i is node i's message
-        msg = torch.baddbmm(w["bias"], receivers, w["self"])  # (E, B, O)
-        msg = torch.baddbmm(msg, x.index_select(0, w["src"]), w["nbr"])
-        msg = self.g(msg)
-        if w["skip"] is None:
-            res = x
-        elif w["skip_bias"] is None:
-            res = torch.bmm(x, w["skip"])
-        else:
-            res = torch.baddbmm(w["skip_bias"], x, w["skip"])
-        return res + msg if w["one_in"] else res.index_add(0, w["dst"], msg)  # + sum over incoming edges
+        return node_major_sum(x, self.g(node_major_messages(x, w)), w)
+
+
+def node_major_messages(x: torch.Tensor, w: dict[str, torch.Tensor]) -> torch.Tensor:
+    """:meth:`GraphLayer.forward_node_major`'s messages before the activation: ``x (N, B, C')`` -> ``(E, B, O)``."""
+    receivers = x if w["one_in"] else x.index_select(0, w["dst"])  # one_in: edge i is node i's message
+    msg = torch.baddbmm(w["bias"], receivers, w["self"])  # (E, B, O)
+    return torch.baddbmm(msg, x.index_select(0, w["src"]), w["nbr"])
+
+
+def node_major_sum(x: torch.Tensor, msg: torch.Tensor, w: dict[str, torch.Tensor]) -> torch.Tensor:
+    """:meth:`GraphLayer.forward_node_major`'s output: the skip path of ``x (N, B, C')`` plus each node's
+    activated messages ``msg (E, B, O)`` -> ``(N, B, O)``."""
+    if w["skip"] is None:
+        res = x
+    elif w["skip_bias"] is None:
+        res = torch.bmm(x, w["skip"])
+    else:
+        res = torch.baddbmm(w["skip_bias"], x, w["skip"])
+    return res + msg if w["one_in"] else res.index_add(0, w["dst"], msg)  # + sum over incoming edges
 
 
 class GraphBuffers(nn.Module):

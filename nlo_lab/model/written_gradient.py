@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import torch
 
+from nlo_lab.model.layers import node_major_messages, node_major_sum
+
 __all__ = ["WrittenDecoder"]
 
 
@@ -54,18 +56,9 @@ class WrittenDecoder:
         x = z.transpose(0, 1)  # (N, B, k)
         saved = []
         for L in w["layers"]:
-            receivers = x if L["one_in"] else x.index_select(0, L["dst"])
-            m = torch.baddbmm(L["bias"], receivers, L["self"])  # (E, B, O)
-            m = torch.baddbmm(m, x.index_select(0, L["src"]), L["nbr"])
-            a = torch.nn.functional.leaky_relu(m, self.slope)
-            if L["skip"] is None:
-                res = x
-            elif L["skip_bias"] is None:
-                res = torch.bmm(x, L["skip"])
-            else:
-                res = torch.baddbmm(L["skip_bias"], x, L["skip"])
+            m = node_major_messages(x, L)  # (E, B, O), kept: the activation's derivative reads it
             saved.append(m)
-            x = res + a if L["one_in"] else res.index_add(0, L["dst"], a)
+            x = node_major_sum(x, torch.nn.functional.leaky_relu(m, self.slope), L)
         t = torch.tanh(x[..., 0].T + w["rest_pre"])  # (B, N)
         pre = torch.addcmul(w["mid"], w["half"], t)
         q = torch.clamp(pre, min=w["lower"], max=w["upper"])
