@@ -76,3 +76,10 @@ def test_dex_runner_retargets_an_open_and_a_closed_hand(tmp_path):
     fingers = slice(2, 6)  # index..pinky proximal
     assert (q[0, fingers] < 0.15).all(), q[0]
     assert (q[1, fingers] > 1.2).all(), q[1]
+    # timed passes: the same angles, the per-call seconds of the median pass (by its total)
+    three = hands.run_dex(DEX_PYTHON, data, passes=3)
+    for variant in ("filtered", "unfiltered"):
+        np.testing.assert_array_equal(three[f"q_{variant}"], out[f"q_{variant}"])
+        totals = three[f"pass_seconds_{variant}"]
+        assert totals.shape == (3,) and three[f"seconds_{variant}"].shape == (2,)
+        assert three[f"seconds_{variant}"].sum() == pytest.approx(float(np.median(totals)), rel=1e-12)
