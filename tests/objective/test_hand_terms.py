@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 import torch
 
@@ -253,6 +254,22 @@ def test_the_numpy_backward_visits_only_the_kinds_with_a_gradient(yumi, exact_ta
     assert hand.items == 3 * K + J and len(sel) == K + J  # tip and the thumb vectors; not tip_dir, finger_dir
     assert hand._active(0 * g)[5].shape[1] == 0 and hand._active(g + 1)[0] is None  # nothing; everything
     assert hand._active(g[: SMALL_BATCH - 1])[0] is None  # fewer frames: every item (the gathers would cost more)
+
+
+def test_the_numpy_hand_terms_refuse_items_not_grouped_by_kind(yumi, exact_targets, random_feasible_pose):
+    """The planes' forward reads each kind as a slice, the tip vectors first: another order is refused, not mis-summed."""
+    from nlo_lab.objective.numpy_backend import HandTerms
+
+    q = random_feasible_pose(yumi, 2, seed=18)
+    h = Objective(yumi, exact_targets(yumi, q), LossWeights(), fused=True).numpy_terms.hand
+    kind = h.kind.argmax(1)
+    rebuild = lambda order: HandTerms(h.plus[order], h.minus[order], h.axes, h.side[order], h.length[order, 0], kind[order],  # noqa: E731
+                                      h.v_hat[:, order], h.mask[:, order, 0], h.pinch_goal, h.pinch_weight, h.gap_below)
+    assert rebuild(np.arange(h.items)).items == h.items  # the built order is accepted
+    swapped = np.arange(h.items)
+    swapped[[0, h.vectors]] = swapped[[h.vectors, 0]]  # a tip direction first, a tip vector among the directions
+    with pytest.raises(ValueError, match="grouped by kind"):
+        rebuild(swapped)
 
 
 def test_numpy_fast_path_gives_the_same_hand_terms_values_and_gradients(yumi, exact_targets, random_feasible_pose):
