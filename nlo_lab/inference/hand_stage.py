@@ -230,9 +230,9 @@ def compact_terms(terms: PointTerms, moving: np.ndarray, points: np.ndarray) -> 
         points: ``(T, K, 3)`` the start's points (the fixed rows' values).
 
     Returns:
-        ``(compact, keep, at)``, ``constant (T, 4)``: the terms over the points ``points[:, keep]`` (in the plan's
-        order), ``at (m,)`` the moving points' places among them, and the held rows' share of the row terms (ee, ori,
-        elbow, finger) per frame.
+        ``(compact, keep, at)``, ``constant (T, 4)``: the terms over the points ``points[:, keep]`` (the fixed ones in
+        the plan's order, then ``moving``), ``at (m,)`` the moving points' places among them (the last m), and the
+        held rows' share of the row terms (ee, ori, elbow, finger) per frame.
     """
     moving = np.asarray(moving, dtype=np.int64)
     K = points.shape[1]
@@ -246,7 +246,9 @@ def compact_terms(terms: PointTerms, moving: np.ndarray, points: np.ndarray) -> 
     used[np.flatnonzero(np.any(terms.rows[live] != 0, axis=0))] = True
     for rows in (hand.plus, hand.minus, hand.axes, pairs.reshape(-1), terms.capsule_rows.reshape(-1, 2)[capsules].reshape(-1)):
         used[rows] = True
-    keep = np.flatnonzero(used | is_moving)  # in the plan's order: the hand terms' sums as the whole terms' (the same rounding)
+    # the fixed points in the plan's order, then the moving ones in the hand chains' (one block: the stage writes them
+    # and reads their gradient as a slice, no gather or scatter); every sum the same (a live row has two points)
+    keep = np.concatenate([np.flatnonzero(used & ~is_moving), moving])
     at = np.full(K, -1, dtype=np.int64)
     at[keep] = np.arange(len(keep))
     finger_row = np.zeros(len(terms.rows), dtype=bool)
@@ -292,7 +294,8 @@ class HandStageLoss:
         self.weights = weights.detach().cpu().numpy()
         self.rows, self.columns = chains.rows.cpu().numpy(), index.cpu().numpy()
         # the terms over the points they need, the moving ones first; the held rows' share a constant per frame
-        self.terms, keep, self.moving, constant = compact_terms(terms, self.rows, points.detach().cpu().numpy())
+        self.terms, keep, moving, constant = compact_terms(terms, self.rows, points.detach().cpu().numpy())
+        self.moving = slice(int(moving[0]), int(moving[-1]) + 1)  # the last block of the points (compact_terms)
         self.fixed = np.ascontiguousarray(points.detach().cpu().numpy()[:, keep])  # (T, K_c, 3): the start's
         self.constant = constant.astype(self.fixed.dtype)  # (T, 4)
         pose = wrists[:, chains.side].detach().cpu().numpy()  # (T, k_h, 3, 4) each row's wrist [R | t]

@@ -398,6 +398,7 @@ def test_compact_terms_keep_only_what_reaches_a_moving_point(yumi, demonstration
     held = loss.numpy_terms.held(moving, fixed)
     compact, keep, at, constant = compact_terms(held, rows, fixed)
     assert np.array_equal(keep[at], rows) and len(keep) < fixed.shape[1]
+    assert np.array_equal(at, np.arange(len(keep) - len(rows), len(keep)))  # the moving points: the last block, in order
     assert compact.rows.shape[0] == len(compact.fingers) < held.rows.shape[0]  # only the finger rows move
     assert float(constant[:, :3].min()) > 0  # ee, ori, elbow: held, and not zero for random arms
     whole, part = held.forward(fixed)[0], compact.forward(np.ascontiguousarray(fixed[:, keep]))[0]
