@@ -42,9 +42,22 @@ after the speed clamp come from the same form without a gradient (:meth:`HandSta
 ``benchmarks/hands.py``'s four recordings, the latent optimisation's outputs kept and the stage alone timed (thread
 time, medians of 5, two alternating runs each, 2026-11-26 17:07 UTC, load 1.5): 1.27 / 0.98 ms per frame before,
 0.97 / 0.94 after, the hands bit for bit the same (every evaluation's loss, terms and gradient equal to the previous
-form's there). What remains is per evaluation, not per frame: one costs about 1.3 ms at 47 frames and 1.9 ms at 170
-(FK of the hand chains 0.3, the terms 0.65, their backward 0.3-0.4), a few hundred numpy and torch calls whatever
-the frames, and the descent takes 60 of them on every clip but the shortest.
+form's there). What remains is per evaluation, not per frame, and the descent takes 60 of them on every clip but the
+shortest. The hand terms on coordinate planes (:class:`~nlo_lab.objective.numpy_backend.HandTerms`), the moving points
+one block of the compact terms' and FK's world axes written out (``MapPoints.gradient``) cut one from 1.22 / 1.78 /
+1.62 ms (47 / 97 / 170 frames) to 1.05 / 1.42 / 1.36 ms (one :class:`HandStageLoss` call at the pipeline's start on
+``benchmarks/hands.py``'s recordings, medians of 200, 2026-11-26 22:00-22:17 UTC, load 0.1-0.5; at 97 frames FK of
+the hand chains 0.23, its gradient 0.19, the terms 0.38 and their backward 0.23, of which the hand terms 0.12 and
+0.14), and the stage from 0.91 / 0.93 to 0.81 / 0.82 ms per frame (``benchmarks/hands.py --no-write``, two alternating
+runs each, ef43779 against 2cd1863, 22:17-22:19 UTC, load 0.3-1.1; the whole retarget 2.56 / 2.65 -> 2.53 / 2.59 ms,
+ratio to dex-retargeting's hand-frame 1.92 / 1.94 -> 1.94 / 1.94: the latent stage's time moves as much between runs),
+q bit for bit the same. Bit for bit is the bar for a faster form here, not float32 rounding: the hand terms' backward
+with one product in another orientation (``(3B, M) @ (M, U)`` for ``(U, M) @ (M, 3B)``: the last bits of the gradient)
+moved q by up to 0.011 rad in 23 of 97 and 26 of 58 frames of two recordings (60 steps, the hinges, clamps and
+best-of tracking carry a last-bit change into a different path). That rules out what does not sum as the present form
+does, and a numpy FK written out (torch's 4x4 products do agree bit for bit with it, but at 97
+frames the written composition cost 157 against torch's 107 us, the points 69 against 67 us) and ``R p + t`` on
+coordinate planes (52 against 57 us: no gain).
 
 Fewer evaluations cost the handshape (2026-11-26 17:05-17:15 UTC, the same recordings and starts; wrist->tip / thumb
 / base->tip [deg] / pinch r, the retimed duration summed over the four clips; now 17.16 / 25.24 / 34.13 / 0.807,
