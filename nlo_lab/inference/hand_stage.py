@@ -276,9 +276,9 @@ def compact_terms(terms: PointTerms, moving: np.ndarray, points: np.ndarray) -> 
                      at[pairs].reshape(-1), terms.radii, terms.margins, terms.form, compact_hand,
                      at[terms.capsule_rows.reshape(-1, 2)[capsules]].reshape(-1), capsule_of[terms.pair_capsules])
     out.collision_held = terms.collision_held
-    # the held rows' share: the whole terms' row terms at the start less the live rows' (their points do not move)
-    whole = terms.forward(points)[0][:, :4].astype(np.float64)
-    live_part = out.forward(np.ascontiguousarray(points[:, keep]))[0][:, :4].astype(np.float64)
+    # the held rows' share: the whole terms' row terms at the start less the live rows' (their points do not move; no pair measured)
+    whole = terms.forward(points, pairs=False)[0][:, :4].astype(np.float64)
+    live_part = out.forward(np.ascontiguousarray(points[:, keep]), pairs=False)[0][:, :4].astype(np.float64)
     return out, keep, at[moving], whole - live_part
 
 
