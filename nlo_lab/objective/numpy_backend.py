@@ -542,8 +542,11 @@ class PointTerms:
             near = self.near_pairs(P)  # maybe_near's pairs (and some certainly clear), searched again only where points moved
             if near.size:  # the others add exactly 0
                 frame, pair = np.divmod(near, self.radii.shape[0])
-                ends = P[frame[:, None], self.pair_points.reshape(-1, 4)[pair]]  # (n, 4, 3): a0, a1, b0, b1
-                _, _, w, dist, u = segment_closest_points(ends.transpose(1, 2, 0).astype(np.float64))
+                # the ends a0, a1, b0, b1 as (4, 3, n): one np.take of whole rows of the flat points (a fancy
+                # index P[frame, rows] ran twice as slow: 217 against 104 us for 5,000 pairs at 170 frames)
+                at = (self.pair_points.reshape(-1, 4)[pair] + (frame * P.shape[1])[:, None]).T.reshape(-1)  # (4n,)
+                ends = np.take(P.reshape(-1, 3), at, axis=0).reshape(4, -1, 3).transpose(0, 2, 1)
+                _, _, w, dist, u = segment_closest_points(ends.astype(np.float64, order="C"))
                 m = self.margins[pair]
                 d = dist - self.radii[pair]  # surface distance [m]
                 if self.form == "paper":
