@@ -166,8 +166,10 @@ class NearPairs:
         items = np.flatnonzero(self.candidate)
         frame, pair = np.divmod(items, n_pairs)
         # the bound of the candidates alone, the same arithmetic as maybe_near's
-        flat, at = points.reshape(-1, 3), frame * K
-        a0, a1, b0, b1 = (flat[at + rows[pair]].T for rows in self.pair_rows)  # (3, n) each
+        # one np.take of whole rows of the flat points for the four ends (four fancy indexes flat[rows] ran
+        # 154 against 89 us for 4,900 candidates at 170 frames)
+        ends = np.take(points.reshape(-1, 3), (self.pair_rows[:, pair] + frame * K).reshape(-1), axis=0)
+        a0, a1, b0, b1 = ends.reshape(4, -1, 3).transpose(0, 2, 1)  # (3, n) each
         twice_clearance = (2.0 * self.clearance).astype(points.dtype)[pair]
         near = _bound_below((b0 + b1) - (a0 + a1), a1 - a0, b1 - b0, twice_clearance)
         return items[near]
