@@ -249,6 +249,9 @@ def _tree_of(rev: str, into: Path) -> Path:
         subprocess.run(["git", "-C", str(ROOT), "archive", rev, "nlo_lab"], stdout=fh, check=True)
     with tarfile.open(archive) as tar:
         tar.extractall(into / "tree", filter="data")
+    if not (into / "tree" / "nlo_lab" / "pipeline.py").is_file():  # else the installed nlo_lab's modules fill the gaps
+        raise SystemExit(f"--against {rev}: that commit has no nlo_lab/pipeline.py (it predates the house's move of the "
+                         "pipeline, 7c8fe20); choose a later commit")
     (into / "tree" / "assets").symlink_to(ROOT / "assets")
     return into / "tree"
 

@@ -70,7 +70,7 @@ class Step:
 STEPS: tuple[Step, ...] = (
     Step("checkpoints", "benchmarks/checkpoints.py", "", "", minutes=0.2),
     Step("fk", "benchmarks/fk.py", "--robot yumi --threads 1", "--robot yumi --threads 1 --runs 3", minutes=1),
-    Step("retarget-speed:yumi", "benchmarks/retarget_speed.py", "--robot yumi --against df18d97",
+    Step("retarget-speed:yumi", "benchmarks/retarget_speed.py", "--robot yumi --against c9efdba",
          "--robot yumi --rounds 1 --repeats 1 --frames 3", minutes=7),
     Step("speed:yumi", "benchmarks/speed.py", "--robot yumi", "--robot yumi --lengths 30,170 --repeats 1 --frames 3 --sequences 1 --joint-cap 30", minutes=6),
     Step("motion", "benchmarks/motion.py", "", "--robots nao --clips 2", minutes=6),
