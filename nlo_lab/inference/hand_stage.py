@@ -95,6 +95,14 @@ weighed less, and this stage from there ends at 16.66-16.82° with the pinch at 
 optimisation's hands: 17.16°, 0.81). Within the clamp, none of these trajectories of the 6-actuator hand gets
 wrist->tip below dex-retargeting's 16.57° with the thumb measure and the pinch still ahead of its (27.8°, 0.79): a
 start search trades the thumb and the pinch for the wrist->tip direction.
+Weighing the pinch more does not open a way either (``benchmarks/hands_frontier.py --weights 1,0.2,0.5,0.5
+1,0.2,0.5,1 1,0.3,0.3,1 1,0.1,0.3,1.5 --stage``, 2026-11-26 21:44 UTC, load 0.7-1.1): the searches' pinch r rises to
+0.85-0.89 but their thumb measure to 30-41°, and this stage from their hands ends at wrist->tip 16.58-16.82°, thumb
+27.2-29.4°, pinch r 0.77-0.78, behind dex-retargeting's 0.79 again. Nor do the stage's own weights and clamp move
+wrist->tip far from where the start's basin holds it (``retarget`` on the same recordings, all else default; wrist->tip
+/ thumb / base->tip [deg] / pinch r, 21:45-21:47 UTC): ``tip_dir`` 6000 17.10 / 24.46 / 35.67 / 0.807, 8000 17.08 /
+24.78 / 35.82 / 0.796; ``thumb`` 250 17.09 / 27.55 / 33.74 / 0.805; the clamp's caps 1.5x 16.99 / 25.45 / 33.43 / 0.807
+(the retimed duration of the four clips 23.92 -> 27.36 s).
 
 It never makes the robot slower: after the descent, each hand joint's step between consecutive
 frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's
