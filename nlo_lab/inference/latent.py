@@ -161,12 +161,13 @@ def _candidate_costs(model: RetargetModel, loss_fn: Objective, z0: torch.Tensor,
     q = model.decode(z0, decoder_form).to(loss_fn.weights.dtype)  # (T, n)
     points = loss_fn.plan.map(q, analytic_fk).numpy()  # (T, k, 3)
     latent = latent_weight * z0.pow(2).flatten(1).sum(1).to(q.dtype)  # (T,)
-    collision = terms_of.forward(points)[0][:, 4]  # (T,): each start latent's
+    column = TERMS.index("collision")
+    collision = terms_of.forward(points)[0][:, column]  # (T,): each start latent's
     unary, angles = [], []
     for k in range(idx.shape[1]):
         at = idx[:, k]
         terms, _ = terms_of.forward(points[at.numpy()], pairs=False)
-        terms[:, 4] = collision[at.numpy()]
+        terms[:, column] = collision[at.numpy()]
         unary.append(torch.from_numpy(terms) @ loss_fn.weights + latent[at])
         angles.append(q[at])
     return unary, angles

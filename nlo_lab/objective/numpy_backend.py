@@ -528,7 +528,8 @@ class PointTerms:
         ``pairs=False``: the capsule pairs are not measured (the collision term reads 0, and adds no gradient): for
         a caller that has it already (:func:`~nlo_lab.inference.sequence_start`'s candidates)."""
         goal, mask = self.goal, self.mask
-        v = _rows_times(self.rows_used, P[:, self.row_points])  # (B, V, 3): rows @ P, the unused points left out
+        # (B, V, 3): rows @ P, the unused points left out (np.take: a fancy index P[:, rows] ran 23 against 13 us, 170 frames, 2026-11-26)
+        v = _rows_times(self.rows_used, np.take(P, self.row_points, axis=1))
         f = self.fingers
         norm = unit = None
         if f.size:
