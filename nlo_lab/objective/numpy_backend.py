@@ -227,8 +227,6 @@ class HandTerms:
         dtype = v_hat.dtype
         self.length = np.asarray(length, dtype=dtype)[:, None]  # (M, 1) the robot's hand length per item
         self.kind = np.eye(4, dtype=dtype)[np.asarray(kind, dtype=np.int64)]  # (M, 4) tip / thumb / tip_dir / finger_dir
-        self.direction = self.kind[:, 1:].sum(1, keepdims=True) > 0  # (M, 1) the items compared as directions
-        self.chord = self.kind[:, 2:3] > 0  # (M, 1) the items costing their chord, not its square (tip_dir)
         self.side_sum = np.eye(2, dtype=dtype)[self.side].T  # (2, M): sums the items of each side
         self.v_hat, self.mask = v_hat, mask[..., None]  # (T, M, 3), (T, M, 1)
         self.pinch_goal, self.pinch_weight = pinch_goal, pinch_weight  # (T, J): max(d̂, floor), activation x mask
