@@ -303,12 +303,15 @@ def tracking_errors(demo: Demonstration, robot: Robot, angles: Any) -> dict[str,
     }
 
 
-def self_collision_frames(robot: Robot, angles: Any) -> int:
+def self_collision_frames(robot: Robot, angles: Any, cull: bool = False) -> int:
     """Number of frames where any checked capsule pair penetrates (distance < 0).
 
     Args:
         robot: a ``nlo_lab.robot.Robot``.
         angles: ``(T, n_joints)`` [rad].
+        cull: the faster form with the same verdicts (:func:`nlo_lab.objective.penetration.penetrating`: the capsules'
+            ends from the objective's point plan, a pair measured exactly only where a bound does not clear it; YuMi,
+            the 170 frames of a real recording: 3.4 against 28 ms). The retargeting summary takes it with the fast paths.
     """
     q = _angles(robot, angles)
     # lazy: torch: the command line's --help and bad flags do not wait for it
@@ -316,6 +319,12 @@ def self_collision_frames(robot: Robot, angles: Any) -> int:
 
     colliding = 0
     for rows in _chunks(q.shape[0]):
+        if cull:
+            from nlo_lab.objective.penetration import penetrating  # lazy, as torch
+
+            ref = robot.lower_limits
+            colliding += int(penetrating(robot, torch.tensor(q[rows], dtype=ref.dtype, device=ref.device), cull=True).sum())
+            continue
         with torch.no_grad():
             d = robot.capsule_distances(_poses_torch(robot, q[rows]))  # (chunk, P) [m]
         if d.numel():

@@ -271,7 +271,7 @@ class Retargeter:
         trajectory = RobotTrajectory(robot=robot.name, joint_names=tuple(robot.joint_names), angles=angles, fps=demo.fps, time=times)
         out = RetargetResult(trajectory=trajectory, optimization=result, seconds=seconds)
         with single_thread():  # the metrics' FK too: with a thread per core, a busy machine made it 10x slower
-            out.summary = summary(demo, robot, out)
+            out.summary = summary(demo, robot, out, cull=self.fast_paths(len(demo)).cull_far_pairs)
         return out
 
 
@@ -338,7 +338,7 @@ def _progress_bar(show: bool, total: int, desc: str):
         bar.close()
 
 
-def summary(demo: Demonstration, robot: Robot, result: RetargetResult) -> dict[str, Any]:
+def summary(demo: Demonstration, robot: Robot, result: RetargetResult, cull: bool = False) -> dict[str, Any]:
     """The command line's JSON object (README.md, "Command line").
 
     Joint speed keys: ``velocity_violations`` (frame pairs x joints over the velocity limit)
@@ -347,6 +347,8 @@ def summary(demo: Demonstration, robot: Robot, result: RetargetResult) -> dict[s
     rate; ``slowdown`` the output's duration over the recording's (1 = not retimed);
     ``max_joint_step_rad`` the largest change of a joint between consecutive frames;
     ``depth``: ``"world"`` (measured 3-D) or ``"image"`` (reconstructed from an image-only recording).
+    ``cull``: count the self-collision frames by the culled check (the same count, :func:`~nlo_lab.metrics.self_collision_frames`);
+    the retargeting's own summary takes it with its fast paths.
     """
     traj = result.trajectory
     angles = traj.angles  # (T, n) float64; the metrics check and convert it themselves
@@ -361,7 +363,7 @@ def summary(demo: Demonstration, robot: Robot, result: RetargetResult) -> dict[s
         "frechet_m": float(errors["frechet_m"]),
         "frechet_wrist_m": float(errors["frechet_wrist_m"]),
         "frechet_elbow_m": float(errors["frechet_elbow_m"]),
-        "self_collision_frames": int(self_collision_frames(robot, angles)),
+        "self_collision_frames": int(self_collision_frames(robot, angles, cull=cull)),
         "limit_violations": int(limit_violations(robot, angles)),
         "velocity_violations": velocity_violations(robot, traj.angles, traj.times),
         "max_joint_speed_ratio": round(max_joint_speed_ratio(robot, traj.angles, traj.times), 4),

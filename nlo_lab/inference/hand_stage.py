@@ -136,9 +136,9 @@ from nlo_lab.errors import RobotDescriptionError
 from nlo_lab.human.demonstration import SIDES
 from nlo_lab.inference.descent import descend, smoothness_term
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
-from nlo_lab.objective import CULL_SLACK, LossWeights, Objective, Targets, point_plan
-from nlo_lab.objective.numpy_backend import HandTerms, PointTerms, SmoothTerm, maybe_near
-from nlo_lab.robot.collision import segment_closest_points
+from nlo_lab.objective import LossWeights, Objective, Targets
+from nlo_lab.objective.numpy_backend import HandTerms, PointTerms, SmoothTerm
+from nlo_lab.objective.penetration import penetrating  # here too: where the stage's rule meets it first
 from nlo_lab.robot.kinematics import KinematicTree
 from nlo_lab.robot.point_gradient import MapPoints
 from nlo_lab.robot.urdf import JointInfo
@@ -489,30 +489,3 @@ def within_speed(x: torch.Tensor, cap: torch.Tensor) -> torch.Tensor:
     for t in range(1, out.shape[0]):
         np.clip(out[t], out[t - 1] - bound[t - 1], out[t - 1] + bound[t - 1], out=out[t])
     return torch.as_tensor(out, device=x.device)
-
-
-def penetrating(robot: Robot, q: torch.Tensor, cull: bool = False, points: torch.Tensor | None = None) -> torch.Tensor:
-    """``(T,)`` bool: some checked capsule pair of ``q (T, n)`` penetrates (surface distance < 0), as the metrics count it.
-
-    ``cull``: the faster form, the same verdicts: the capsules' end points from the objective's point plan (one FK of
-    the points it maps, not of every link), and a pair's exact distance only where the separating-axis bound
-    (:func:`~nlo_lab.objective.numpy_backend.maybe_near`) does not clear it of contact (most of YuMi's pairs are
-    centimetres apart in every frame). ``points``: with ``cull``, the plan's points of ``q`` (``(T, K, 3)``,
-    ``point_plan(robot).map(q)``) where the caller has them already; else they are mapped here."""
-    if q.shape[0] == 0 or not robot.spec.collision_pairs:
-        return torch.zeros(q.shape[0], dtype=torch.bool, device=q.device)
-    with torch.no_grad():
-        if not cull:
-            return (robot.capsule_distances(robot.forward_kinematics(q)) < 0).any(-1)
-        plan = point_plan(robot, q.dtype, q.device)
-        mapped = plan.map(q, analytic_gradient=True) if points is None else points.detach()
-        positions = mapped.cpu().numpy()  # (T, K, 3)
-    T, pairs = positions.shape[0], robot.pair_capsules
-    radii = plan.pair_radii.cpu().numpy().astype(np.float64)
-    near = maybe_near(positions[:, plan.capsule_end_rows.cpu().numpy()].reshape(T, -1, 2, 3), pairs, radii + CULL_SLACK)
-    frame, pair = np.divmod(near, len(pairs))
-    ends = positions[frame[:, None], plan.pair_points.cpu().numpy().reshape(-1, 4)[pair]]  # (n, 4, 3): a0, a1, b0, b1
-    dist = segment_closest_points(ends.transpose(1, 2, 0).astype(np.float64))[3]
-    out = np.zeros(T, dtype=bool)
-    out[frame[dist - radii[pair] < 0]] = True
-    return torch.as_tensor(out, device=q.device)

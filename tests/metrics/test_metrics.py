@@ -292,3 +292,18 @@ def test_read_only_angles_give_no_torch_warning():
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr[-2000:]
     assert run.stdout.strip() == "0"
+
+
+@pytest.mark.parametrize("name", ["yumi", "nao", "pepper"])
+def test_self_collision_frames_culled_gives_the_exact_count(name):
+    """Random poses over the joint ranges (both verdicts occur), more frames than one chunk of the metrics."""
+    from nlo_lab.metrics import METRIC_CHUNK_FRAMES, self_collision_frames
+    from nlo_lab.robot import load_robot
+
+    robot = load_robot(name)
+    g = torch.Generator().manual_seed(31)
+    lo, hi = robot.lower_limits.double(), robot.upper_limits.double()
+    q = (lo + (hi - lo) * torch.rand(2 * METRIC_CHUNK_FRAMES + 17, lo.shape[0], generator=g, dtype=torch.float64)).numpy()
+    exact = self_collision_frames(robot, q)
+    assert 10 < exact < len(q) - 10
+    assert self_collision_frames(robot, q, cull=True) == exact

@@ -108,3 +108,27 @@ def test_the_evaluation_runs_the_pipeline(nao, model, demo, monkeypatch):
     for method in ("latent_encoder", "encoder_only", "latent_random"):
         with pytest.raises(RuntimeError, match="the pipeline ran"):
             run_method(method, nao, demo, s, model=model)
+
+
+def test_the_summary_counts_self_collisions_as_the_readable_metric(nao, model, demo, monkeypatch):
+    """The retargeting's summary counts the self-collision frames by the culled check (its fast paths), the readable
+    metric's count; on poses that collide, since the retargeted clip has none."""
+    import dataclasses
+
+    import nlo_lab.pipeline as pipeline
+    from nlo_lab.metrics import self_collision_frames
+
+    asked = []
+    real = pipeline.self_collision_frames
+    monkeypatch.setattr(pipeline, "self_collision_frames", lambda robot, angles, cull=False: asked.append(cull) or real(robot, angles, cull))
+    result = RetargetConfig(nao, SETTINGS, model=model).build()(demo)
+    readable = RetargetConfig(nao, SETTINGS, model=model, fast=False).build()(demo)
+    assert asked == [True, False]  # the fast paths' check, and the readable one with fast=False
+    assert result.summary["self_collision_frames"] == readable.summary["self_collision_frames"]
+    g = torch.Generator().manual_seed(27)
+    lo, hi = nao.lower_limits.double(), nao.upper_limits.double()
+    q = (lo + (hi - lo) * torch.rand(len(demo), lo.shape[0], generator=g, dtype=torch.float64)).numpy()
+    posed = dataclasses.replace(result, trajectory=dataclasses.replace(result.trajectory, angles=q))
+    count = pipeline.summary(demo, nao, posed, cull=True)["self_collision_frames"]
+    assert 0 < count < len(demo)
+    assert count == pipeline.summary(demo, nao, posed)["self_collision_frames"] == self_collision_frames(nao, q)
