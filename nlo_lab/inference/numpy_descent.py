@@ -109,8 +109,8 @@ class WrittenGradientLoss:
         # Every frame's capsule pairs searched every call (NearPairs' slack 0): Rprop's steps move most frames'
         # capsules farther than the slack between calls, and checking the kept candidates cost more than the search
         # saved (2026-11-26, YuMi, the 164 calls of the 4 recordings of benchmarks/hands.py: 69 against 92 ms).
-        if objective.numpy_terms is not None:
-            objective.numpy_terms.near_pairs.slack = 0.0
+        # Its own copy of the terms: the objective the caller holds keeps its slack.
+        self.terms = objective.numpy_terms.with_near_slack(0.0) if objective.numpy_terms is not None else None
 
     @classmethod
     def build(cls, model: RetargetModel, robot: Robot, objective: Objective, latent_weight: float, targets: Targets,
@@ -136,7 +136,7 @@ class WrittenGradientLoss:
                 q_graph = self.model.decode(z_leaf, self.form).to(self.dtype)  # the decoder's own graph, for its backward
             q = q_graph.detach()
         poses, points = MapPoints.points(q, tree, plan.body, plan.vectors)
-        terms, term_state = self.objective.numpy_terms.forward(points.numpy())
+        terms, term_state = self.terms.forward(points.numpy())
         z_np = z.detach().numpy()
         latent = (z_np * z_np).reshape(len(z_np), -1).sum(1)
         loss = terms @ self.weights + (self.latent_weight * latent).astype(terms.dtype, copy=False)
@@ -146,8 +146,8 @@ class WrittenGradientLoss:
         g_terms = self._g_terms.get(len(terms))
         if g_terms is None:  # backward of sum(loss): each term's gradient is its weight
             g_terms = self._g_terms[len(terms)] = np.tile(self.weights, (len(terms), 1)).astype(terms.dtype)
-        g_points = torch.from_numpy(self.objective.numpy_terms.backward(g_terms, term_state))
-        columns = torch.from_numpy(self.objective.numpy_terms.reached(term_state))  # the points with a gradient
+        g_points = torch.from_numpy(self.terms.backward(g_terms, term_state))
+        columns = torch.from_numpy(self.terms.reached(term_state))  # the points with a gradient
         g_q = MapPoints.gradient(g_points, poses, points, tree, plan.body, plan.vectors, columns)
         if self.smooth is not None:
             g_q = g_q + torch.from_numpy(self.smooth.backward(np.ones(len(q), dtype=terms.dtype), smooth_state))

@@ -444,6 +444,13 @@ class PointTerms:
             out.collision_held += self.collision_held
         return out
 
+    def with_near_slack(self, slack: float) -> PointTerms:
+        """A copy whose own :class:`NearPairs` keeps its candidates within ``slack`` [m] (0: every frame's pairs searched
+        every call), the arrays shared; the terms the same to the bit whatever the slack (the tests hold it)."""
+        out = copy.copy(self)
+        out.near_pairs = NearPairs(self.capsule_rows, self.pair_capsules, self.clearance, slack)
+        return out
+
     def _with_pairs(self, keep: np.ndarray) -> PointTerms:
         """A copy measuring only the collision pairs ``keep`` (``(P,)`` bool), its own :class:`NearPairs`."""
         out = copy.copy(self)

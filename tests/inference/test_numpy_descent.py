@@ -116,6 +116,7 @@ def test_written_gradient_loss_equals_the_readable_torch_loss(robot, kind, form,
     autograd through FK and the smoothness term)."""
     from nlo_lab.inference import smoothness_term
     from nlo_lab.inference.numpy_descent import WrittenGradientLoss
+    from nlo_lab.objective.numpy_backend import NEAR_SLACK
 
     frames = 6
     model, x = _model(robot, kind), _inputs(frames)
@@ -123,9 +124,11 @@ def test_written_gradient_loss_equals_the_readable_torch_loss(robot, kind, form,
     gen = torch.Generator().manual_seed(3)
     z = 2 * torch.randn(frames, *model.latent_shape, dtype=torch.float64, generator=gen)
     anchor = robot.neutral_q.double() + 0.3 if anchored else None
-    written = WrittenGradientLoss.build(model, robot, Objective(robot, x.targets, weights, fused=True, cull=True, analytic_fk=True),
-                                        weights.latent, x.targets, weights.smooth, anchor, form)
+    objective = Objective(robot, x.targets, weights, fused=True, cull=True, analytic_fk=True)
+    written = WrittenGradientLoss.build(model, robot, objective, weights.latent, x.targets, weights.smooth, anchor, form)
     assert (written.decoder is not None) == (form == "node-major" and kind == "graph")  # its gradient written out too
+    # every frame's pairs searched every call, on its own copy of the terms: the caller's objective keeps its slack
+    assert written.terms.near_pairs.slack == 0.0 and objective.numpy_terms.near_pairs.slack == NEAR_SLACK
     loss, q, terms, grad = written(z)
     zr = z.clone().requires_grad_(True)
     ref_q = model.decode(zr)
