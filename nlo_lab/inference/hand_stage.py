@@ -113,6 +113,12 @@ move along the same frontier (wrist->tip / thumb / base->tip [deg] / pinch r): t
 (dex-retargeting 16.57 / 27.76 / 36.24 / 0.792); the ring and little searched nothing (the clamp pulls them back: 17.19°);
 all four 16.81 / 28.70 / 33.82 / 0.774. The clamp's caps 1.5x or 2x on top: 16.41-16.54° but the pinch 0.778-0.785 and the
 clips 28.3-29.8 s. An open index matches the wrist->tip direction and loses the thumb-index distance's course, the pinch.
+The robot's thumb-index distance spans 0.13-0.93 hand lengths where the human's spans 0.07-1.61 (the same hand-frames);
+drawing it to 0.6x the human's (above the floor) lifts the pinch (with the index and middle searched as above: 16.73 /
+27.36 / 33.73 / 0.821), and the thumb's ``tip_dir`` 5x on top spends it on the thumb measure (16.68 / 27.81 / 33.68 /
+0.815): wrist->tip stays at 16.64-16.77°. The ring, 2.35° behind on the 170-frame clip, does not follow a search along
+the whole clip within the clamp's caps (dynamic programming over 16-32 values of its joint, by this objective, its
+``tip_dir`` up to 5x): 19.39-19.55° against dex-retargeting's 18.70°, whose ring jumps between frames.
 
 It never makes the robot slower: after the descent, each hand joint's step between consecutive
 frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's
