@@ -105,20 +105,21 @@ wrist->tip far from where the start's basin holds it (``retarget`` on the same r
 (the retimed duration of the four clips 23.92 -> 27.36 s).
 Per finger, wrist->tip is thumb / index / middle / ring / little 13.55 / 13.86 / 16.75 / 19.54 / 22.09° against
 dex-retargeting's (unfiltered) 11.16 / 13.72 / 17.09 / 18.70 / 22.19°: the thumb holds 2.4° of the 0.6° mean gap, the ring
-0.8° (2026-11-27 01:30-02:20 UTC, the same recordings). Each item of a term weighed apart, and a start search of the four
+0.8° (2026-11-27 01:10-01:40 UTC, the same recordings). Each item of a term weighed apart, and a start search of the four
 fingers' joints by this objective (16 values each, frame by frame, the clamp's caps still the latent optimisation's),
 move along the same frontier (wrist->tip / thumb / base->tip [deg] / pinch r): the thumb's ``tip_dir`` 3x 17.03 / 26.43 /
 34.10 / 0.800 (the thumb 13.02°); the index and middle searched 16.70 / 27.83 / 33.38 / 0.780 (index 12.66°, middle
 15.76°), with the thumb's ``tip_dir`` 3x, ``thumb`` 800 and the index pair's ``thumb_gap`` 4x 16.70 / 27.73 / 33.62 / 0.793
 (dex-retargeting 16.57 / 27.76 / 36.24 / 0.792); the ring and little searched nothing (the clamp pulls them back: 17.19°);
-all four 16.81 / 28.70 / 33.82 / 0.774. The clamp's caps 1.5x or 2x on top: 16.41-16.54° but the pinch 0.778-0.785 and the
+all four 16.81 / 28.70 / 33.82 / 0.774. The clamp's caps 1.5x or 2x on top: 16.41-16.54° but the pinch 0.773-0.785 and the
 clips 28.3-29.8 s. An open index matches the wrist->tip direction and loses the thumb-index distance's course, the pinch.
 The robot's thumb-index distance spans 0.13-0.93 hand lengths where the human's spans 0.07-1.61 (the same hand-frames);
-drawing it to 0.6x the human's (above the floor) lifts the pinch (with the index and middle searched as above: 16.73 /
+drawing it to 0.6x the human's (above the floor) lifts the pinch (the index and middle searched, the weights as above: 16.73 /
 27.36 / 33.73 / 0.821), and the thumb's ``tip_dir`` 5x on top spends it on the thumb measure (16.68 / 27.81 / 33.68 /
-0.815): wrist->tip stays at 16.64-16.77°. The ring, 2.35° behind on the 170-frame clip, does not follow a search along
-the whole clip within the clamp's caps (dynamic programming over 16-32 values of its joint, by this objective, its
-``tip_dir`` up to 5x): 19.39-19.55° against dex-retargeting's 18.70°, whose ring jumps between frames.
+0.815), the thumb's two joints searched too 16.70 / 27.50 / 33.78 / 0.824: wrist->tip stays at 16.64-16.77°. The ring,
+2.35° behind on the 170-frame clip, does not follow a search along the whole clip within the clamp's caps (dynamic
+programming over 16-32 values of its joint, by this objective, its ``tip_dir`` up to 5x): 19.39-19.55° against
+dex-retargeting's 18.70°, whose ring jumps between frames.
 
 It never makes the robot slower: after the descent, each hand joint's step between consecutive
 frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's
