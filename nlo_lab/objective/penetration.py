@@ -4,7 +4,8 @@ The metrics count such frames (:func:`nlo_lab.metrics.self_collision_frames`, th
 ``self_collision_frames``) and the hand stage keeps the start's hands where its own would add one
 (:func:`nlo_lab.inference.hand_stage.refine_hands`). Both ask the same question of the same capsules; the culled form
 answers it from the objective's point plan and measures a pair exactly only where a separating-axis bound does not
-clear it (tests hold the two equal on random poses over the joint ranges and on real recordings).
+clear it (tests hold the two equal on random poses over the joint ranges of YuMi, NAO and Pepper, and through the
+pipeline).
 """
 
 from __future__ import annotations
