@@ -1,0 +1,79 @@
+"""benchmarks/hands_levers.py: the hand stage's what-if levers. With every lever at its neutral value a run is the
+pipeline's own; a lever moves what it names; the path search is the cheapest path within the caps; the swapped
+internals are put back."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nlo_lab.evaluation.hands import hand_scores
+from nlo_lab.human import load_demonstration
+from nlo_lab.model import load_pretrained
+from nlo_lab.robot import load_robot
+
+CLIP = Path(__file__).resolve().parents[2] / "assets" / "recordings" / "holistic_both_hands_47f.pose"
+
+
+@pytest.fixture(scope="module")
+def levers(checkout_script):
+    return checkout_script("benchmarks/hands_levers.py")
+
+
+@pytest.fixture(scope="module")
+def setup():
+    robot = load_robot("yumi")
+    return robot, load_pretrained(robot), [("clip", load_demonstration(CLIP))]
+
+
+def test_the_path_is_the_cheapest_within_the_caps(levers):
+    """Against every path of a small problem: the per-frame cheapest values jump from end to end, the caps forbid it."""
+    rng = np.random.default_rng(40)
+    cost = rng.uniform(0.0, 1.0, (6, 5))  # (G, T)
+    cost[0, ::2] = cost[5, 1::2] = -5.0
+    values = np.linspace(0.0, 1.0, 6)
+    caps = np.full(4, 0.21)  # one grid step (0.2) at a time
+    path = levers.path_within_caps(cost, values, caps)
+    assert (np.abs(np.diff(values[path])) <= 0.21).all()
+    best = min((p for p in itertools.product(range(6), repeat=5) if all(abs(a - b) <= 1 for a, b in itertools.pairwise(p))),
+               key=lambda p: cost[p, np.arange(5)].sum())
+    assert np.isclose(cost[path, np.arange(5)].sum(), cost[best, np.arange(5)].sum())
+    assert (levers.path_within_caps(cost, values, np.full(4, 1.0)) == cost.argmin(0)).all()  # in reach: each frame's best
+
+
+def test_neutral_levers_give_the_pipeline_s_own_handshapes(levers, setup):
+    """Factors of 1 and a pinch scale of 1 run through every swapped piece and change nothing: the measures of the
+    pipeline without the levers, to the bit; and the internals are the originals afterwards."""
+    import nlo_lab.inference.hand_stage as hand_stage
+    import nlo_lab.pipeline as pipeline
+    from nlo_lab.objective.numpy_backend import HandTerms
+
+    robot, model, items = setup
+    before = (HandTerms.__init__, HandTerms.build.__func__, pipeline.refine_hands, hand_stage.step_caps)
+    own = hand_scores(robot, pipeline.RetargetConfig(robot, model=model).build()(items[0][1]).trajectory.angles, items[0][1]).summary()
+    neutral = levers.Levers.parse("finger:tip_dir=1,1,1,1,1 finger:tip=1,1,1,1,1 pair:thumb=1,1,1,1 pair:thumb_gap=1,1,1,1 "
+                                  "pair:pinch=1,1,1,1 pinch-scale=1 caps=1")
+    got = levers.run(robot, model, items, neutral)
+    assert {k: got[k] for k in own} == own
+    assert np.isclose(got["fingers"].mean(), own["tip_deg"])  # the per-finger errors average to the measure
+    assert (HandTerms.__init__, HandTerms.build.__func__, pipeline.refine_hands, hand_stage.step_caps) == before
+
+
+def test_a_lever_moves_what_it_names(levers, setup):
+    """The thumb's wrist->tip direction weighed 3x: the thumb's wrist->tip error drops; a search of the index and middle
+    joints before the stage changes their errors."""
+    robot, model, items = setup
+    plain = levers.run(robot, model, items, levers.Levers())
+    thumb = levers.run(robot, model, items, levers.Levers.parse("finger:tip_dir=3,1,1,1,1"))
+    assert thumb["fingers"][0] < plain["fingers"][0] - 0.1
+    search = levers.run(robot, model, items, levers.Levers.parse("search=index,middle"))
+    assert not np.allclose(search["fingers"][1:3], plain["fingers"][1:3])
+
+
+@pytest.mark.parametrize("text", ["finger:tip_dir=3,1", "pair:tip=1,1,1,1", "search=wrist", "nonsense", "finger:tip=0,1,1,1,1"])
+def test_bad_levers_are_refused(levers, text):
+    with pytest.raises(SystemExit):
+        levers.Levers.parse(text)
