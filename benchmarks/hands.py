@@ -45,7 +45,7 @@ nlo_lab's calls alternated with the diagnostics'). The four measures again on th
 hand-frames where no method's hand goes through itself (like for like: dex-retargeting does not avoid it).
 Then the targets of issue 27. Unless ``--no-write``, the tables replace the ``hands`` section of
 ``docs/RESULTS.md``. What the hands could do at best, per frame and within the hand stage's speed clamp:
-``benchmarks/hands_frontier.py``.
+``benchmarks/hands_frontier.py``; what one change to the stage would give: ``benchmarks/hands_levers.py``.
 """
 
 from __future__ import annotations
