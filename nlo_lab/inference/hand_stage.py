@@ -103,7 +103,7 @@ wrist->tip far from where the start's basin holds it (``retarget`` on the same r
 / thumb / base->tip [deg] / pinch r, 21:45-21:47 UTC): ``tip_dir`` 6000 17.10 / 24.46 / 35.67 / 0.807, 8000 17.08 /
 24.78 / 35.82 / 0.796; ``thumb`` 250 17.09 / 27.55 / 33.74 / 0.805; the clamp's caps 1.5x 16.99 / 25.45 / 33.43 / 0.807
 (the retimed duration of the four clips 23.92 -> 27.36 s).
-``benchmarks/hands_levers.py`` turns one lever at a time (2026-11-27 01:50-02:30 UTC, the same recordings; wrist->tip /
+``benchmarks/hands_levers.py`` turns one lever at a time (2026-11-27 01:37-01:52 UTC, the same recordings; wrist->tip /
 thumb / base->tip [deg] / pinch r). Per finger, wrist->tip is thumb / index / middle / ring / little 13.55 / 13.86 / 16.75
 / 19.54 / 22.09° against dex-retargeting's (unfiltered) 11.16 / 13.72 / 17.09 / 18.70 / 22.19°: the thumb holds 2.4° of
 the 0.6° mean gap, the ring 0.8°. Weighing one finger's items or searching a start frame by frame moves along the frontier:
