@@ -154,6 +154,25 @@ def _checkout_script(relative: str) -> ModuleType:
     return module
 
 
+def _capsule_ends_as_written(fitted: dict, written: dict) -> dict:
+    """``fitted`` (a spec's collision fields from ``assets/robots/fit_capsules.py``) with each capsule's two ends in the
+    order ``written`` gives that capsule's: a capsule is the same whichever end comes first, and the fit's principal
+    axes come from an SVD whose sign OpenBLAS's kernels choose per CPU (one machine gave YuMi's left hand base from its
+    top end, 2026-11-27). Nothing else is changed: the names, the ends themselves, the radii and the pairs compare as
+    they are."""
+    ends = {c["name"]: (c["p0"], c["p1"]) for c in written.get("capsules", [])}
+    out = dict(fitted)
+    out["capsules"] = [{**c, "p0": c["p1"], "p1": c["p0"]} if ends.get(c["name"]) == (c["p1"], c["p0"]) else c
+                       for c in fitted.get("capsules", [])]
+    return out
+
+
+@pytest.fixture(scope="session")
+def capsule_ends_as_written() -> Callable[[dict, dict], dict]:
+    """``capsule_ends_as_written(fitted, written)``: see :func:`_capsule_ends_as_written`."""
+    return _capsule_ends_as_written
+
+
 @pytest.fixture(scope="session")
 def checkout_script() -> Callable[[str], ModuleType]:
     """``checkout_script("tools/architecture.py")``: a script of the checkout (``tools/``, ``benchmarks/``) imported
