@@ -227,15 +227,21 @@ def _angles(robot, angles: Any) -> np.ndarray:
     return check_angles(angles, robot.n_joints, robot.name, getattr(robot, "joint_names", None))  # (T, n) float64
 
 
-def _poses_torch(robot, q: np.ndarray):
-    """FK of ``(T, n)`` angles in the robot's dtype and device: link -> ``(T, 4, 4)`` tensors."""
+def _as_tensor(robot, q: np.ndarray):
+    """``(T, n)`` angles as a tensor in the robot's dtype and on its device."""
     # lazy: torch: the command line's --help and bad flags do not wait for it
     import torch
 
     ref = robot.lower_limits
-    qt = torch.tensor(q, dtype=ref.dtype, device=ref.device)  # a copy: angles read from a file may be read-only
+    return torch.tensor(q, dtype=ref.dtype, device=ref.device)  # a copy: angles read from a file may be read-only
+
+
+def _poses_torch(robot, q: np.ndarray):
+    """FK of ``(T, n)`` angles in the robot's dtype and device: link -> ``(T, 4, 4)`` tensors."""
+    import torch  # lazy, as in _as_tensor
+
     with torch.no_grad():
-        return robot.forward_kinematics(qt)
+        return robot.forward_kinematics(_as_tensor(robot, q))
 
 
 def _chunks(frames: int):
@@ -314,17 +320,15 @@ def self_collision_frames(robot: Robot, angles: Any, cull: bool = False) -> int:
             the 170 frames of a real recording: 3.4 against 28 ms). The retargeting summary takes it with the fast paths.
     """
     q = _angles(robot, angles)
+    if cull:
+        from nlo_lab.objective.penetration import penetrating  # lazy: it imports torch
+
+        return sum(int(penetrating(robot, _as_tensor(robot, q[rows]), cull=True).sum()) for rows in _chunks(q.shape[0]))
     # lazy: torch: the command line's --help and bad flags do not wait for it
     import torch
 
     colliding = 0
     for rows in _chunks(q.shape[0]):
-        if cull:
-            from nlo_lab.objective.penetration import penetrating  # lazy, as torch
-
-            ref = robot.lower_limits
-            colliding += int(penetrating(robot, torch.tensor(q[rows], dtype=ref.dtype, device=ref.device), cull=True).sum())
-            continue
         with torch.no_grad():
             d = robot.capsule_distances(_poses_torch(robot, q[rows]))  # (chunk, P) [m]
         if d.numel():
