@@ -341,6 +341,9 @@ def main() -> None:
         digits = 2 if key == "pinch_r" else 1
         vals = [("—" if key == "pinch_r" and m.startswith("open") else fmt(pooled[m][key], unit, digits)) for m in shown]
         rows.append(f"| {name} | " + " | ".join(vals) + " |")
+    per_finger = {m: HandScores.cat(scores[m]).tip_per_finger() for m in shown}  # where the wrist->tip gap sits
+    rows.append("| wrist→fingertip direction error per finger (thumb / index / middle / ring / little) | " + " | ".join(
+        " / ".join(f"{x:.1f}" for x in per_finger[m]) + "°" for m in shown) + " |")
     limits = {"nlo_lab": nlo_hand_limits, **dex_limits}
     rows.append("| joint-limit violations (hand joints) | " + " | ".join(str(limits[m]) if m in limits else "—" for m in shown) + " |")
     rows.append("| hand-frames with the hand in self-collision by the URDF's geometry (deepest) | " + " | ".join(

@@ -1,6 +1,6 @@
 """What-if levers of the hand stage on ``benchmarks/hands.py``'s recordings: the handshape measures after one change.
 
-    python benchmarks/hands_levers.py [--no-video] [RUN ...]
+    python benchmarks/hands_levers.py [--no-video] [--corpus N] [--dex] [RUN ...]
 
 A diagnostic for issue 27, not a method: ``nlo_lab.inference.hand_stage``'s docstring quotes its runs. Each RUN is a
 string of levers separated by spaces ("" or none at all: the pipeline as it is); each retargets every recording with
@@ -21,6 +21,11 @@ little), and the retimed duration summed over the clips (the speed clamp's price
 * ``caps=X``: the hand stage's speed clamp with X times its caps. The caps stay the latent optimisation's (a
   searched start does not loosen them).
 
+The data: ``benchmarks/hands.py``'s recordings (and the video unless ``--no-video``), or with ``--corpus N`` the first N
+clips of the synthetic corpus's test split that show a hand (``nlo_lab.corpus.sign_corpus("test")``: held out from the
+checkpoints' training and from the levers' tuning, a check that a lever does not fit the recordings alone). ``--dex``
+adds dex-retargeting's two variants on the same data (``benchmarks/hands.py``'s configs and runner, ``.venv-bench``).
+
 It swaps nlo_lab internals for the run (``HandTerms``' constructor and ``build``, the pipeline's ``refine_hands``,
 the hand stage's ``step_caps``) and puts them back. Prints a table; writes nothing.
 """
@@ -37,11 +42,12 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from hands import recordings  # noqa: E402
+from hands import DEX, DEX_PYTHON, dex_input, full_angles, recordings, run_dex  # noqa: E402
 
 import nlo_lab.inference.hand_stage as hand_stage  # noqa: E402
 import nlo_lab.pipeline as pipeline  # noqa: E402
-from nlo_lab.evaluation.hands import HandScores, angle_deg, hand_frames_mask, hand_scores, robot_hand_points  # noqa: E402
+from nlo_lab.corpus import sign_corpus  # noqa: E402
+from nlo_lab.evaluation.hands import HandScores, hand_frames_mask, hand_scores  # noqa: E402
 from nlo_lab.inference import FastPaths, OptimizeSettings  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
 from nlo_lab.objective import LossWeights, Objective, point_plan  # noqa: E402
@@ -204,27 +210,10 @@ def searched(robot, q: torch.Tensor, targets, weights: LossWeights, levers: Leve
     return q
 
 
-def wrist_tip_per_finger(robot, q: np.ndarray, demo) -> np.ndarray:
-    """``(N, 5)`` the wrist->tip direction error [deg] of each finger over the hand-frames (``hand_scores``' rows)."""
-    frames, sides = np.nonzero(hand_frames_mask(demo))
-    out = np.zeros((len(frames), 5))
-    for s, side in enumerate(("left", "right")):
-        rows = sides == s
-        if not rows.any():
-            continue
-        chains = robot_hand_points(robot, q[frames[rows]], side)  # per finger (n, k, 3) in the aligned wrist frame
-        R = demo.wrist_rotations[frames[rows], s]
-        wrist = demo.arm_positions[frames[rows], s, 2]
-        human = np.einsum("nji,nkj->nki", R, demo.finger_positions[frames[rows], s, :, 1] - wrist[:, None])
-        for f, name in enumerate(("thumb", "index", "middle", "ring", "pinky")):
-            out[rows, f] = angle_deg(chains[name][:, -1], human[:, f])
-    return out
-
-
 def run(robot, model, items, levers: Levers) -> dict:
     """The measures of one run over ``items`` (``(label, demonstration)``)."""
     config = pipeline.RetargetConfig(robot, OptimizeSettings(**levers.settings), model=model, weights=LossWeights(**levers.weights))
-    scores, fingers, duration = [], [], 0.0
+    scores, duration = [], 0.0
     with applied(robot, levers), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         retarget = config.build()
@@ -232,30 +221,62 @@ def run(robot, model, items, levers: Levers) -> dict:
             result = retarget(demo)
             q = np.asarray(result.trajectory.angles, dtype=np.float64)
             scores.append(hand_scores(robot, q, demo))
-            fingers.append(wrist_tip_per_finger(robot, q, demo))
-            if not np.allclose(fingers[-1].mean(1), scores[-1].tip, atol=1e-6):  # one scorer: the same points
-                raise SystemExit("the per-finger errors do not average to hand_scores' wrist->tip error")
             duration += result.trajectory.duration
-    return HandScores.cat(scores).summary() | {"fingers": np.concatenate(fingers).mean(0), "duration": duration}
+    pooled = HandScores.cat(scores)
+    return pooled.summary() | {"fingers": pooled.tip_per_finger(), "duration": duration}
+
+
+def corpus_items(n: int) -> list[tuple[str, object]]:
+    """``(name, demonstration)`` of the first ``n`` clips of the synthetic corpus's test split that show a hand."""
+    return [(d.name, d) for d in sign_corpus("test") if hand_frames_mask(d).any()][:n]
+
+
+def run_dex_variants(robot, items) -> dict[str, dict]:
+    """dex-retargeting's measures on ``items``, per variant (``benchmarks/hands.py``'s runner, one pass)."""
+    data = dex_input(robot, items)
+    out = run_dex(DEX_PYTHON, data, 1)
+    measures = {}
+    for method, variant in DEX.items():
+        scores = []
+        for r, (_, demo) in enumerate(items):
+            rows = np.flatnonzero(data["segment"] // 2 == r)
+            scores.append(hand_scores(robot, full_angles(robot, demo, out[f"q_{variant}"], rows, data), demo))
+        pooled = HandScores.cat(scores)
+        measures[method] = pooled.summary() | {"fingers": pooled.tip_per_finger(), "duration": float("nan")}
+    return measures
+
+
+def row(label: str, m: dict) -> str:
+    duration = "—" if np.isnan(m["duration"]) else f"{m['duration']:.2f}"
+    return (f"| {label} | {m['tip_deg']:.2f}° | {m['thumb_deg']:.2f}° | {m['finger_deg']:.2f}° | {m['pinch_r']:.3f} | "
+            f"{' / '.join(f'{x:.2f}' for x in m['fingers'])} | {duration} |")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], epilog=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("runs", nargs="*", default=[""], help="levers of one run, separated by spaces (none: the pipeline as it is)")
     ap.add_argument("--no-video", action="store_true", help="leave out the video (no MediaPipe)")
+    ap.add_argument("--corpus", type=int, metavar="N", help="the first N clips of the synthetic corpus's test split instead")
+    ap.add_argument("--dex", action="store_true", help="dex-retargeting's rows on the same data too (needs .venv-bench)")
     args = ap.parse_args()
     levers = [Levers.parse(text) for text in args.runs or [""]]  # all refused before any work
+    if args.corpus is not None and args.corpus < 1:
+        raise SystemExit(f"--corpus {args.corpus}: give at least one clip")
+    if args.dex and not DEX_PYTHON.is_file():
+        raise SystemExit(f"--dex: {DEX_PYTHON} is missing (make bench-venv builds it)")
     torch.set_num_threads(1)
     robot = load_robot("yumi")
     model = load_pretrained(robot)
-    items = recordings(video=not args.no_video)
-    print(f"data: {', '.join(label for label, _ in items)}")
+    items = corpus_items(args.corpus) if args.corpus is not None else recordings(video=not args.no_video)
+    frames = sum(int(hand_frames_mask(d).sum()) for _, d in items)
+    print(f"data: {', '.join(label for label, _ in items)} ({frames} hand-frames)")
     print("| levers | wrist→tip | thumb→tips | base→tip | pinch r | wrist→tip per finger (thumb, index, middle, ring, little) | retimed [s] |")
     print("|---|---|---|---|---|---|---|")
     for text, lever in zip(args.runs or [""], levers, strict=True):
-        m = run(robot, model, items, lever)
-        print(f"| {text or '(none)'} | {m['tip_deg']:.2f}° | {m['thumb_deg']:.2f}° | {m['finger_deg']:.2f}° | {m['pinch_r']:.3f} | "
-              f"{' / '.join(f'{x:.2f}' for x in m['fingers'])} | {m['duration']:.2f} |", flush=True)
+        print(row(text or "(none)", run(robot, model, items, lever)), flush=True)
+    if args.dex:
+        for method, m in run_dex_variants(robot, items).items():
+            print(row(method, m), flush=True)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,8 @@ A **hand-frame** is one hand in one frame where the demonstration observed the w
 all five fingers (base and tip). Directions are unit vectors; an angle is
 ``atan2(|u × û|, u · û)`` in degrees. Per hand-frame:
 
-* ``tip``: wrist -> fingertip direction error, mean over the five fingers;
+* ``tip``: wrist -> fingertip direction error, mean over the five fingers (``tip_fingers``: each finger's,
+  thumb .. little; :meth:`HandScores.tip_per_finger` their means over a set of hand-frames);
 * ``thumb``: thumb tip -> fingertip direction error, mean over the four other fingers;
 * ``finger``: finger base (knuckle; thumb: its metacarpophalangeal joint) -> tip direction
   error, mean over the five fingers;
@@ -56,6 +57,8 @@ class HandScores:
         tip, thumb, finger: ``(N,)`` [deg].
         pinch_human, pinch_robot: ``(N,)`` [hand lengths].
         side: ``(N,)`` 0 left, 1 right; frame: ``(N,)`` the frame index.
+        tip_fingers: ``(N, 5)`` [deg] the wrist -> fingertip direction error of each finger (thumb .. little, the
+            demonstration's ``FINGERS``); ``tip`` is its mean over the fingers.
     """
 
     tip: np.ndarray
@@ -65,6 +68,7 @@ class HandScores:
     pinch_robot: np.ndarray
     side: np.ndarray
     frame: np.ndarray
+    tip_fingers: np.ndarray
 
     def __len__(self) -> int:
         return int(self.tip.shape[0])
@@ -80,6 +84,10 @@ class HandScores:
         if len(a) < 3 or a.std() == 0 or b.std() == 0:
             return float("nan")
         return float(np.corrcoef(a, b)[0, 1])
+
+    def tip_per_finger(self) -> np.ndarray:
+        """``(5,)`` [deg] each finger's wrist -> fingertip direction error, mean over the hand-frames (NaN without any)."""
+        return self.tip_fingers.mean(0) if len(self) else np.full(len(FINGERS), np.nan)
 
     def summary(self) -> dict[str, float]:
         """``hand_frames``, ``tip_deg``, ``thumb_deg``, ``finger_deg`` (means) and ``pinch_r``."""
@@ -136,14 +144,16 @@ def hand_scores(robot: Robot, q, demo: Demonstration) -> HandScores:
     human_tip = wrist_frame(pick(demo.finger_positions[:, :, :, 1]), pick(demo.arm_positions[:, :, 2]), pick(demo.wrist_rotations))
     robot_base = wrist_frame(pick(r["base"]), pick(r["wrist"]), pick(r["rotation"]))
     robot_tip = wrist_frame(pick(r["tip"]), pick(r["wrist"]), pick(r["rotation"]))
+    tip_fingers = angle_deg(robot_tip, human_tip)  # (N, 5)
     return HandScores(
-        tip=angle_deg(robot_tip, human_tip).mean(-1),
+        tip=tip_fingers.mean(-1),
         thumb=angle_deg(robot_tip[:, 1:] - robot_tip[:, :1], human_tip[:, 1:] - human_tip[:, :1]).mean(-1),
         finger=angle_deg(robot_tip - robot_base, human_tip - human_base).mean(-1),
         pinch_human=np.linalg.norm(human_tip[:, 1] - human_tip[:, 0], axis=-1) / h_len[sides],
         pinch_robot=np.linalg.norm(robot_tip[:, 1] - robot_tip[:, 0], axis=-1) / r["length"][sides],
         side=sides.astype(np.int64),
         frame=frames.astype(np.int64),
+        tip_fingers=tip_fingers,
     )
 
 

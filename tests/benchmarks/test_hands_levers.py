@@ -77,3 +77,42 @@ def test_a_lever_moves_what_it_names(levers, setup):
 def test_bad_levers_are_refused(levers, text):
     with pytest.raises(SystemExit):
         levers.Levers.parse(text)
+
+
+def test_the_corpus_clips_are_the_held_out_test_split_with_hands(levers):
+    """``--corpus N``: the first N test clips that show a hand, none from the split the checkpoints trained on."""
+    from nlo_lab.corpus import corpus_names
+    from nlo_lab.evaluation.hands import hand_frames_mask
+
+    items = levers.corpus_items(3)
+    assert len(items) == 3
+    assert {label for label, _ in items} <= set(corpus_names("test"))
+    assert not {label for label, _ in items} & set(corpus_names("train"))
+    assert all(hand_frames_mask(d).any() for _, d in items)
+
+
+@pytest.mark.parametrize("flags", [["--corpus", "0"], ["--corpus", "many"]])
+def test_bad_data_flags_are_refused_before_any_work(flags):
+    import subprocess
+    import sys
+
+    script = Path(__file__).resolve().parents[2] / "benchmarks" / "hands_levers.py"
+    proc = subprocess.run([sys.executable, str(script), *flags], capture_output=True, text=True, timeout=120)
+    assert proc.returncode != 0
+    assert "--corpus" in proc.stderr and "Traceback" not in proc.stderr
+
+
+@pytest.mark.skipif(not (Path(__file__).resolve().parents[2] / ".venv-bench" / "bin" / "python").is_file(),
+                    reason="no .venv-bench (make bench-venv builds dex-retargeting's environment)")
+def test_dex_rows_score_dex_s_hands_on_the_same_data(levers, setup):
+    """``--dex``: both variants scored by the same scorer on the same hand-frames; dex-retargeting's hands follow the
+    human's (its wrist->tip error below the open hand that does not move), each finger's error averages to the measure."""
+    robot, _, items = setup
+    rows = levers.run_dex_variants(robot, items)
+    assert set(rows) == {"dex, filtered", "dex, unfiltered"}
+    demo = items[0][1]
+    still = hand_scores(robot, np.tile(robot.neutral_q.double().numpy(), (len(demo), 1)), demo).summary()
+    for m in rows.values():
+        assert m["hand_frames"] == still["hand_frames"]
+        assert np.isclose(m["fingers"].mean(), m["tip_deg"])
+        assert m["tip_deg"] < still["tip_deg"] - 1.0

@@ -3,12 +3,13 @@ where each error is known exactly."""
 
 from __future__ import annotations
 
+import dataclasses
 import numpy as np
 import pytest
 import torch
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.evaluation.hands import angle_deg, hand_frames_mask, hand_scores
+from nlo_lab.evaluation.hands import HandScores, angle_deg, hand_frames_mask, hand_scores
 from nlo_lab.robot import load_robot
 
 
@@ -63,6 +64,32 @@ def test_fingertips_turned_about_the_wrist_by_a_known_angle(yumi, alpha, demonst
     np.testing.assert_allclose(s.tip, alpha, atol=1e-6)  # every finger off by alpha: the mean is alpha
     assert s.summary()["tip_deg"] == pytest.approx(alpha)
     assert s.summary()["thumb_deg"] > 0.1  # the tips moved against each other too
+
+
+@pytest.mark.parametrize("finger", range(5))
+def test_one_fingertip_turned_shows_in_its_own_column(yumi, finger, demonstration_from_robot):
+    q = hand_poses(yumi, seed=3)
+    demo = demonstration_from_robot(yumi, q)
+    wrist = demo.arm_positions[:, :, 2]  # (T, 2, 3)
+    v = demo.finger_positions[:, :, finger, 1] - wrist
+    demo.finger_positions[:, :, finger, 1] = wrist + np.linalg.norm(v, axis=-1, keepdims=True) * turned(v, 20.0)
+    s = hand_scores(yumi, q.numpy(), demo)
+    expected = np.zeros(5)
+    expected[finger] = 20.0
+    np.testing.assert_allclose(s.tip_fingers, np.broadcast_to(expected, s.tip_fingers.shape), atol=1e-6)
+    np.testing.assert_allclose(s.tip_per_finger(), expected, atol=1e-6)
+    np.testing.assert_allclose(s.tip, 4.0, atol=1e-6)  # the mean over the five fingers
+    assert s.summary()["tip_deg"] == pytest.approx(4.0)
+
+
+def test_per_finger_means_survive_pooling_and_are_nan_without_hand_frames(yumi, demonstration_from_robot):
+    q = hand_poses(yumi, seed=4)
+    a = hand_scores(yumi, q[:5].numpy(), demonstration_from_robot(yumi, q[:5]))
+    b = hand_scores(yumi, q[5:].numpy(), demonstration_from_robot(yumi, q[5:]))
+    both = HandScores.cat([a, b])
+    assert both.tip_fingers.shape == (len(a) + len(b), 5)
+    empty = HandScores(**{f.name: getattr(a, f.name)[:0] for f in dataclasses.fields(HandScores)})
+    assert np.isnan(empty.tip_per_finger()).all() and empty.tip_per_finger().shape == (5,)
 
 
 @pytest.mark.parametrize("beta", [10.0, 45.0])
