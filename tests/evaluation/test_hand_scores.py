@@ -4,6 +4,7 @@ where each error is known exactly."""
 from __future__ import annotations
 
 import dataclasses
+
 import numpy as np
 import pytest
 import torch
