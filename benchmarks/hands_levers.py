@@ -42,11 +42,10 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from hands import DEX, DEX_PYTHON, dex_input, full_angles, recordings, run_dex  # noqa: E402
+from hands import DEX_PYTHON, corpus_items, dex_angles, recordings  # noqa: E402
 
 import nlo_lab.inference.hand_stage as hand_stage  # noqa: E402
 import nlo_lab.pipeline as pipeline  # noqa: E402
-from nlo_lab.corpus import sign_corpus  # noqa: E402
 from nlo_lab.evaluation.hands import HandScores, hand_frames_mask, hand_scores  # noqa: E402
 from nlo_lab.inference import FastPaths, OptimizeSettings  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
@@ -226,22 +225,12 @@ def run(robot, model, items, levers: Levers) -> dict:
     return pooled.summary() | {"fingers": pooled.tip_per_finger(), "duration": duration}
 
 
-def corpus_items(n: int) -> list[tuple[str, object]]:
-    """``(name, demonstration)`` of the first ``n`` clips of the synthetic corpus's test split that show a hand."""
-    return [(d.name, d) for d in sign_corpus("test") if hand_frames_mask(d).any()][:n]
-
-
 def run_dex_variants(robot, items) -> dict[str, dict]:
     """dex-retargeting's measures on ``items``, per variant (``benchmarks/hands.py``'s runner, one pass)."""
-    data = dex_input(robot, items)
-    out = run_dex(DEX_PYTHON, data, 1)
+    angles, _ = dex_angles(DEX_PYTHON, robot, items)
     measures = {}
-    for method, variant in DEX.items():
-        scores = []
-        for r, (_, demo) in enumerate(items):
-            rows = np.flatnonzero(data["segment"] // 2 == r)
-            scores.append(hand_scores(robot, full_angles(robot, demo, out[f"q_{variant}"], rows, data), demo))
-        pooled = HandScores.cat(scores)
+    for method, qs in angles.items():
+        pooled = HandScores.cat([hand_scores(robot, q, demo) for q, (_, demo) in zip(qs, items, strict=True)])
         measures[method] = pooled.summary() | {"fingers": pooled.tip_per_finger(), "duration": float("nan")}
     return measures
 
