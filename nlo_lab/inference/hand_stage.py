@@ -122,8 +122,11 @@ its joint by this objective), with the ring's ``tip_dir`` 3x, the other fingers'
 the four measures are 16.52 / 27.61 / 35.94 / 0.804, each ahead of dex-retargeting's 16.57 / 27.76 / 36.24 / 0.792 (the
 ring 15.97°, the clips 24.20 s); the same weights without the search 17.31 / 25.37 / 34.03 / 0.806. It is not the
 default, for three reasons: the margins (0.05° on wrist->tip) come from per-finger weights tuned on the benchmark's own
-four recordings, with none held out to check them (on 12 clips of the synthetic corpus's test split, 3656 hand-frames,
-they trade instead: 11.62 / 18.72 / 14.70 / 0.834 -> 11.45 / 17.57 / 15.44 / 0.804); the open ring pays with its base->tip direction (the ring's
+four recordings, and on held-out clips they trade instead (every clip of the synthetic corpus's test split that shows a
+hand, 7942 hand-frames: 11.23 / 16.54 / 14.42 / 0.720 -> 11.06 / 15.36 / 15.28 / 0.690, where dex-retargeting's
+unfiltered scores 12.85 / 17.42 / 11.04 / 0.609 and its filtered 13.12 / 19.44 / 15.02 / 0.511: the defaults and the
+tuning alike ahead on three measures and behind on base->tip; ``benchmarks/hands_levers.py --corpus 25 --dex``,
+2026-11-27 04:03 UTC); the open ring pays with its base->tip direction (the ring's
 ``tip_dir`` 5x instead: base->tip 36.59°, behind); and the stage has neither per-finger weights nor a search yet (the
 benchmark's search evaluates the whole objective 16 times per joint and hand, too slow for the time target: it needs the
 ring's own terms over a table of its joint's values).
