@@ -130,6 +130,32 @@ captions = [f"tip {scores.tip[right][i]:.0f}°, thumb {scores.thumb[right][i]:.0
 fig = handshape_gallery(list(letters), humans, [{f: p[t] for f, p in robot_hands.items()} for t in frames], captions)
 
 # %% [markdown]
+# ## Which finger carries the error
+#
+# The wrist→fingertip measure is a mean over five fingers; `scores.tip_fingers` keeps each finger's
+# error. Per finger, over the letters of the right hand: nlo_lab's, and the hand's with its 12 joints
+# free on the hand terms (`best_hand_angles`). That optimum weighs all the hand terms together, not this
+# measure alone, so a finger can score better in nlo_lab's pose: the terms trade one fingertip's direction
+# against the thumb's place and the other fingers'. A finger whose error stays high in both is one this
+# hand cannot point right.
+
+# %%
+import matplotlib.pyplot as plt
+
+finger_names = ["thumb", "index", "middle", "ring", "little"]
+ours_f, best_f = scores.tip_fingers[right].mean(0), best_scores.tip_fingers[right].mean(0)
+fig_f, ax = plt.subplots(figsize=(6, 2.6))
+x = np.arange(5)
+ax.bar(x - 0.2, ours_f, 0.4, label="nlo_lab")
+ax.bar(x + 0.2, best_f, 0.4, label="12 joints free, hand terms")
+ax.set_xticks(x, finger_names)
+ax.set_ylabel("wrist→tip error [°]")
+ax.legend(frameon=False)
+plt.show()
+worst = int(np.argmax(ours_f))
+print(f"largest error: the {finger_names[worst]}, {ours_f[worst]:.1f}° (12 joints free: {best_f[worst]:.1f}°)")
+
+# %% [markdown]
 # ## Which letters this hand can make, and why not
 #
 # A letter counts as **made** when even the best hand pose is within 20° on both direction measures
