@@ -44,7 +44,7 @@ moment of the shared machine counts once and neither method's calls are interlea
 nlo_lab's calls alternated with the diagnostics'). The four measures again on the
 hand-frames where no method's hand goes through itself (like for like: dex-retargeting does not avoid it).
 Then the targets of issue 27. Then, unless ``--no-held-out``, the four measures and each finger's wrist->tip error of
-nlo_lab and dex-retargeting on data none of them was set on: every clip of the synthetic corpus's test split that shows a
+nlo_lab and dex-retargeting on data apart from the recordings: every clip of the synthetic corpus's test split that shows a
 hand (held out from the checkpoint's training; hands synthesised from nlo_lab's own hand model). Unless ``--no-write``, the tables replace the ``hands`` section of
 ``docs/RESULTS.md``. What the hands could do at best, per frame and within the hand stage's speed clamp:
 ``benchmarks/hands_frontier.py``; what one change to the stage would give: ``benchmarks/hands_levers.py``.
@@ -97,6 +97,7 @@ REFINED = "nlo_lab, then its hand joints alone optimised on the same objective (
 METHODS = ("nlo_lab", "dex, filtered", "dex, unfiltered", "open hand, not moving", NO_STAGE, NO_COLLISION, REFINED)
 REFINE_STEPS, REFINE_LR = 100, 0.02  # [rad] Adam on the hand joints of REFINED (patience 5, as the pipeline's)
 DEX = {"dex, filtered": "filtered", "dex, unfiltered": "unfiltered"}
+PER_FINGER = "wrist→fingertip direction error per finger (thumb / index / middle / ring / little)"  # a table row's name
 
 
 def recordings(video: bool) -> list[tuple[str, object]]:
@@ -188,6 +189,18 @@ def dex_angles(python: Path, robot, items, passes: int = 1) -> tuple[dict[str, l
     return angles, out
 
 
+def dex_scores(python: Path, robot, items) -> dict[str, HandScores]:
+    """dex-retargeting's hands on ``items`` scored by ``hand_scores``, pooled, per variant (one untimed pass)."""
+    angles, _ = dex_angles(python, robot, items)
+    return {method: HandScores.cat([hand_scores(robot, q, demo) for q, (_, demo) in zip(qs, items, strict=True)])
+            for method, qs in angles.items()}
+
+
+def finger_cell(per_finger: np.ndarray) -> str:
+    """Each finger's wrist->tip error, thumb .. little, as one table cell."""
+    return " / ".join(f"{x:.1f}" for x in per_finger) + "°"
+
+
 def limit_violations(robot, q: np.ndarray, rows_mask: np.ndarray) -> int:
     """Hand-joint entries of the hand-frames outside their limits by more than 1e-6 rad."""
     lo, hi = robot.lower_limits.double().numpy(), robot.upper_limits.double().numpy()
@@ -262,8 +275,7 @@ def measure_table(title: str, pooled: dict[str, dict], per_finger: dict[str, np.
                             ("pinch_r", "pinch correlation", ""), ("finger_deg", "finger base→tip direction error", "°")):
         rows.append(f"| {name} | " + " | ".join(fmt(pooled[m][key], unit, 2 if key == "pinch_r" else 1) for m in methods) + " |")
     if per_finger is not None:
-        rows.append("| wrist→fingertip per finger (thumb / index / middle / ring / little) | "
-                    + " | ".join(" / ".join(f"{x:.1f}" for x in per_finger[m]) + "°" for m in methods) + " |")
+        rows.append(f"| {PER_FINGER} | " + " | ".join(finger_cell(per_finger[m]) for m in methods) + " |")
     return "\n".join(rows)
 
 
@@ -273,9 +285,7 @@ def held_out(robot, retarget, dex_python: Path | None) -> str:
     items = corpus_items()
     scores = {"nlo_lab": HandScores.cat([hand_scores(robot, retarget(demo).trajectory.angles, demo) for _, demo in items])}
     if dex_python is not None:
-        angles, _ = dex_angles(dex_python, robot, items)
-        for method, qs in angles.items():
-            scores[method] = HandScores.cat([hand_scores(robot, q, demo) for q, (_, demo) in zip(qs, items, strict=True)])
+        scores |= dex_scores(dex_python, robot, items)
     table = measure_table("measure (mean over hand-frames)", {m: v.summary() for m, v in scores.items()},
                           {m: v.tip_per_finger() for m, v in scores.items()})
     return "\n".join([
@@ -392,9 +402,8 @@ def main() -> None:
         digits = 2 if key == "pinch_r" else 1
         vals = [("—" if key == "pinch_r" and m.startswith("open") else fmt(pooled[m][key], unit, digits)) for m in shown]
         rows.append(f"| {name} | " + " | ".join(vals) + " |")
-    per_finger = {m: HandScores.cat(scores[m]).tip_per_finger() for m in shown}  # where the wrist->tip gap sits
-    rows.append("| wrist→fingertip direction error per finger (thumb / index / middle / ring / little) | " + " | ".join(
-        " / ".join(f"{x:.1f}" for x in per_finger[m]) + "°" for m in shown) + " |")
+    # where the wrist->tip gap sits
+    rows.append(f"| {PER_FINGER} | " + " | ".join(finger_cell(HandScores.cat(scores[m]).tip_per_finger()) for m in shown) + " |")
     limits = {"nlo_lab": nlo_hand_limits, **dex_limits}
     rows.append("| joint-limit violations (hand joints) | " + " | ".join(str(limits[m]) if m in limits else "—" for m in shown) + " |")
     rows.append("| hand-frames with the hand in self-collision by the URDF's geometry (deepest) | " + " | ".join(

@@ -42,7 +42,7 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from hands import DEX_PYTHON, corpus_items, dex_angles, recordings  # noqa: E402
+from hands import DEX_PYTHON, corpus_items, dex_scores, recordings  # noqa: E402
 
 import nlo_lab.inference.hand_stage as hand_stage  # noqa: E402
 import nlo_lab.pipeline as pipeline  # noqa: E402
@@ -227,12 +227,8 @@ def run(robot, model, items, levers: Levers) -> dict:
 
 def run_dex_variants(robot, items) -> dict[str, dict]:
     """dex-retargeting's measures on ``items``, per variant (``benchmarks/hands.py``'s runner, one pass)."""
-    angles, _ = dex_angles(DEX_PYTHON, robot, items)
-    measures = {}
-    for method, qs in angles.items():
-        pooled = HandScores.cat([hand_scores(robot, q, demo) for q, (_, demo) in zip(qs, items, strict=True)])
-        measures[method] = pooled.summary() | {"fingers": pooled.tip_per_finger(), "duration": float("nan")}
-    return measures
+    return {method: pooled.summary() | {"fingers": pooled.tip_per_finger(), "duration": float("nan")}
+            for method, pooled in dex_scores(DEX_PYTHON, robot, items).items()}
 
 
 def row(label: str, m: dict) -> str:
