@@ -1,0 +1,40 @@
+"""benchmarks/hands.py as a user runs it (without dex-retargeting's environment, which CI does not build): the table,
+the per-finger row and the targets print, and each finger's errors average to the wrist->tip measure."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.slow
+def test_the_benchmark_prints_its_tables_with_each_finger_s_error(tmp_path):
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "hands.py"), "--no-write", "--no-video", "--no-held-out",
+                           "--passes", "1", "--dex-python", str(tmp_path / "no-python")],
+                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "dex-retargeting left out" in proc.stderr
+    out = proc.stdout
+    assert "### Targets against the measurement" in out and "### Held out" not in out
+
+    def cells(name: str) -> list[str]:
+        line = next(line for line in out.splitlines() if line.startswith(f"| {name} |"))
+        return [c.strip() for c in line.strip("|").split("|")[1:]]
+
+    head = cells("measure (mean over hand-frames)")
+    assert head[0] == "nlo_lab" and "dex, unfiltered" not in head
+    tip = [float(c.rstrip("°")) for c in cells("wrist→fingertip direction error")]
+    fingers = cells("wrist→fingertip direction error per finger (thumb / index / middle / ring / little)")
+    assert len(fingers) == len(head)
+    for mean, cell in zip(tip, fingers, strict=True):
+        per = [float(x) for x in re.findall(r"[0-9]+\.[0-9]", cell)]
+        assert len(per) == 5
+        # each printed to 0.1°: the mean of the rounded values within 0.05° of the true mean, the rounded mean too
+        assert np.mean(per) == pytest.approx(mean, abs=0.1 + 1e-9)
