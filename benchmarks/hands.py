@@ -373,12 +373,13 @@ def main() -> None:
             dex_seconds[method] = out[f"seconds_{variant}"]
     else:
         print(f"note: {args.dex_python} is missing: dex-retargeting left out (make bench-venv builds it)", file=sys.stderr)
-    pooled = {m: HandScores.cat(s).summary() for m, s in scores.items() if s}
+    every = {m: HandScores.cat(s) for m, s in scores.items() if s}  # each method's hand-frames, pooled once
+    pooled = {m: v.summary() for m, v in every.items()}
     # the same measures on the hand-frames where no method's hand goes through itself (a like-for-like comparison:
     # dex-retargeting does not avoid self-collision, nlo_lab does)
     compared = ["nlo_lab", *[m for m in DEX if scores[m]]]
     clean = ~np.any([np.concatenate(colliding[m]) for m in compared], axis=0)
-    pooled_clean = {m: HandScores(**{f.name: getattr(HandScores.cat(scores[m]), f.name)[clean] for f in dataclasses.fields(HandScores)}).summary()
+    pooled_clean = {m: HandScores(**{f.name: getattr(every[m], f.name)[clean] for f in dataclasses.fields(HandScores)}).summary()
                     for m in compared}
 
     # ------------------------------------------------------------------ tables
@@ -403,7 +404,7 @@ def main() -> None:
         vals = [("—" if key == "pinch_r" and m.startswith("open") else fmt(pooled[m][key], unit, digits)) for m in shown]
         rows.append(f"| {name} | " + " | ".join(vals) + " |")
     # where the wrist->tip gap sits
-    rows.append(f"| {PER_FINGER} | " + " | ".join(finger_cell(HandScores.cat(scores[m]).tip_per_finger()) for m in shown) + " |")
+    rows.append(f"| {PER_FINGER} | " + " | ".join(finger_cell(every[m].tip_per_finger()) for m in shown) + " |")
     limits = {"nlo_lab": nlo_hand_limits, **dex_limits}
     rows.append("| joint-limit violations (hand joints) | " + " | ".join(str(limits[m]) if m in limits else "—" for m in shown) + " |")
     rows.append("| hand-frames with the hand in self-collision by the URDF's geometry (deepest) | " + " | ".join(
