@@ -32,7 +32,7 @@ Methods, on every hand-frame (one hand in one frame with its wrist frame and fiv
 
 One scorer for all: ``nlo_lab.evaluation.hands.hand_scores`` (our FK of YuMi; the measures and
 their definitions are in its docstring and in docs/RESULTS.md). Also: joint-limit violations of
-the hand joints (an angle outside its limits by more than 1e-6 rad), the hand-frames where the hand
+the hand joints (an angle outside its limits by more than 1e-6 rad; and the deepest), the hand-frames where the hand
 overlaps itself by the URDF's own collision geometry (``nlo_lab.robot.geometry_collision``: pairs of
 two links below one wrist, deeper than 0.1 mm; dex-retargeting does not avoid self-collision), nlo_lab's velocity
 violations after retiming, and time: nlo_lab's wall time per frame (both arms and both hands,
@@ -201,14 +201,23 @@ def finger_cell(per_finger: np.ndarray) -> str:
     return " / ".join(f"{x:.1f}" for x in per_finger) + "°"
 
 
-def limit_violations(robot, q: np.ndarray, rows_mask: np.ndarray) -> int:
-    """Hand-joint entries of the hand-frames outside their limits by more than 1e-6 rad."""
+def limit_violations(robot, q: np.ndarray, rows_mask: np.ndarray) -> tuple[int, float]:
+    """Hand-joint entries of the hand-frames outside their limits by more than 1e-6 rad, and the deepest excess [rad]
+    (dex-retargeting's optimiser widens every bound by 1e-3 rad: how far out its violations go tells them apart
+    from a hand the robot could not take)."""
     lo, hi = robot.lower_limits.double().numpy(), robot.upper_limits.double().numpy()
-    out = 0
+    count, deepest = 0, 0.0
     for s, joints in hand_joints(robot).items():
         x = q[rows_mask[:, s]][:, joints]
-        out += int(((x < lo[joints] - 1e-6) | (x > hi[joints] + 1e-6)).sum())
-    return out
+        excess = np.maximum(lo[joints] - x, x - hi[joints])
+        count += int((excess > 1e-6).sum())
+        deepest = max(deepest, float(excess.max(initial=0.0)))
+    return count, deepest
+
+
+def added(total: tuple[int, float], more: tuple[int, float]) -> tuple[int, float]:
+    """Two ``limit_violations`` counts and depths together."""
+    return total[0] + more[0], max(total[1], more[1])
 
 
 def refine_hands(robot, q: np.ndarray, demo, weights: LossWeights) -> np.ndarray:
@@ -316,7 +325,7 @@ def main() -> None:
     items = recordings(video=not args.no_video)
     weights = LossWeights()
     scores = {m: [] for m in METHODS}
-    per_recording, nlo_seconds, nlo_frames, velocity, nlo_limits, nlo_hand_limits = [], 0.0, 0, 0, 0, 0
+    per_recording, nlo_seconds, nlo_frames, velocity, nlo_limits, nlo_hand_limits = [], 0.0, 0, 0, 0, (0, 0.0)
     stage_seconds = 0.0  # of nlo_seconds: the hand stage's
     geometry = GeometryCollision(robot)  # the independent check: the URDF's own collision geometry
     own = own_hand_pairs(robot, geometry)
@@ -358,16 +367,16 @@ def main() -> None:
         nlo_frames += len(demo)
         velocity += result.summary["velocity_violations"]
         nlo_limits += result.summary["limit_violations"]
-        nlo_hand_limits += limit_violations(robot, np.asarray(q, dtype=np.float64), hand_frames_mask(demo))
+        nlo_hand_limits = added(nlo_hand_limits, limit_violations(robot, np.asarray(q, dtype=np.float64), hand_frames_mask(demo)))
         per_recording.append((label, len(demo), int(hand_frames_mask(demo).sum()), timing.summary["seconds"]))
     dex_seconds, dex_limits, have_dex = {}, {}, args.dex_python.is_file()
     if have_dex:
         angles, out = dex_angles(args.dex_python, robot, items, args.passes)
         for method, variant in DEX.items():
-            qs, limits = [], 0
+            qs, limits = [], (0, 0.0)
             for q, (_, demo) in zip(angles[method], items, strict=True):
                 qs.append(hand_scores(robot, q, demo))
-                limits += limit_violations(robot, q, hand_frames_mask(demo))
+                limits = added(limits, limit_violations(robot, q, hand_frames_mask(demo)))
                 count(method, q, demo)
             scores[method], dex_limits[method] = qs, limits
             dex_seconds[method] = out[f"seconds_{variant}"]
@@ -406,7 +415,8 @@ def main() -> None:
     # where the wrist->tip gap sits
     rows.append(f"| {PER_FINGER} | " + " | ".join(finger_cell(every[m].tip_per_finger()) for m in shown) + " |")
     limits = {"nlo_lab": nlo_hand_limits, **dex_limits}
-    rows.append("| joint-limit violations (hand joints) | " + " | ".join(str(limits[m]) if m in limits else "—" for m in shown) + " |")
+    rows.append("| joint-limit violations (hand joints; deepest) | " + " | ".join(
+        f"{limits[m][0]} ({1000 * limits[m][1]:.1f} mrad)" if m in limits else "—" for m in shown) + " |")
     rows.append("| hand-frames with the hand in self-collision by the URDF's geometry (deepest) | " + " | ".join(
         f"{collided[m][0]} ({1000 * collided[m][1]:.1f} mm)" for m in shown) + " |")
     times = {"nlo_lab": f"{1000 * nlo_seconds / nlo_frames:.2f} ms per frame, arms and hands (of which the hand stage "
@@ -451,7 +461,9 @@ def main() -> None:
                       "r of the thumb–index tip distance of human and robot, each in its own hand lengths (mean wrist→knuckle distance of "
                       "the four fingers). One FK (nlo_lab's, of `yumi.urdf`) scores every method. Self-collision: the hand-frames where "
                       "two links of that hand (below its wrist link) overlap by `yumi.urdf`'s collision geometry "
-                      f"(`nlo_lab.robot.geometry_collision`, deeper than {1000 * DEPTH_TOLERANCE:.1f} mm), whatever the method.", "",
+                      f"(`nlo_lab.robot.geometry_collision`, deeper than {1000 * DEPTH_TOLERANCE:.1f} mm), whatever the method. Joint-limit "
+                      "violations: hand-joint angles of the hand-frames outside the URDF's limits by more than 1e-6 rad, and the "
+                      "deepest (dex-retargeting's optimiser widens every bound by 1e-3 rad, `set_joint_limit`'s `epsilon`).", "",
                       "Diagnostics, not methods: nlo_lab without its hand stage (the latent optimisation's hands); nlo_lab with "
                       "the collision weight 0 (what the self-collision pairs cost the handshape); nlo_lab's output with its hand "
                       f"joints alone then optimised further in joint space ({REFINE_STEPS} Adam steps of {REFINE_LR} rad, patience 5, "
