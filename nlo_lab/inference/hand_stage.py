@@ -540,8 +540,9 @@ def within_speed(x: torch.Tensor, cap: torch.Tensor, pinned: torch.Tensor | None
     out = x.detach().cpu().numpy().copy()  # frame by frame in numpy: a torch op per frame cost 10x as much
     if pinned is not None and bool(pinned.any()):
         keep = np.flatnonzero(pinned.detach().cpu().numpy())
-        reach = np.concatenate([np.zeros((1, out.shape[1]), bound.dtype), np.cumsum(bound, 0)])  # frame 0 -> t
-        lo, hi = np.full_like(out, -np.inf), np.full_like(out, np.inf)
+        # frame 0 -> t, summed in float64: a long clip's sums in float32 would be off by more than a step's last bit
+        reach = np.concatenate([np.zeros((1, out.shape[1])), np.cumsum(bound, 0, dtype=np.float64)])
+        lo, hi = np.full(out.shape, -np.inf), np.full(out.shape, np.inf)
         for k, first, last in zip(keep, np.r_[0, keep[:-1]], np.r_[keep[1:], out.shape[0] - 1], strict=True):
             before, after = slice(first, k + 1), slice(k, last + 1)  # the frames whose nearest pinned frame k is
             span = np.abs(reach[before] - reach[k])
