@@ -82,6 +82,7 @@ STEPS: tuple[Step, ...] = (
     Step("reliability", "benchmarks/reliability.py", "", "--frames 2000 --points 1", minutes=8),
     Step("signals", "benchmarks/signals.py", "", "--points 2", minutes=5),
     Step("signal-window", "benchmarks/signal_window.py", "", "--runs 3", minutes=0.5),
+    Step("h5-reader", "benchmarks/h5_reader.py", "", "--frames 100 --repeats 1", minutes=1.5),
     Step("headroom:nao", "benchmarks/headroom.py", "--robot nao", "--robot nao --limit 2 --steps 20", minutes=3),
     Step("headroom:pepper", "benchmarks/headroom.py", "--robot pepper", "--robot pepper --limit 2 --steps 20", minutes=3),
     Step("headroom:yumi", "benchmarks/headroom.py", "--robot yumi", "--robot yumi --limit 2 --steps 20", minutes=4),

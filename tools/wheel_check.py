@@ -128,7 +128,7 @@ def check_wheel_contents(wheel: Path) -> None:
     needed = [f"nlo_lab/assets/robots/{r}.{ext}" for r in ROBOTS for ext in ("json", "urdf")]
     needed += [f"nlo_lab/assets/checkpoints/{r}.pt" for r in ROBOTS]
     needed += ["nlo_lab/assets/recordings/holistic_both_hands_47f.pose", "nlo_lab/notebooks/README.md"]
-    needed += ["nlo_lab/docs/PAPER.md", "nlo_lab/docs/RESULTS.md"]
+    needed += ["nlo_lab/docs/PAPER.md", "nlo_lab/docs/RESULTS.md", "nlo_lab/human/readers/h5_extract.py"]
     needed += [f"nlo_lab/docs/figures/{p.name}" for p in sorted((ROOT / "docs" / "figures").glob("*.png"))]
     needed += [f"nlo_lab/notebooks/{p.name}" for p in sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.ipynb"))]
     missing = [n for n in needed if n not in names]
@@ -205,6 +205,14 @@ ours, ref = robot.forward_kinematics(q), PKChain(robot).forward_kinematics(q)
 out["pk_max_diff"] = max(float((ours[k] - ref[k]).abs().max()) for k in ref)
 assert out["pk_max_diff"] < 1e-4, out["pk_max_diff"]
 out["pose_frames"] = len(load_demonstration(paths.RECORDINGS_DIR / "holistic_both_hands_47f.pose"))
+# an .h5 in the authors' layout: read by the installed reader's own HDF5 process (h5_extract.py, python -I)
+import h5py, numpy as np
+with h5py.File("arms.h5", "w") as f:
+    g = f.create_group("word")
+    for s, y in (("l", 0.17), ("r", -0.17)):
+        t = np.zeros((9, 1))
+        g[f"{s}_up_pos"], g[f"{s}_fr_pos"], g[f"{s}_hd_pos"] = t + [0, y, 1.4], t + [0.05, y, 1.15], t + [0.3, y, 1.2]
+out["h5_frames"] = len(load_demonstration("arms.h5"))
 plot_convergence([3.0, 2.0, 1.0])
 print(json.dumps(out))
 """
@@ -254,7 +262,7 @@ def smoke(py: Path, work: Path) -> None:
     if len(lines) != 1 or str(ckpt) not in lines[0] or "pip install --force-reinstall" not in lines[0]:
         fail(f"a missing bundled checkpoint gave:\n{err}")
     print(f"wheel-check: from {work}: nlo_lab {info['version']} imported from site-packages; load_robot + load_pretrained "
-          f"{', '.join(ROBOTS)}; PKChain; the .pose sample ({info['pose_frames']} frames); a plot; retarget (frechet {summary['frechet_m']:.3f} m); demo; lab --copy-only ({len(copied)} notebooks); the script at {module}:{func}, python -m nlo_lab; "
+          f"{', '.join(ROBOTS)}; PKChain; the .pose sample ({info['pose_frames']} frames); an .h5 ({info['h5_frames']} frames); a plot; retarget (frechet {summary['frechet_m']:.3f} m); demo; lab --copy-only ({len(copied)} notebooks); the script at {module}:{func}, python -m nlo_lab; "
           f"batch without its extra -> exit 2; damaged install -> exit 2 naming {ckpt.name} ({time.perf_counter() - t0:.0f} s)")  # fmt: skip
 
 

@@ -10,14 +10,20 @@ from __future__ import annotations
 
 import struct
 import zipfile
+from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from make_corpus import authors_arms  # tests/fuzz/make_corpus.py: the authors' layout of a small recording
 
 from nlo_lab.errors import DemonstrationError
+from nlo_lab.files import format_size
 from nlo_lab.human import load_demonstration, save_npz
+from nlo_lab.human.readers import h5 as h5_reader
+from nlo_lab.human.readers import h5_extract
 from nlo_lab.human.readers.pose import MAX_POSE_BYTES
 from nlo_lab.paths import RECORDINGS_DIR
 
@@ -203,6 +209,49 @@ def test_h5_virtual_dataset_pointing_at_a_system_file(tmp_path):
     with pytest.raises(DemonstrationError, match="virtual dataset"):
         load_demonstration(path)
 
+
+
+LOOPING_H5 = Path(__file__).resolve().parents[1] / "fuzz" / "corpus" / "h5" / "found-4939c48c205e.h5"  # make fuzz, 2026-11-27
+
+
+def test_an_h5_file_libhdf5_loops_on_is_refused_after_its_cpu_time(monkeypatch):
+    """A 10 kB file whose object header keeps libhdf5 looping (found by ``make fuzz``): in one process nothing could
+    interrupt it; the reader's HDF5 process is stopped at its CPU-time limit and the file refused in one line."""
+    monkeypatch.setattr(h5_reader, "H5_CPU_SECONDS", 2)
+    with pytest.raises(DemonstrationError, match="more than 2 s of CPU time") as err:
+        load_demonstration(LOOPING_H5)
+    assert LOOPING_H5.name in str(err.value) and len(str(err.value).splitlines()) == 1
+
+
+def test_an_h5_library_crash_is_one_line(tmp_path, monkeypatch):
+    """The HDF5 process killed by a signal (as a crash of libhdf5 on a corrupt file would): one line naming the file."""
+    crashing = tmp_path / "crash.py"
+    crashing.write_text("import os, signal\nos.kill(os.getpid(), signal.SIGSEGV)\n")
+    monkeypatch.setattr(h5_reader, "_EXTRACT", crashing)
+    with pytest.raises(DemonstrationError, match=r"the HDF5 library failed on it \(signal 11\)") as err:
+        load_demonstration(h5_file(tmp_path / "ok.h5"))
+    assert "ok.h5" in str(err.value)
+
+
+def test_the_h5_process_reads_only_the_descriptor_it_is_given(tmp_path, monkeypatch):
+    """The HDF5 process gets the file the reader opened, not its name: a file swapped in under the same name after the
+    reader opened it is not what is read."""
+    path = h5_file(tmp_path / "x.h5")
+    real = h5_reader._extract
+
+    def swap_then_extract(handle, *args):
+        (tmp_path / "other.h5").write_bytes(b"not hdf5")
+        (tmp_path / "other.h5").replace(path)  # the name now holds another file
+        return real(handle, *args)
+
+    monkeypatch.setattr(h5_reader, "_extract", swap_then_extract)
+    assert len(load_demonstration(path)) == 10
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 2**50))
+def test_the_h5_process_writes_sizes_as_the_library_does(n):
+    assert h5_extract.size(n) == format_size(n)
 
 # ----------------------------------------------------------------------------- .npz: only known members, bounded inflation
 def _demo_npz(path):

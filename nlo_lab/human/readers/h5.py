@@ -34,28 +34,37 @@ HDF5's own (deflate, shuffle, Fletcher-32, scale-offset, n-bit; and LZF), chunks
 than :data:`MAX_CHUNK_BYTES`, a file of more than :data:`MAX_H5_BYTES`, more than
 :data:`MAX_GROUPS` entries at its root, and more than
 :data:`~nlo_lab.human.demonstration.MAX_FRAMES` frames in all its sequences together.
+
+The HDF5 library runs in a process of its own (:mod:`nlo_lab.human.readers.h5_extract`, given the open file):
+some corrupt files keep libhdf5 looping for ever, out of reach of anything in the same process, or crash it.
+Such a file is refused after :data:`H5_CPU_SECONDS` of CPU time or when the library dies.
 """
 
 from __future__ import annotations
 
+import io
+import json
+import signal
+import subprocess
+import sys
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from nlo_lab.errors import DemonstrationError
-from nlo_lab.files import as_path, format_size, open_input
+from nlo_lab.files import as_path, open_input
 from nlo_lab.human.demonstration import FPS_RANGE, MAX_FRAMES, Demonstration
 from nlo_lab.human.transforms import body_frame_from_shoulders, check_arm_lengths, quat_to_matrix, wrist_frame_from_hand
 
 __all__ = ["DEFAULT_FPS", "SENTENCE_MARKER", "GLOVE_POINTS", "GLOVE_FINGER_POINTS", "MAX_H5_BYTES", "MAX_GROUPS",
-           "MAX_CHUNK_BYTES", "load_h5_sequences", "load_h5_first"]
+           "MAX_CHUNK_BYTES", "H5_CPU_SECONDS", "load_h5_sequences", "load_h5_first"]
 
 MAX_H5_BYTES = 4 << 30  # the file
 MAX_GROUPS = 100_000  # entries at the file's root (the authors' data set: hundreds of words and sentences)
 MAX_CHUNK_BYTES = 64 << 20  # one chunk of a dataset, inflated: HDF5 inflates a whole chunk to read any part of it
-_FILTERS = {h5py.h5z.FILTER_DEFLATE, h5py.h5z.FILTER_SHUFFLE, h5py.h5z.FILTER_FLETCHER32, h5py.h5z.FILTER_SCALEOFFSET,
-            h5py.h5z.FILTER_NBIT, 32000}  # HDF5's own and h5py's LZF; another id would load a plugin
+H5_CPU_SECONDS = 30  # the HDF5 process's CPU time: a legitimate file of MAX_FRAMES frames reads in a few seconds
+H5_WALL_SECONDS = 600  # and its wall time, for a read that waits instead (a stalled disk)
+_EXTRACT = Path(__file__).with_name("h5_extract.py")
 
 DEFAULT_FPS = 15.0  # the authors' released samples run at about 15 Hz
 SENTENCE_MARKER = "sentence"
@@ -65,103 +74,44 @@ GLOVE_POINTS = ("wrist",) + tuple(
 GLOVE_FINGER_POINTS = tuple((1 + 3 * f, 3 + 3 * f) for f in range(5))  # (base, tip) index per finger, thumb..pinky
 _GLOVE_WRIST, _GLOVE_INDEX, _GLOVE_MIDDLE, _GLOVE_PINKY = 0, 4, 7, 13
 _PREFIX = {"left": "l", "right": "r"}
+_KEYS = tuple(f"{s}_{k}" for s in _PREFIX.values() for k in ("up_pos", "up_quat", "fr_pos", "fr_quat", "hd_pos", "hd_quat", "glove_angle", "glove_pos"))
 _UP = np.array([0.0, 0.0, 1.0])
 
 
-def _dataset(group: h5py.Group, key: str, shape_tail: tuple[int, ...], path, required: bool) -> np.ndarray | None:
-    field = f"{group.name.lstrip('/')}/{key}"
-    if key not in group:
-        if required:
-            raise DemonstrationError("missing dataset", path=path, field=field)
-        return None
-    obj = _member(group, key, path, field)
-    if not isinstance(obj, h5py.Dataset):
-        raise DemonstrationError("expected a dataset, found a group", path=path, field=field)
-    # dtype and shape come from the header: checked before a byte of data is read
-    if obj.dtype.kind not in "iuf":
-        raise DemonstrationError(f"expected real numbers, got dtype {obj.dtype}", path=path, field=field)
-    if obj.shape is None or len(obj.shape) != 1 + len(shape_tail) or tuple(obj.shape[1:]) != shape_tail:
-        raise DemonstrationError(f"expected shape (T, {', '.join(map(str, shape_tail))}), got {obj.shape}", path=path, field=field)
-    if obj.shape[0] == 0:
-        raise DemonstrationError("no frames", path=path, field=field)
-    if obj.shape[0] > MAX_FRAMES:
-        raise DemonstrationError(f"declares {obj.shape[0]} frames, more than the {MAX_FRAMES} this nlo_lab reads", path=path, field=field)
-    _check_storage(obj, path, field)
+def _extract(handle, path: Path, first_only: bool) -> tuple[dict, dict[str, np.ndarray]]:
+    """What :mod:`~nlo_lab.human.readers.h5_extract` reads of the open file ``handle``: its manifest and arrays."""
+    settings = {"first_only": first_only, "max_groups": MAX_GROUPS, "max_chunk_bytes": MAX_CHUNK_BYTES,
+                "max_frames": MAX_FRAMES, "fps_range": list(FPS_RANGE), "cpu_seconds": H5_CPU_SECONDS}
+    fd = handle.fileno()
+    proc = subprocess.Popen([sys.executable, "-I", str(_EXTRACT), str(fd), json.dumps(settings)], pass_fds=(fd,),
+                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
-        value = np.asarray(obj[()], dtype=np.float64)
-    except (OSError, ValueError, TypeError) as err:
-        raise DemonstrationError(f"unreadable dataset ({err})", path=path, field=field) from None
-    bad = ~np.isfinite(value)
-    if bad.any():
-        raise DemonstrationError("NaN or inf", path=path, frame=int(np.argwhere(bad)[0][0]), field=field)
-    return value
+        out, err = proc.communicate(timeout=H5_WALL_SECONDS)
+    except subprocess.TimeoutExpired:
+        raise DemonstrationError(f"reading it took more than {H5_WALL_SECONDS:g} s (a corrupt HDF5 structure?)", path=path) from None
+    finally:
+        if proc.poll() is None:  # a timeout, or an interrupt of this process
+            proc.kill()
+            proc.wait()
+    if proc.returncode in (-signal.SIGXCPU, -signal.SIGKILL):
+        raise DemonstrationError(f"reading it took more than {H5_CPU_SECONDS:g} s of CPU time: libhdf5 loops on some corrupt "
+                                 "files, this may be one", path=path)
+    if proc.returncode != 0:
+        cause = f"signal {-proc.returncode}" if proc.returncode < 0 else f"exit status {proc.returncode}"
+        last = err.decode(errors="replace").strip().splitlines()[-1:] or [""]
+        raise DemonstrationError(f"the HDF5 library failed on it ({cause}{': ' + last[0][:200] if last[0] else ''})", path=path)
+    with np.load(io.BytesIO(out), allow_pickle=False) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    return json.loads(arrays.pop("manifest").tobytes()), arrays
 
 
-def _check_storage(obj: h5py.Dataset, path, field: str) -> None:
-    """The dataset's bytes are inside this file, stored the ways HDF5 itself reads, in bounded chunks."""
-    plist = obj.id.get_create_plist()
-    layout = plist.get_layout()
-    if layout == h5py.h5d.VIRTUAL:
-        raise DemonstrationError("is a virtual dataset: its data lives in other files, which are not read", path=path, field=field)
-    if plist.get_external_count() > 0:
-        raise DemonstrationError("is stored in an external raw file, which is not read", path=path, field=field)
-    if layout not in (h5py.h5d.COMPACT, h5py.h5d.CONTIGUOUS, h5py.h5d.CHUNKED):
-        raise DemonstrationError(f"has a storage layout ({layout}) that is not inside the file", path=path, field=field)
-    for i in range(plist.get_nfilters()):
-        code = plist.get_filter(i)[0]
-        if code not in _FILTERS:
-            raise DemonstrationError(f"uses the filter {code}, not one of HDF5's own (a plugin would be loaded)", path=path, field=field)
-    if obj.chunks is not None:
-        chunk = int(np.prod(obj.chunks, dtype=np.int64)) * obj.dtype.itemsize
-        if chunk > MAX_CHUNK_BYTES:
-            raise DemonstrationError(f"has chunks of {format_size(chunk)}, more than {format_size(MAX_CHUNK_BYTES)}",
-                                     path=path, field=field)
+def _refused(entry: dict, path: Path) -> DemonstrationError:
+    return DemonstrationError(entry["message"], path=path, field=entry["field"], frame=entry["frame"])
 
 
-def _member(group: h5py.Group, key: str, path, field: str):
-    """``group[key]``, refusing links that leave the file or lead nowhere."""
-    link = group.get(key, getlink=True)
-    if isinstance(link, h5py.ExternalLink):
-        raise DemonstrationError("is a link to another file (external links are not followed)", path=path, field=field)
-    try:
-        return group[key]
-    except (KeyError, OSError, RuntimeError, ValueError):
-        raise DemonstrationError("is a link that leads nowhere", path=path, field=field) from None
-
-
-def _fps(group: h5py.Group, root: h5py.File, path) -> float:
-    for holder in (group, root):
-        if "fps" in holder.attrs:
-            field = f"{holder.name}:fps"
-            try:
-                info = h5py.h5a.open(holder.id, b"fps")
-                shape, dtype = info.shape, info.dtype
-            except (OSError, TypeError, ValueError) as err:
-                raise DemonstrationError(f"unreadable fps attribute ({err})", path=path, field=field) from None
-            if shape is None or int(np.prod(shape, dtype=np.int64)) != 1 or dtype.kind not in "iuf":  # before reading it
-                raise DemonstrationError(f"fps must be one real number, got dtype {dtype} shape {shape}", path=path, field=field)
-            try:
-                raw = np.asarray(holder.attrs["fps"])
-            except (OSError, TypeError, ValueError) as err:
-                raise DemonstrationError(f"unreadable fps attribute ({err})", path=path, field=field) from None
-            if raw.size != 1 or raw.dtype.kind not in "iuf":
-                raise DemonstrationError(f"fps must be one real number, got dtype {raw.dtype} shape {raw.shape}", path=path, field=field)
-            fps = float(raw.reshape(()))
-            if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:
-                raise DemonstrationError(f"fps must be in [{FPS_RANGE[0]:g}, {FPS_RANGE[1]:g}], got {fps:g}", path=path, field=field)
-            return fps
-    return DEFAULT_FPS
-
-
-def _read_group(group: h5py.Group, root: h5py.File, path: Path) -> Demonstration:
-    name = group.name.lstrip("/")
-    data = {}
-    for s in _PREFIX.values():
-        for part in ("up", "fr", "hd"):
-            data[f"{s}_{part}_pos"] = _dataset(group, f"{s}_{part}_pos", (3,), path, required=True)
-            data[f"{s}_{part}_quat"] = _dataset(group, f"{s}_{part}_quat", (4,), path, required=False)
-        data[f"{s}_glove_angle"] = _dataset(group, f"{s}_glove_angle", (14,), path, required=False)
-        data[f"{s}_glove_pos"] = _dataset(group, f"{s}_glove_pos", (16, 3), path, required=False)
+def _read_group(name: str, fps, data: dict[str, np.ndarray | None], path: Path) -> Demonstration:
+    """One group's demonstration from its datasets (``data``: every key of the layout, None where absent) and its fps
+    entry (the manifest's: a number, None for :data:`DEFAULT_FPS`, or a refusal, raised where the fps is used)."""
     lengths = {k: v.shape[0] for k, v in data.items() if v is not None}
     T = lengths["l_up_pos"]
     for key, n in lengths.items():
@@ -220,8 +170,10 @@ def _read_group(group: h5py.Group, root: h5py.File, path: Path) -> Demonstration
                                           else "hd_quat" if data[f"{s}_hd_quat"] is not None else "none")
                                    for side, s in _PREFIX.items()},
     }
+    if isinstance(fps, dict):
+        raise _refused(fps, path)
     demo = Demonstration.from_arrays(
-        _fps(group, root, path), arms, np.ones((T, 2, 3), dtype=bool), rots, wrist_mask, fingers, finger_mask,
+        DEFAULT_FPS if fps is None else fps, arms, np.ones((T, 2, 3), dtype=bool), rots, wrist_mask, fingers, finger_mask,
         name=name, meta=meta, path=path,
     )
     check_arm_lengths(demo, path=path)
@@ -258,26 +210,11 @@ def load_h5_first(path) -> Demonstration:
 def _read_groups(path: Path, first_only: bool) -> list[Demonstration]:
     """The sequence groups of ``path`` in sorted order (only the first when ``first_only``)."""
     with open_input(path, kind="HDF5", max_bytes=MAX_H5_BYTES, error=DemonstrationError) as handle:
-        try:
-            f = h5py.File(handle, "r")
-        except (OSError, ValueError) as err:
-            raise DemonstrationError(f"not a readable HDF5 file ({err})", path=path) from None
-        with f:
-            try:
-                if len(f) > MAX_GROUPS:
-                    raise DemonstrationError(f"the file's root holds {len(f)} entries, more than {MAX_GROUPS}", path=path)
-                # hard links only: a soft or external link at the root is not a sequence of this file
-                names = sorted(k for k in f.keys() if isinstance(f.get(k, getlink=True), h5py.HardLink) and isinstance(f[k], h5py.Group))
-                if not names:
-                    raise DemonstrationError("the file holds no sequence group", path=path)
-                demos, frames = [], 0
-                for n in names[: 1 if first_only else None]:
-                    demos.append(_read_group(f[n], f, path))
-                    frames += len(demos[-1])
-                    if frames > MAX_FRAMES:
-                        raise DemonstrationError(f"its sequences hold more than {MAX_FRAMES} frames together", path=path, field=n)
-                return demos
-            except DemonstrationError:
-                raise
-            except (OSError, KeyError, RuntimeError, ValueError, TypeError) as err:  # truncated / corrupt storage
-                raise DemonstrationError(f"unreadable HDF5 content ({err})", path=path) from None
+        manifest, arrays = _extract(handle, path, first_only)
+    demos = []
+    for i, (name, fps, keys) in enumerate(manifest["groups"]):  # the groups read whole, then the refusal if any
+        data = {key: (arrays[f"{i}:{key}"] if key in keys else None) for key in _KEYS}
+        demos.append(_read_group(name, fps, data, path))
+    if manifest["error"] is not None:
+        raise _refused(manifest["error"], path)
+    return demos
