@@ -102,7 +102,7 @@ def main(argv=None) -> int:
         load_demonstration(LOOPING)
         refused = "read (unexpected)"
     except DemonstrationError as err:
-        refused = str(err)
+        refused = str(err).replace(f"{ROOT}/", "")  # the repository-relative name, whatever the checkout
     looping = time.perf_counter() - start
     lines = [f"- files: the authors' layout, one group, both arms and hands, gzip; medians of {args.repeats} reads "
              f"(of {max(1, args.repeats // 3)} above 20000 frames) after one untimed read", "", *rows, "",
