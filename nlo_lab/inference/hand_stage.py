@@ -537,21 +537,20 @@ def within_speed(x: torch.Tensor, cap: torch.Tensor, pinned: torch.Tensor | None
     pinned frame: clamping a frame that is within reach into the step from its clamped predecessor keeps it within
     reach (the two ranges overlap), and a pinned frame's range is its own value."""
     bound = cap.detach().cpu().numpy()
-    out = x.detach().cpu().numpy().copy()  # frame by frame in numpy: a torch op per frame cost 10x as much
-    if pinned is not None and bool(pinned.any()):
-        keep = np.flatnonzero(pinned.detach().cpu().numpy())
+    start = x.detach().cpu().numpy()
+    out = start.copy()  # frame by frame in numpy: a torch op per frame cost 10x as much
+    keep = np.zeros(len(out), dtype=bool) if pinned is None else pinned.detach().cpu().numpy()
+    if keep.any():
+        pins = np.flatnonzero(keep)
         # frame 0 -> t, summed in float64: a long clip's sums in float32 would be off by more than a step's last bit
         reach = np.concatenate([np.zeros((1, out.shape[1])), np.cumsum(bound, 0, dtype=np.float64)])
         lo, hi = np.full(out.shape, -np.inf), np.full(out.shape, np.inf)
-        for k, first, last in zip(keep, np.r_[0, keep[:-1]], np.r_[keep[1:], out.shape[0] - 1], strict=True):
-            before, after = slice(first, k + 1), slice(k, last + 1)  # the frames whose nearest pinned frame k is
-            span = np.abs(reach[before] - reach[k])
-            lo[before], hi[before] = np.maximum(lo[before], out[k] - span), np.minimum(hi[before], out[k] + span)
-            span = np.abs(reach[after] - reach[k])
-            lo[after], hi[after] = np.maximum(lo[after], out[k] - span), np.minimum(hi[after], out[k] + span)
+        for k, first, last in zip(pins, np.r_[0, pins[:-1]], np.r_[pins[1:], out.shape[0] - 1], strict=True):
+            for side in (slice(first, k + 1), slice(k, last + 1)):  # the frames whose nearest pinned frame k is
+                span = np.abs(reach[side] - reach[k])
+                lo[side], hi[side] = np.maximum(lo[side], out[k] - span), np.minimum(hi[side], out[k] + span)
         np.clip(out, lo, hi, out=out)
     for t in range(1, out.shape[0]):
         np.clip(out[t], out[t - 1] - bound[t - 1], out[t - 1] + bound[t - 1], out=out[t])
-    if pinned is not None:  # exactly: the sums of the caps and the steps may differ in their last bit
-        out[pinned.detach().cpu().numpy()] = x.detach().cpu().numpy()[pinned.detach().cpu().numpy()]
+    out[keep] = start[keep]  # exactly: the sums of the caps and the steps may differ in their last bit
     return torch.as_tensor(out, device=x.device)
