@@ -68,7 +68,7 @@ import torch
 from nlo_lab.robot.capsule_fit import Piece, cuts, fit_link_capsules
 from nlo_lab.robot.collision import segment_closest_points
 from nlo_lab.robot.geometry import link_shapes, shape_mesh
-from nlo_lab.robot.geometry_collision import DEPTH_TOLERANCE, overlap_depth, overlap_prefilter, overlaps, polytope
+from nlo_lab.robot.geometry_collision import DEPTH_TOLERANCE, LP_BATCH, overlap_depth, overlap_depths, overlap_prefilter, overlaps, polytope
 from nlo_lab.robot.spec import CapsuleSpec
 
 __all__ = [
@@ -385,7 +385,7 @@ def _thinning_bound(tree, sample: tuple[np.ndarray, np.ndarray], a: Piece, b: Pi
     it goes on), returning a value below ``below`` that the bound does not exceed."""
     q, T = sample
     ia, ib = tree.link_index[a.link], tree.link_index[b.link]
-    overlapping = _overlapping(polytope(a.link, a.hull), ia, polytope(b.link, b.hull), ib, prefilter)
+    overlapping = _overlapping(a.polytope, ia, b.polytope, ib, prefilter)
     gaps = _pair_gaps(T, ia, a, ib, b)
     free = gaps >= 0  # the capsules hold the geometry: apart capsules, apart geometry
     hit: list[int] = []
@@ -432,7 +432,9 @@ def _overlapping(pa, ia: int, pb, ib: int, prefilter: bool) -> Callable[[np.ndar
     """``overlapping(T (S, L, 4, 4))`` -> for each pose, a call that says whether polytopes ``pa`` (on link index ``ia``)
     and ``pb`` overlap deeper than ``DEPTH_TOLERANCE`` (:func:`~nlo_lab.robot.geometry_collision.overlaps`, a linear
     programme), asked lazily (a scan stops at its first hits). With ``prefilter``, the poses a cheap vectorised test settles
-    (:func:`~nlo_lab.robot.geometry_collision.overlap_prefilter`, true by construction) skip the programme: the same answers."""
+    (:func:`~nlo_lab.robot.geometry_collision.overlap_prefilter`, true by construction) skip the programme, and the
+    programme of a pose asked is solved with those of the next unsettled poses, up to ``LP_BATCH`` in all, as one
+    (:func:`~nlo_lab.robot.geometry_collision.overlap_depths`): the same answers."""
 
     def overlapping(T: np.ndarray) -> list[Callable[[], bool]]:
         known = np.zeros(len(T), dtype=np.int8)
@@ -443,6 +445,10 @@ def _overlapping(pa, ia: int, pb, ib: int, prefilter: bool) -> Callable[[np.ndar
             if prefilter and not done[c]:
                 batch = slice(c * PREFILTER_BATCH, (c + 1) * PREFILTER_BATCH)
                 known[batch], done[c] = overlap_prefilter(pa, T[batch, ia], pb, T[batch, ib]), True
+            if prefilter and known[s] == 0:  # this pose's programme with those of the next unsettled ones, as one
+                ahead = [k for k in range(s, min(len(T), (c + 1) * PREFILTER_BATCH)) if known[k] == 0][:LP_BATCH]
+                depths = overlap_depths([(pa, T[k, ia], pb, T[k, ib]) for k in ahead])
+                known[ahead] = np.where(depths > DEPTH_TOLERANCE, 1, -1)
             return bool(known[s] > 0) or (known[s] == 0 and overlaps(pa, T[s, ia], pb, T[s, ib]))
 
         return [(lambda s=s: overlap(s)) for s in range(len(T))]
@@ -478,7 +484,7 @@ def _rest_slack(tree, a: Piece, b: Piece, poses: dict, sample: tuple[np.ndarray,
     gap = float(capsule_gaps([a, b], poses, [(0, 1)])[0])
     if gap > margin + INNER_CLEARANCE:
         return float("inf")
-    if overlap_depth(polytope(a.link, a.hull), poses[a.link], polytope(b.link, b.hull), poses[b.link]) > DEPTH_TOLERANCE:
+    if overlap_depth(a.polytope, poses[a.link], b.polytope, poses[b.link]) > DEPTH_TOLERANCE:
         return float("inf")
     # slack <= bar once _allowed(bound) <= bar - gap + ROUNDING: surely once bound < bar - gap + ROUNDING + THIN_SAFETY
     # (_allowed(x) <= x - THIN_SAFETY, to 1e-12 m), less 1e-9 m for that rounding
@@ -493,7 +499,7 @@ def _rest_slack_cap(tree, a: Piece, b: Piece, poses: dict, sample: tuple[np.ndar
     gap = float(capsule_gaps([a, b], poses, [(0, 1)])[0])
     if gap > margin + INNER_CLEARANCE:
         return float("inf")
-    pa, pb = polytope(a.link, a.hull), polytope(b.link, b.hull)
+    pa, pb = a.polytope, b.polytope
     ia, ib = tree.link_index[a.link], tree.link_index[b.link]
     at_rest = overlap_prefilter(pa, poses[a.link][None], pb, poses[b.link][None])[0]
     if at_rest > 0 or (at_rest == 0 and overlaps(pa, poses[a.link], pb, poses[b.link])):

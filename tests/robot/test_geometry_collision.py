@@ -9,7 +9,16 @@ import pytest
 import trimesh
 
 from nlo_lab.robot import load_robot
-from nlo_lab.robot.geometry_collision import DEPTH_TOLERANCE, GeometryCollision, overlap_depth, overlap_prefilter, overlaps, polytope
+from nlo_lab.robot.geometry_collision import (
+    DEPTH_TOLERANCE,
+    LP_BATCH,
+    GeometryCollision,
+    overlap_depth,
+    overlap_depths,
+    overlap_prefilter,
+    overlaps,
+    polytope,
+)
 
 
 def moved(x: float = 0.0, y: float = 0.0, z: float = 0.0, yaw: float = 0.0) -> np.ndarray:
@@ -49,6 +58,21 @@ def random_poses(gen, count: int, reach: float) -> np.ndarray:
     return T
 
 
+def edge_poses(a, b, gen, count: int):
+    """``count`` pose pairs of polytopes ``a`` and ``b``: deep overlaps, clear gaps and, every third, b slid from a's
+    origin to within a fraction of a mm of where the two part (either side of the 0.1 mm tolerance)."""
+    Ta, Tb = random_poses(gen, count, 0.05), random_poses(gen, count, 0.05)
+    for k in range(0, count, 3):
+        lo, hi = 0.0, 1.0
+        way = Tb[k, :3, 3] / max(np.linalg.norm(Tb[k, :3, 3]), 1e-9)
+        for _ in range(30):
+            mid = 0.5 * (lo + hi)
+            Tb[k, :3, 3] = mid * way * 0.2
+            lo, hi = (mid, hi) if overlap_depth(a, Ta[k], b, Tb[k]) > 0 else (lo, mid)
+        Tb[k, :3, 3] = (lo + (k % 7 - 3) * 2e-4) * way * 0.2
+    return Ta, Tb
+
+
 @pytest.mark.parametrize("shapes", [("box", "box"), ("cylinder", "sphere"), ("box", "cylinder")])
 def test_the_prefilter_agrees_with_the_linear_programme(shapes):
     """The capsule draft's fast path settles the poses it can without the linear programme: wherever it says
@@ -58,21 +82,56 @@ def test_the_prefilter_agrees_with_the_linear_programme(shapes):
             "cylinder": lambda: trimesh.creation.cylinder(radius=0.02, height=0.1, sections=64),
             "sphere": lambda: trimesh.creation.icosphere(subdivisions=3, radius=0.03)}
     a, b = polytope("a", make[shapes[0]]()), polytope("b", make[shapes[1]]())
-    gen = np.random.default_rng(3)
-    Ta, Tb = random_poses(gen, 300, 0.05), random_poses(gen, 300, 0.05)
-    for k in range(0, 300, 3):  # every third pair of poses pushed to just touching: the overlap's edge
-        lo, hi = 0.0, 1.0  # slide b from a's origin (overlapping) outward until it clears
-        way = Tb[k, :3, 3] / max(np.linalg.norm(Tb[k, :3, 3]), 1e-9)
-        for _ in range(30):
-            mid = 0.5 * (lo + hi)
-            Tb[k, :3, 3] = mid * way * 0.2
-            lo, hi = (mid, hi) if overlap_depth(a, Ta[k], b, Tb[k]) > 0 else (lo, mid)
-        Tb[k, :3, 3] = (lo + (k % 7 - 3) * 2e-4) * way * 0.2  # within a fraction of a mm of the edge, either side
+    Ta, Tb = edge_poses(a, b, np.random.default_rng(3), 300)
     verdict = overlap_prefilter(a, Ta, b, Tb)
     truth = np.array([overlaps(a, Ta[k], b, Tb[k]) for k in range(len(Ta))])
     assert not truth[verdict < 0].any() and truth[verdict > 0].all()
     assert (verdict < 0).sum() > 20 and (verdict > 0).sum() > 20 and (verdict == 0).sum() > 0
     assert truth.any() and not truth.all()
+
+
+def test_programmes_solved_as_one_give_each_pair_its_own_depth():
+    """overlap_depths (the capsule draft's fast path) solves up to LP_BATCH pairs' linear programmes as one: each
+    pair's depth is the one overlap_depth finds alone, for mixed shapes in one batch (boxes, cylinders, spheres, a
+    pair apart by a face plane), more pairs than one batch holds, and poses at the overlap's edge."""
+    make = [polytope("a", trimesh.creation.box(extents=(0.12, 0.04, 0.03))),
+            polytope("b", trimesh.creation.cylinder(radius=0.02, height=0.1, sections=64)),
+            polytope("c", trimesh.creation.icosphere(subdivisions=3, radius=0.03))]
+    gen = np.random.default_rng(11)
+    items = []
+    for k in range(3 * LP_BATCH + 5):
+        a, b = make[k % 3], make[(k // 3) % 3]
+        Ta, Tb = (poses[0] for poses in edge_poses(a, b, gen, 1)) if k % 3 == 0 else random_poses(gen, 2, 0.05)
+        items.append((a, Ta, b, Tb))
+    items.append((make[0], moved(), make[0], moved(x=0.5)))  # far apart
+    alone = np.array([overlap_depth(*item) for item in items])
+    together = overlap_depths(items)
+    assert together.shape == (len(items),)
+    np.testing.assert_allclose(together, alone, rtol=0, atol=1e-9)
+    assert ((together > DEPTH_TOLERANCE) == (alone > DEPTH_TOLERANCE)).all()
+    assert (alone > DEPTH_TOLERANCE).sum() > 10 and (alone == 0).sum() > 10
+    assert len(overlap_depths([])) == 0
+
+
+def test_programmes_solved_as_one_fall_back_to_one_by_one_when_the_joint_programme_fails(monkeypatch):
+    """Should HiGHS not solve the joint programme (any status but optimal), each pair is solved alone: the same depths."""
+    import scipy.optimize
+
+    box = polytope("a", trimesh.creation.box(extents=(0.1, 0.1, 0.1)))
+    items = [(box, moved(), box, moved(x=0.1 + gap)) for gap in (-0.03, -0.01, 0.004, -0.002)]
+    real = scipy.optimize.linprog
+    calls = []
+
+    def failing_when_joint(c, **kwargs):
+        calls.append(len(c))
+        res = real(c, **kwargs)
+        if len(c) > 4:
+            res.status = 4  # numerical difficulties
+        return res
+
+    monkeypatch.setattr(scipy.optimize, "linprog", failing_when_joint)
+    np.testing.assert_allclose(overlap_depths(items), [0.03, 0.01, 0.0, 0.002], atol=1e-7)
+    assert calls[0] == 4 * 3 and calls[1:] == [4, 4, 4]  # the joint programme (the apart pair left out), then one by one
 
 
 def two_link_arm(tmp_path, length: float = 0.15, elbow=(-3.0, 3.0)):
