@@ -9,6 +9,7 @@ and prints what it chose; ``check`` loads a spec against its URDF and prints its
 from __future__ import annotations
 
 import argparse
+import sys
 import warnings
 from pathlib import Path
 
@@ -57,7 +58,7 @@ def add_parser(subparsers) -> None:
     init.add_argument("--name", default=None, help="the robot's name (default: the URDF's)")
     init.add_argument("--srdf", default=None, metavar="SRDF", help="the robot's SRDF: the link pairs it disables are not checked")
     init.add_argument("--force", action="store_true", help="replace SPEC.json if it exists")
-    init.add_argument("--quiet", action="store_true", help="no warnings")
+    init.add_argument("--quiet", action="store_true", help="no progress bar (shown only when stderr is a terminal), no warnings")
     check = sub.add_parser("check", help="check a robot spec against its URDF and print a summary")
     check.add_argument("spec", metavar="SPEC.json", help="a robot spec .json (or a bundled robot's name)")
     check.add_argument("--quiet", action="store_true", help="no warnings")
@@ -76,7 +77,8 @@ def _init(args) -> int:
     if not out.resolve().parent.is_dir():
         raise UsageError(f"nlo-lab robot init: --out: the folder {str(out.parent)!r} does not exist")
     draft = draft_spec(args.urdf, out, left_arm=args.left_arm, right_arm=args.right_arm, left_hand=args.left_hand,
-                       right_hand=args.right_hand, base=args.base, name=args.name, srdf=args.srdf)
+                       right_hand=args.right_hand, base=args.base, name=args.name, srdf=args.srdf,
+                       progress=not args.quiet and sys.stderr.isatty())
     for message in draft.warnings:
         warnings.warn(message, stacklevel=2)
     atomic_write_bytes(out, spec_text(draft.spec).encode("utf-8"))

@@ -64,6 +64,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import torch
+from tqdm.auto import tqdm
 
 from nlo_lab.robot.capsule_fit import Piece, cuts, fit_link_capsules
 from nlo_lab.robot.collision import segment_closest_points
@@ -519,8 +520,15 @@ def _toward(a: Piece, b: Piece, poses: dict) -> np.ndarray:
     return Ta[:3, :3].T @ (mid_b - Ta[:3, 3]) - 0.5 * (np.asarray(a.p0) + np.asarray(a.p1))
 
 
+def _counted(items, done: Callable[[], object]):
+    """``items`` one by one, calling ``done()`` after each (a progress bar's update: once the item's work is done)."""
+    for item in items:
+        yield item
+        done()
+
+
 def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, poses: dict, path_poses, margin: float,
-            prefilter: bool = True) -> None:
+            prefilter: bool = True, done: Callable[[], object] = lambda: None) -> None:
     """Cut in two (:func:`~nlo_lab.robot.capsule_fit.cuts`: across the principal axes, or across the direction to the
     other capsule) the capsules of *blind* pairs, in place: the piece of the pair, or both, with the cut whose
     halves leave the most room at rest, while that helps, up to :data:`REFINE_CUTS` times
@@ -543,7 +551,7 @@ def _refine(tree, pieces: dict[str, list[Piece]], key_pairs, side_of: dict, pose
             known[key] = (x, y, value, value > bar or not prefilter)  # above the bar: the search ran to its end
         return known[key][2]
 
-    for ga, gb in key_pairs:
+    for ga, gb in _counted(key_pairs, done):
         if ENVELOPE in ga + gb or _between_arms(side_of, ga, gb):
             continue
         sample = None
@@ -616,7 +624,8 @@ def _names(pieces: dict[str, list[Piece]]) -> list[CapsuleSpec]:
 
 def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float, samples: int = REACH_SAMPLES, seed: int = 0,
                     disabled: set | frozenset = frozenset(), thinning: str = "most",
-                    fit: Callable[[str, str, list], list[Piece]] | None = None, prefilter: bool = True) -> CapsuleDraft:
+                    fit: Callable[[str, str, list], list[Piece]] | None = None, prefilter: bool = True,
+                    progress: bool = False) -> CapsuleDraft:
     """Capsules and checked pairs of a robot (see the module docstring).
 
     Args:
@@ -637,6 +646,8 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
         prefilter: settle by a cheap vectorised test the sampled poses where it can tell whether two links' geometry
             overlaps, and run the linear programme (:func:`~nlo_lab.robot.geometry_collision.overlap_depth`) only on
             the rest (the fast path, on by default: the same draft, tested equal; iCub's draft took 6 minutes without).
+        progress: show a tqdm progress bar: the key pairs weighed for cuts (``thinning="most"``), then the capsule
+            pairs checked (the two steps that take a large robot's draft its time).
     """
     if thinning not in ("most", "least"):
         raise ValueError(f"thinning must be 'most' or 'least', not {thinning!r}")
@@ -670,8 +681,9 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
             sampled[joints] = _path_poses(tree, joints, rest_q, lower, upper, seed)
         return sampled[joints]
 
+    bar = tqdm(total=len(key_pairs), desc="weighing capsule pairs", unit="pair", disable=not progress, leave=False)
     if thinning == "most":
-        _refine(tree, pieces, key_pairs, side_of, poses, path_poses, margin, prefilter)
+        _refine(tree, pieces, key_pairs, side_of, poses, path_poses, margin, prefilter, bar.update)
     capsules = _names(pieces)
     flat = [p for key in pieces for p in pieces[key]]
     group = [key for key in pieces for _ in pieces[key]]
@@ -692,7 +704,10 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
     far, thinned, apart = 0, 0, 0
     margins: dict[tuple[str, str], float] = {}
     blind: set[tuple[str, str]] = set()
+    bar.reset(total=len(pairs))
+    bar.set_description("checking capsule pairs")
     for (i, j), gap, near in zip(pairs, gaps, reach, strict=True):
+        bar.update()
         a, b = capsules[i], capsules[j]
         arms = _between_arms(side_of, group[i], group[j])
         reach_of = min(REACH, a.radius + b.radius)  # small parts (fingers) need to come closer to count
@@ -739,6 +754,7 @@ def draft_collision(model, tree, rest_q, lower, upper, arms: Arms, margin: float
         thinned += 1
         if pair_margin < margin:
             margins[checked[-1]] = pair_margin
+    bar.close()
     if unchecked:
         warnings.warn(f"capsules of {len(unchecked)} link pairs touch at the rest pose though their geometry does not; "
                       f"those pairs are not checked: {sorted(unchecked)}", stacklevel=2)

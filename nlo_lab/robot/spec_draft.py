@@ -238,7 +238,7 @@ def _spec_object(data: dict, path: Path, urdf: Path) -> RobotSpec:
 
 
 def draft_spec(urdf, out, *, left_arm=None, right_arm=None, left_hand=None, right_hand=None, base=None, name=None,
-               srdf=None, samples: int | None = None, prefilter: bool = True) -> Draft:
+               srdf=None, samples: int | None = None, prefilter: bool = True, progress: bool = False) -> Draft:
     """Draft the spec of the robot in ``urdf``, to be written at ``out`` (see the module docstring).
 
     Args:
@@ -251,6 +251,7 @@ def draft_spec(urdf, out, *, left_arm=None, right_arm=None, left_hand=None, righ
         srdf: the robot's SRDF, if it has one: the link pairs it disables are not checked (and the spec names it).
         samples: random poses of the capsule reach test (default: ``capsule_draft.REACH_SAMPLES``).
         prefilter: the capsule draft's fast path (:func:`~nlo_lab.robot.capsule_draft.draft_collision`; the same spec).
+        progress: show a tqdm progress bar over the capsule pairs weighed (iCub's draft takes a minute or two).
 
     Raises:
         RobotDescriptionError: a URDF without two arms, an unknown link (with the closest names),
@@ -309,7 +310,8 @@ def draft_spec(urdf, out, *, left_arm=None, right_arm=None, left_hand=None, righ
     sides = {s: set(robot.model.subtree(arms[s].shoulder)) for s in SIDES}
     collision = draft_collision(robot.model, robot.tree, robot.reference_q.double().numpy(), robot.lower_limits.double().numpy(),
                                 robot.upper_limits.double().numpy(), Arms(sides, {s: arms[s].wrist for s in SIDES}), margin,
-                                samples=REACH_SAMPLES if samples is None else samples, disabled=disabled, prefilter=prefilter)
+                                samples=REACH_SAMPLES if samples is None else samples, disabled=disabled, prefilter=prefilter,
+                                progress=progress)
     data["capsules"] = [{"name": c.name, "link": c.link, "p0": list(c.p0), "p1": list(c.p1), "radius": c.radius} for c in collision.capsules]
     data["collision_pairs"] = [list(p) for p in collision.pairs]
     data["collision_margin"] = {"default": margin, **{f"{a}/{b}": m for (a, b), m in collision.margins.items()}}

@@ -6,6 +6,7 @@ import contextlib
 import io
 import json
 import struct
+import sys
 
 import pytest
 import trimesh
@@ -98,6 +99,7 @@ def test_init_drafts_a_complete_spec_and_check_reads_it_back(drafted, capsys):
     assert "wrote" in out and "actuated joints" in out and "capsules" in out
     # the velocity limit the URDF does not give: a warning naming the joint, the stated default
     assert "l_shoulder_pitch" in err and "2.0 rad/s" in err
+    assert "capsule pairs" not in err  # no progress bar where stderr is not a terminal
     data = json.loads(spec.read_text())
     assert data["urdf"] == "../tiny.urdf"
     # actuated: the arm chains (the joint whose child is the shoulder too), the finger chains with the
@@ -114,14 +116,42 @@ def test_init_drafts_a_complete_spec_and_check_reads_it_back(drafted, capsys):
     assert "left  arm: 4 joints" in out and "fingers thumb, index" in out and "at the rest pose no checked pair" in out
 
 
-def test_init_refuses_to_replace_a_spec_unless_forced(tiny, tmp_path, capsys, assert_one_line_error):
+def test_init_refuses_to_replace_a_spec_unless_forced(tiny, tmp_path, capsys, monkeypatch, assert_one_line_error):
     spec = tmp_path / "tiny.json"
     spec.write_text("{}")
     code, _, err = run(["robot", "init", tiny, "--out", spec], capsys)
     assert_one_line_error(code, err, "exists", "--force")
     assert spec.read_text() == "{}"
+    terminal = Terminal()  # and on a terminal, the draft shows its progress on stderr
+    monkeypatch.setattr(sys, "stderr", terminal)
     code, _, err = run(["robot", "init", tiny, "--out", spec, "--force"], capsys)
     assert code == 0 and json.loads(spec.read_text())["name"] == "tiny"
+    assert "weighing capsule pairs" in terminal.getvalue() and "checking capsule pairs" in terminal.getvalue()
+
+
+class Terminal(io.StringIO):
+    """A stderr that says it is a terminal."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize("quiet", [False, True])
+def test_init_shows_progress_on_a_terminal_unless_quiet(tiny, tmp_path, capsys, monkeypatch, quiet):
+    """The draft gets ``progress=True`` on a terminal without ``--quiet`` (the bar itself: the test above)."""
+    import nlo_lab.robot.spec_draft as spec_draft
+    from nlo_lab.errors import RobotDescriptionError
+
+    asked = []
+
+    def draft_spec(*args, progress=False, **kwargs):
+        asked.append(progress)
+        raise RobotDescriptionError("stopped here")
+
+    monkeypatch.setattr(spec_draft, "draft_spec", draft_spec)
+    monkeypatch.setattr(sys, "stderr", Terminal())
+    code, _, _ = run(["robot", "init", tiny, "--out", tmp_path / "x.json", *(["--quiet"] if quiet else [])], capsys)
+    assert code == 2 and asked == [not quiet]
 
 
 def test_given_arms_and_hands_and_unknown_links(tiny, tmp_path, capsys, assert_one_line_error):
