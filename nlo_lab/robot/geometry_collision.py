@@ -275,9 +275,9 @@ class GeometryCollision:
         centres = np.stack([T[:, index[k], :3, :3] @ p.centre + T[:, index[k], :3, 3] for k, p in enumerate(self.pieces)], 1)
         radii = np.array([p.radius for p in self.pieces])
         gap = np.linalg.norm(centres[:, pairs[:, 0]] - centres[:, pairs[:, 1]], axis=-1) - radii[pairs].sum(1)  # (T, P)
-        for t, k in zip(*np.nonzero(gap < 0), strict=True):
-            i, j = pairs[k]
-            out[t, k] = overlap_depth(self.pieces[i], T[t, index[i]], self.pieces[j], T[t, index[j]])
+        near = np.nonzero(gap < 0)
+        out[near] = overlap_depths([(self.pieces[pairs[k, 0]], T[t, index[pairs[k, 0]]], self.pieces[pairs[k, 1]], T[t, index[pairs[k, 1]]])
+                                    for t, k in zip(*near, strict=True)])
         return out
 
     def report(self, angles) -> dict:

@@ -252,3 +252,22 @@ def test_the_prefilters_plane_test_pruned_by_bounding_spheres_is_the_all_planes_
         assert _beyond_a_face(normals, offsets, posed, centre, p.radius) == exhaustive
         answers.append(exhaustive)
     assert sum(answers) == sum((k // 3) % 5 in (0, 2, 4) for k in range(500))  # the deciding plane below the least value
+
+
+def test_the_checks_depths_are_each_pairs_own_programme():
+    """GeometryCollision.depths solves the near pairs' programmes together (overlap_depths): each depth is the one
+    overlap_depth gives that pair alone, on NAO's collision meshes in random poses within its limits."""
+    import torch
+
+    robot = load_robot("nao")
+    check = GeometryCollision(robot)
+    lower, upper = robot.lower_limits.double().numpy(), robot.upper_limits.double().numpy()
+    q = np.random.default_rng(2).uniform(lower, upper, (12, len(lower)))
+    depths = check.depths(q)
+    with torch.no_grad():
+        T = robot.forward_kinematics_tensor(torch.as_tensor(q)).numpy()
+    index = [robot.link_index(p.link) for p in check.pieces]
+    alone = np.array([[overlap_depth(check.pieces[i], T[t, index[i]], check.pieces[j], T[t, index[j]]) for i, j in check.pairs]
+                      for t in range(len(q))])
+    np.testing.assert_allclose(depths, alone, rtol=0, atol=1e-9)
+    assert (depths > DEPTH_TOLERANCE).sum() >= 3  # collisions to compare, not only zeros
