@@ -118,9 +118,9 @@ def overlap_depths(items: Sequence[tuple[Polytope, np.ndarray, Polytope, np.ndar
     """``(N,)``: :func:`overlap_depth` of each posed pair ``(a, Ta, b, Tb)`` of ``items``, the linear programmes of up to
     :data:`LP_BATCH` pairs solved as one.
 
-    The fast path of the capsule draft, tested equal to :func:`overlap_depth`: the pairs' programmes side by side
-    (block-diagonal rows, each pair its own ``(x, t)``) with the sum of the ``t`` as the objective, whose optimum is
-    each pair's own optimum since no row links two pairs. scipy's ``linprog`` spends most of a small programme's time
+    The fast path of the capsule draft and of :meth:`GeometryCollision.depths`, tested equal to :func:`overlap_depth`:
+    the pairs' programmes side by side (block-diagonal rows, each pair its own ``(x, t)``) with the sum of the ``t`` as
+    the objective, whose optimum is each pair's own optimum since no row links two pairs. scipy's ``linprog`` spends most of a small programme's time
     before and after HiGHS runs (about 1.7 of 2.1 ms for two 45-face hulls); shared by 16 pairs, a pair's programme
     costs about a third (``benchmarks/robot_init.py`` times the drafts: docs/RESULTS.md, "Drafting a spec")."""
     from scipy import sparse
