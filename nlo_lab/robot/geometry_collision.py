@@ -37,7 +37,8 @@ from nlo_lab.robot.srdf import disabled_pairs
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot.robot import Robot
 
-__all__ = ["DEPTH_TOLERANCE", "Polytope", "polytope", "overlap_depth", "overlap_depths", "overlaps", "overlap_prefilter", "GeometryCollision"]
+__all__ = ["DEPTH_TOLERANCE", "Polytope", "polytope", "overlap_depth", "overlap_depths", "overlaps", "overlap_prefilter",
+           "GeometryCollision"]
 
 DEPTH_TOLERANCE = 1e-4  # [m] overlaps up to 0.1 mm are round-off and contact, not collision
 PREFILTER_SLACK = 1e-6  # [m] the prefilter decides only this far from its thresholds; nearer, the linear programme decides
@@ -120,9 +121,10 @@ def overlap_depths(items: Sequence[tuple[Polytope, np.ndarray, Polytope, np.ndar
 
     The fast path of the capsule draft and of :meth:`GeometryCollision.depths`, tested equal to :func:`overlap_depth`:
     the pairs' programmes side by side (block-diagonal rows, each pair its own ``(x, t)``) with the sum of the ``t`` as
-    the objective, whose optimum is each pair's own optimum since no row links two pairs. scipy's ``linprog`` spends most of a small programme's time
-    before and after HiGHS runs (about 1.7 of 2.1 ms for two 45-face hulls); shared by 16 pairs, a pair's programme
-    costs about a third (``benchmarks/robot_init.py`` times the drafts: docs/RESULTS.md, "Drafting a spec")."""
+    the objective, whose optimum is each pair's own optimum since no row links two pairs. scipy's ``linprog`` spends
+    most of a small programme's time before and after HiGHS runs (about 1.7 of 2.1 ms for two 45-face hulls); shared by
+    16 pairs, a pair's programme costs about a third (``benchmarks/robot_init.py`` times the drafts: docs/RESULTS.md,
+    "Drafting a spec")."""
     from scipy import sparse
     from scipy.optimize import linprog
 
