@@ -12,6 +12,10 @@ Methods, on every hand-frame (one hand in one frame with its wrist frame and fiv
   weights and settings (both arms and both hands together, smoothness, the latent optimisation,
   then the hand stage: the hand joints alone on the same objective, ``nlo_lab.inference.hand_stage``;
   retiming);
+* **nlo_lab, handshape preset** (``nlo-lab retarget --handshape``): the same pipeline with
+  ``LossWeights.handshape()`` and ``OptimizeSettings(hand_search=HANDSHAPE_SEARCH)``: the hand stage first searches the
+  middle, ring and little fingers' joints along the clip (``nlo_lab.inference.hand_stage.searched_start``), then descends;
+  timed and held to the targets as nlo_lab's defaults are;
 * **dex, filtered** and **dex, unfiltered**: dex-retargeting 0.5 vector retargeting with our
   configs and hand-only URDFs (``benchmarks/hands/``), with and without its low-pass filter. It
   needs numpy >= 2, which mediapipe (and so this environment) cannot have: it runs in
@@ -73,6 +77,7 @@ from nlo_lab.corpus import sign_corpus  # noqa: E402
 from nlo_lab.evaluation.hands import HandScores, hand_frames_mask, hand_joint_indices, hand_scores  # noqa: E402
 from nlo_lab.human import load_demonstration  # noqa: E402
 from nlo_lab.inference import (  # noqa: E402
+    HANDSHAPE_SEARCH,
     FastPaths,
     OptimizeSettings,  # noqa: E402
     descend,
@@ -94,7 +99,9 @@ TIPS = (4, 8, 12, 16, 20)  # MediaPipe hand landmarks of the fingertips (0: the 
 NO_STAGE = "nlo_lab without the hand stage (diagnostic)"
 NO_COLLISION = "nlo_lab without the collision term (diagnostic)"
 REFINED = "nlo_lab, then its hand joints alone optimised on the same objective (diagnostic)"
-METHODS = ("nlo_lab", "dex, filtered", "dex, unfiltered", "open hand, not moving", NO_STAGE, NO_COLLISION, REFINED)
+PRESET = "nlo_lab, handshape preset (`--handshape`)"
+METHODS = ("nlo_lab", PRESET, "dex, filtered", "dex, unfiltered", "open hand, not moving", NO_STAGE, NO_COLLISION, REFINED)
+TIMED = ("nlo_lab", PRESET)  # the pipelines timed and held to the targets
 REFINE_STEPS, REFINE_LR = 100, 0.02  # [rad] Adam on the hand joints of REFINED (patience 5, as the pipeline's)
 DEX = {"dex, filtered": "filtered", "dex, unfiltered": "unfiltered"}
 PER_FINGER = "wrist→fingertip direction error per finger (thumb / index / middle / ring / little)"  # a table row's name
@@ -288,11 +295,12 @@ def measure_table(title: str, pooled: dict[str, dict], per_finger: dict[str, np.
     return "\n".join(rows)
 
 
-def held_out(robot, retarget, dex_python: Path | None) -> str:
-    """The measures on the synthetic corpus's test split (:func:`corpus_items`): nlo_lab (``retarget``, the pipeline as
-    configured) and, with ``dex_python``, dex-retargeting's two variants, scored alike. Markdown."""
+def held_out(robot, pipelines: dict, dex_python: Path | None) -> str:
+    """The measures on the synthetic corpus's test split (:func:`corpus_items`): each of nlo_lab's ``pipelines`` (name ->
+    retarget) and, with ``dex_python``, dex-retargeting's two variants, scored alike. Markdown."""
     items = corpus_items()
-    scores = {"nlo_lab": HandScores.cat([hand_scores(robot, retarget(demo).trajectory.angles, demo) for _, demo in items])}
+    scores = {name: HandScores.cat([hand_scores(robot, retarget(demo).trajectory.angles, demo) for _, demo in items])
+              for name, retarget in pipelines.items()}
     if dex_python is not None:
         scores |= dex_scores(dex_python, robot, items)
     table = measure_table("measure (mean over hand-frames)", {m: v.summary() for m, v in scores.items()},
@@ -304,6 +312,33 @@ def held_out(robot, retarget, dex_python: Path | None) -> str:
         "synthesised from joint angles of nlo_lab's own hand model, not a person's. The same pipeline, dex-retargeting "
         "configs and scorer as above: whether the comparison above holds beyond the four recordings; "
         "not a target of issue 27.", "", table])
+
+
+def target_rows(label: str, ours: dict, dex: list[dict], dex_time: float | None, per_frame: float, limits: int,
+                velocity: int) -> list[str]:
+    """Issue 27's targets for one of nlo_lab's pipelines (``label``): its pooled measures ``ours`` against dex-retargeting's
+    variants ``dex`` (empty: not run), its seconds ``per_frame`` against ``dex_time`` per hand-frame. Markdown rows."""
+    rows = []
+    if dex:
+        better = {k: (ours[k] > max(d[k] for d in dex)) if k == "pinch_r" else (ours[k] < min(d[k] for d in dex))
+                  for k in ("tip_deg", "thumb_deg", "pinch_r", "finger_deg")}
+        best_dex = {k: max(d[k] for d in dex) if k == "pinch_r" else min(d[k] for d in dex) for k in better}
+        measured = ", ".join(f"{k}: {fmt(ours[k], digits=3 if k == 'pinch_r' else 2)} vs {fmt(best_dex[k], digits=3 if k == 'pinch_r' else 2)}"
+                             for k in better)
+        missed = [k for k, b in better.items() if not b]
+        rows.append(f"| {label} better than both dex variants on all four measures (ours vs dex's best) | {measured} | "
+                    + ("yes |" if not missed else f"**no** ({', '.join(missed)}) |"))
+        for key in ("tip_deg", "thumb_deg"):
+            best = min(d[key] for d in dex)
+            rows.append(f"| {label}, stretch: {key} at most half of dex-retargeting's best ({best:.1f}° / 2 = {best / 2:.1f}°) | "
+                        f"{ours[key]:.1f}° | {'yes' if ours[key] <= best / 2 else '**no**'} |")
+    rows.append(f"| {label}: 0 joint-limit violations (all joints, all frames) | {limits} | {'yes' if limits == 0 else '**no**'} |")
+    rows.append(f"| {label}: 0 velocity violations after retiming | {velocity} | {'yes' if velocity == 0 else '**no**'} |")
+    if dex_time is not None:
+        ratio = per_frame / dex_time
+        rows.append(f"| {label}: time per frame (arms and hands) ≤ 2× dex-retargeting's per hand-frame | {1000 * per_frame:.2f} ms vs "
+                    f"2 × {1000 * dex_time:.2f} ms (ratio {ratio:.2f}) | {'yes' if ratio <= 2 else '**no**'} |")
+    return rows
 
 
 def main() -> None:
@@ -325,8 +360,11 @@ def main() -> None:
     items = recordings(video=not args.no_video)
     weights = LossWeights()
     scores = {m: [] for m in METHODS}
-    per_recording, nlo_seconds, nlo_frames, velocity, nlo_limits, nlo_hand_limits = [], 0.0, 0, 0, 0, (0, 0.0)
-    stage_seconds = 0.0  # of nlo_seconds: the hand stage's
+    per_recording, nlo_frames = [], 0
+    seconds = dict.fromkeys(TIMED, 0.0)
+    stage_seconds = dict.fromkeys(TIMED, 0.0)  # of seconds: the hand stage's
+    velocity, all_limits = dict.fromkeys(TIMED, 0), dict.fromkeys(TIMED, 0)
+    hand_limits = dict.fromkeys(TIMED, (0, 0.0))
     geometry = GeometryCollision(robot)  # the independent check: the URDF's own collision geometry
     own = own_hand_pairs(robot, geometry)
     collided = {m: [0, 0.0] for m in METHODS}
@@ -339,17 +377,30 @@ def main() -> None:
         colliding[method].append(depth > DEPTH_TOLERANCE)
 
     retarget = RetargetConfig(robot, model=model, weights=weights).build()
+    pipelines = {"nlo_lab": retarget,
+                 PRESET: RetargetConfig(robot, OptimizeSettings(hand_search=HANDSHAPE_SEARCH), model=model, weights=LossWeights.handshape()).build()}
     # what the collision pairs between one hand's fingers cost the handshape (not robot-safe: no collision term)
     diagnostic = RetargetConfig(robot, model=model, weights=dataclasses.replace(weights, collision=0.0)).build()
     no_stage = RetargetConfig(robot, OptimizeSettings(hand_iterations=0), model=model, weights=weights).build()
     retarget(items[0][1].slice(0, min(5, len(items[0][1]))))  # once untimed: the robot's point plan and pinch floor
     # the timing: every recording in a row, --passes times, as dex-retargeting's; the median pass (by its total) counts
-    passes = [[retarget(demo) for _, demo in items] for _ in range(args.passes)]
-    timed = sorted(passes, key=lambda p: sum(r.summary["seconds"] for r in p))[(args.passes - 1) // 2]
-    for (label, demo), result, timing in zip(items, passes[0], timed, strict=True):
-        q = result.trajectory.angles
-        scores["nlo_lab"].append(hand_scores(robot, q, demo))
-        count("nlo_lab", q, demo)
+    results, timed = {}, {}
+    for name in TIMED:
+        passes = [[pipelines[name](demo) for _, demo in items] for _ in range(args.passes)]
+        results[name] = passes[0]
+        timed[name] = sorted(passes, key=lambda p: sum(r.summary["seconds"] for r in p))[(args.passes - 1) // 2]
+    for i, (label, demo) in enumerate(items):
+        for name in TIMED:
+            result, timing = results[name][i], timed[name][i]
+            q = result.trajectory.angles
+            scores[name].append(hand_scores(robot, q, demo))
+            count(name, q, demo)
+            seconds[name] += timing.summary["seconds"]
+            stage_seconds[name] += timing.optimization.extra.get("hand_seconds", 0.0)
+            velocity[name] += result.summary["velocity_violations"]
+            all_limits[name] += result.summary["limit_violations"]
+            hand_limits[name] = added(hand_limits[name], limit_violations(robot, np.asarray(q, dtype=np.float64), hand_frames_mask(demo)))
+        q = results["nlo_lab"][i].trajectory.angles
         q_no_stage = no_stage(demo).trajectory.angles
         scores[NO_STAGE].append(hand_scores(robot, q_no_stage, demo))
         count(NO_STAGE, q_no_stage, demo)
@@ -362,13 +413,8 @@ def main() -> None:
         q_open = np.tile(robot.neutral_q.double().numpy(), (len(demo), 1))
         scores["open hand, not moving"].append(hand_scores(robot, q_open, demo))
         count("open hand, not moving", q_open, demo)
-        nlo_seconds += timing.summary["seconds"]
-        stage_seconds += timing.optimization.extra.get("hand_seconds", 0.0)
         nlo_frames += len(demo)
-        velocity += result.summary["velocity_violations"]
-        nlo_limits += result.summary["limit_violations"]
-        nlo_hand_limits = added(nlo_hand_limits, limit_violations(robot, np.asarray(q, dtype=np.float64), hand_frames_mask(demo)))
-        per_recording.append((label, len(demo), int(hand_frames_mask(demo).sum()), timing.summary["seconds"]))
+        per_recording.append((label, len(demo), int(hand_frames_mask(demo).sum()), *(timed[name][i].summary["seconds"] for name in TIMED)))
     dex_seconds, dex_limits, have_dex = {}, {}, args.dex_python.is_file()
     if have_dex:
         angles, out = dex_angles(args.dex_python, robot, items, args.passes)
@@ -386,7 +432,7 @@ def main() -> None:
     pooled = {m: v.summary() for m, v in every.items()}
     # the same measures on the hand-frames where no method's hand goes through itself (a like-for-like comparison:
     # dex-retargeting does not avoid self-collision, nlo_lab does)
-    compared = ["nlo_lab", *[m for m in DEX if scores[m]]]
+    compared = [*TIMED, *[m for m in DEX if scores[m]]]
     clean = ~np.any([np.concatenate(colliding[m]) for m in compared], axis=0)
     pooled_clean = {m: HandScores(**{f.name: getattr(every[m], f.name)[clean] for f in dataclasses.fields(HandScores)}).summary()
                     for m in compared}
@@ -397,6 +443,8 @@ def main() -> None:
              f"- nlo_lab: shipped checkpoint `assets/checkpoints/yumi.pt`, default weights ({weights.as_dict()}; the latent "
              f"optimisation without {', '.join(f'`{n}`' for n in HAND_STAGE_TERMS)}), then the hand stage ({OptimizeSettings().hand_iterations} Adam steps "
              f"of {OptimizeSettings().hand_lr} rad on the hand joints, same weights)",
+             f"- nlo_lab, handshape preset: the same with `LossWeights.handshape()` ({', '.join(f'{k} {v:g}' for k, v in LossWeights.handshape().as_dict().items() if v != weights.as_dict()[k])}) "
+             f"and `OptimizeSettings(hand_search={HANDSHAPE_SEARCH})` ({OptimizeSettings().hand_grid} values of each searched joint)",
              "- dex-retargeting 0.5, vector retargeting, our configs `benchmarks/hands/inspire_{left,right}.yml` on "
              "`benchmarks/hands/yumi_hand_{left,right}.urdf`, run in `.venv-bench`" if have_dex else "- dex-retargeting: not run",
              f"- time: each method over every recording in a row, {args.passes} passes; the median pass (by its total) is quoted "
@@ -414,45 +462,27 @@ def main() -> None:
         rows.append(f"| {name} | " + " | ".join(vals) + " |")
     # where the wrist->tip gap sits
     rows.append(f"| {PER_FINGER} | " + " | ".join(finger_cell(every[m].tip_per_finger()) for m in shown) + " |")
-    limits = {"nlo_lab": nlo_hand_limits, **dex_limits}
+    limits = {**hand_limits, **dex_limits}
     rows.append("| joint-limit violations (hand joints; deepest) | " + " | ".join(
         f"{limits[m][0]} ({1000 * limits[m][1]:.1f} mrad)" if m in limits else "—" for m in shown) + " |")
     rows.append("| hand-frames with the hand in self-collision by the URDF's geometry (deepest) | " + " | ".join(
         f"{collided[m][0]} ({1000 * collided[m][1]:.1f} mm)" for m in shown) + " |")
-    times = {"nlo_lab": f"{1000 * nlo_seconds / nlo_frames:.2f} ms per frame, arms and hands (of which the hand stage "
-                        f"{1000 * stage_seconds / nlo_frames:.2f} ms)"}
+    times = {name: f"{1000 * seconds[name] / nlo_frames:.2f} ms per frame, arms and hands (of which the hand stage "
+                   f"{1000 * stage_seconds[name] / nlo_frames:.2f} ms)" for name in TIMED}
     for m, sec in dex_seconds.items():
         times[m] = f"{1000 * sec.mean():.2f} ms per hand-frame (median {1000 * np.median(sec):.2f})"
     rows.append("| time | " + " | ".join(times.get(m, "") for m in shown) + " |")
     table = "\n".join(rows)
     clean_table = measure_table(f"measure, on the {int(clean.sum())} of {len(clean)} hand-frames where no method's hand goes through itself",
                                 pooled_clean)
-    recs = "| recording | frames | hand-frames | nlo_lab [s] |\n|---|---|---|---|\n" + "\n".join(
-        f"| {label} | {n} | {h} | {s:.2f} |" for label, n, h, s in per_recording)
+    recs = "| recording | frames | hand-frames | nlo_lab [s] | handshape preset [s] |\n|---|---|---|---|---|\n" + "\n".join(
+        f"| {label} | {n} | {h} | {s:.2f} | {p:.2f} |" for label, n, h, s, p in per_recording)
 
     targets = ["| target | measured | met |", "|---|---|---|"]
-    if have_dex:
-        ours = pooled["nlo_lab"]
-        dex = [pooled[m] for m in DEX]
-        better = {k: (ours[k] > max(d[k] for d in dex)) if k == "pinch_r" else (ours[k] < min(d[k] for d in dex))
-                  for k in ("tip_deg", "thumb_deg", "pinch_r", "finger_deg")}
-        best_dex = {k: max(d[k] for d in dex) if k == "pinch_r" else min(d[k] for d in dex) for k in better}
-        measured = ", ".join(f"{k}: {fmt(ours[k], digits=3 if k == 'pinch_r' else 2)} vs {fmt(best_dex[k], digits=3 if k == 'pinch_r' else 2)}"
-                             for k in better)
-        missed = [k for k, b in better.items() if not b]
-        targets.append(f"| nlo_lab better than both dex variants on all four measures (ours vs dex's best) | {measured} | "
-                       + ("yes |" if not missed else f"**no** ({', '.join(missed)}) |"))
-        dex_time = min(float(s.mean()) for s in dex_seconds.values())
-        ratio = (nlo_seconds / nlo_frames) / dex_time
-        for key in ("tip_deg", "thumb_deg"):
-            best = min(d[key] for d in dex)
-            targets.append(f"| stretch: {key} at most half of dex-retargeting's best ({best:.1f}° / 2 = {best / 2:.1f}°) | "
-                           f"{ours[key]:.1f}° | {'yes' if ours[key] <= best / 2 else '**no**'} |")
-    targets.append(f"| 0 joint-limit violations (nlo_lab, all joints, all frames) | {nlo_limits} | {'yes' if nlo_limits == 0 else '**no**'} |")
-    targets.append(f"| 0 velocity violations after retiming (nlo_lab) | {velocity} | {'yes' if velocity == 0 else '**no**'} |")
-    if have_dex:
-        targets.append(f"| time per frame (arms and hands) ≤ 2× dex-retargeting's per hand-frame | {1000 * nlo_seconds / nlo_frames:.2f} ms vs "
-                       f"2 × {1000 * dex_time:.2f} ms (ratio {ratio:.2f}) | {'yes' if ratio <= 2 else '**no**'} |")
+    dex = [pooled[m] for m in DEX] if have_dex else []
+    dex_time = min(float(sec.mean()) for sec in dex_seconds.values()) if have_dex else None
+    for name, label in (("nlo_lab", "nlo_lab"), (PRESET, "handshape preset")):
+        targets += target_rows(label, pooled[name], dex, dex_time, seconds[name] / nlo_frames, all_limits[name], velocity[name])
     body = "\n".join(["## Handshapes on yumi: nlo_lab against dex-retargeting (issue 27)", "", stamp(), *lines,
                       "Measures (`nlo_lab.evaluation.hands`): in the wrist frame (the human's `R_body_wrist`, the robot's wrist "
                       "link turned by `wrist_alignment`), over the hand-frames (one hand in one frame with its wrist frame and all five "
@@ -472,7 +502,7 @@ def main() -> None:
                       table, "", "The same measures where every method's hand is free of self-collision (dex-retargeting does not avoid "
                       "it; the targets below are on all hand-frames):", "", clean_table, "",
                       "### Targets against the measurement", "", "\n".join(targets), "", "### Recordings", "", recs,
-                      *(["", held_out(robot, retarget, args.dex_python if have_dex else None)] if not args.no_held_out else [])])
+                      *(["", held_out(robot, pipelines, args.dex_python if have_dex else None)] if not args.no_held_out else [])])
     print(body)
     if not args.no_write:
         print(f"wrote {update_section('hands', body)}", file=sys.stderr)

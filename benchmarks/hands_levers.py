@@ -17,7 +17,9 @@ little), and the retimed duration summed over the clips (the speed clamp's price
 * ``search=JOINTS``: before the hand stage, each named hand joint (``thumb_yaw``, ``thumb_pitch``, ``index``,
   ``middle``, ``ring``, ``pinky``; of every hand the clip shows, in the order given) set frame by frame to the best of
   ``grid=G`` values (default 16) by the objective (all terms, the others joints as they are);
-  ``path=JOINTS``: the same along the whole clip, each step within the speed clamp's cap (dynamic programming);
+  ``path=JOINTS``: the same along the whole clip, each step within the speed clamp's cap (dynamic programming,
+  ``nlo_lab.inference.hand_stage.path_within_caps``; the library's own search, ``setting:hand_search=FINGERS``, keeps a
+  column's start where the path costs more and leaves the smoothness term out of its table);
 * ``caps=X``: the hand stage's speed clamp with X times its caps. The caps stay the latent optimisation's (a
   searched start does not loosen them).
 
@@ -48,6 +50,7 @@ import nlo_lab.inference.hand_stage as hand_stage  # noqa: E402
 import nlo_lab.pipeline as pipeline  # noqa: E402
 from nlo_lab.evaluation.hands import HandScores, hand_frames_mask, hand_scores  # noqa: E402
 from nlo_lab.inference import FastPaths, OptimizeSettings  # noqa: E402
+from nlo_lab.inference.hand_stage import path_within_caps  # noqa: E402
 from nlo_lab.model import load_pretrained  # noqa: E402
 from nlo_lab.objective import LossWeights, Objective, point_plan  # noqa: E402
 from nlo_lab.objective.numpy_backend import HandTerms  # noqa: E402
@@ -82,7 +85,8 @@ class Levers:
             if kind == "weight":
                 out.weights[name] = float(value)
             elif kind == "setting":
-                out.settings[name] = type(getattr(OptimizeSettings(), name))(value)
+                kind_of = type(getattr(OptimizeSettings(), name))
+                out.settings[name] = tuple(value.split(",")) if kind_of is tuple else kind_of(value)
             elif kind == "finger" and name in FINGER_KINDS:
                 out.finger[name] = np.array([float(x) for x in value.split(",")])
             elif kind == "pair" and name in PAIR_KINDS:
@@ -102,23 +106,6 @@ class Levers:
         if unknown:
             raise SystemExit(f"unknown hand joints {unknown}; known: {', '.join(JOINTS)}")
         return out
-
-
-def path_within_caps(cost: np.ndarray, values: np.ndarray, caps: np.ndarray) -> np.ndarray:
-    """``(T,)`` indices into ``values (G,)`` minimising ``sum_t cost[index_t, t]`` (``cost (G, T)``) with every step
-    ``|values[i_t] - values[i_(t-1)]| <= caps[t-1]`` (``caps (T-1,)``): dynamic programming (Viterbi)."""
-    G, T = cost.shape
-    jump = np.abs(values[:, None] - values[None, :])  # [to, from]
-    total, back = cost[:, 0].astype(np.float64), np.zeros((T, G), dtype=np.int64)
-    for t in range(1, T):
-        reach = np.where(jump <= caps[t - 1] + 1e-9, total[None, :], np.inf)
-        back[t] = reach.argmin(1)
-        total = reach.min(1) + cost[:, t]
-    out = np.zeros(T, dtype=np.int64)
-    out[-1] = int(total.argmin())
-    for t in range(T - 1, 0, -1):
-        out[t - 1] = back[t, out[t]]
-    return out
 
 
 @contextlib.contextmanager
@@ -203,7 +190,7 @@ def searched(robot, q: torch.Tensor, targets, weights: LossWeights, levers: Leve
             cost = torch.stack(cost)  # (G, T)
             if along and len(q) > 1:
                 cap = (levers.caps * start_caps())[:, j].double().numpy()
-                q[:, j] = values[torch.as_tensor(path_within_caps(cost.double().numpy(), values.double().numpy(), cap))]
+                q[:, j] = values[torch.as_tensor(path_within_caps(cost.double().numpy(), values.double().numpy(), cap)[0])]
             else:
                 q[:, j] = torch.where(cost.min(0).values < now, values[cost.argmin(0)], q[:, j])
     return q

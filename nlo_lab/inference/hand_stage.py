@@ -179,7 +179,10 @@ from nlo_lab.robot.urdf import JointInfo
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
 
-__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "step_caps", "HandStageResult", "HandChains", "HandStageLoss", "compact_terms"]
+__all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "step_caps", "HandStageResult", "HandChains", "HandStageLoss",
+           "compact_terms", "finger_joints", "path_within_caps", "searched_start", "SEARCH_GRID"]
+
+SEARCH_GRID = 16  # values per joint of a finger search (refine_hands' ``search``): 8 missed the ring's open basin
 
 
 def hand_joint_mask(robot: Robot, sides: Sequence[str] = SIDES) -> torch.Tensor:
@@ -417,7 +420,8 @@ class HandStageResult:
 
 def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossWeights | None = None, *,
                  iterations: int = 30, patience: int = 5, lr: float = 0.05, collision_form: str = "hinge",
-                 anchor: torch.Tensor | None = None, fast: bool | FastPaths = False) -> HandStageResult:
+                 anchor: torch.Tensor | None = None, fast: bool | FastPaths = False, search: Sequence[str] = (),
+                 grid: int = SEARCH_GRID) -> HandStageResult:
     """Optimise the hand joints of ``q (T, n)`` on the objective of ``targets``, the other joints kept.
 
     Only the hands with a finger target in some frame of ``targets`` move; a hand never seen keeps ``q``'s joints.
@@ -432,6 +436,9 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
         collision_form: as :class:`~nlo_lab.inference.OptimizeSettings`.
         anchor: ``(n,)`` the frame before ``targets`` (a previous chunk's last): frame 0 pays its step from it.
         fast: the objective's evaluation (:func:`~nlo_lab.inference.fast_paths`); same numbers either way.
+        search: fingers (names of ``FINGERS``) whose own joints (:func:`finger_joints`) are first searched along the
+            whole clip, one joint at a time, each hand the clip shows (:func:`searched_start`: ``grid`` values, the
+            speed clamp's caps between frames, the objective without the smoothness term); Adam starts there.
     """
     start = time.perf_counter()
     weights = weights or LossWeights()
@@ -484,10 +491,21 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
 
     if index.numel() == 0 or len(targets) == 0:
         iterations = 0
-    x0 = q0[:, index].clamp(lo, hi)
+    x0 = q0[:, index].clamp(lo, hi)  # the start's hands: where a frame that would collide goes back to
+    x_start = x0
+    if search and iterations:
+        caps0 = step_caps(q0, robot.velocity_limits, float(targets.fps))[:, index] if targets.fps is not None and len(targets) > 1 else None
+        columns = [int((index == j).nonzero()) for side in seen for finger in search for j in finger_joints(robot, side, finger)]
+        weights_t = loss_fn.weights
+
+        def frame_cost(x):  # the objective per frame, without the smoothness term (the caps bound the steps)
+            return (written.value(x)[2] if written is not None else evaluate(x)[2]) @ weights_t.to(x.dtype)
+
+        with torch.no_grad():
+            x_start = searched_start(x0, frame_cost, columns, lo, hi, caps0, grid)
     step: Callable[[torch.Tensor], Any] = evaluate if written is None else written
     final = evaluate if written is None else written.value  # the result's loss and terms: no gradient
-    _, best_q, loss, terms, history, steps = descend(x0, step, project, iterations, patience, lr, None, per_sample=smooth is None)
+    _, best_q, loss, terms, history, steps = descend(x_start, step, project, iterations, patience, lr, None, per_sample=smooth is None)
     best_q = best_q.detach()
     with torch.no_grad():
         caps = None
@@ -516,6 +534,77 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
                 kept |= added
             loss, _, terms = final(best_q[:, index])
     return HandStageResult(best_q, loss.detach(), terms.detach(), history, steps, time.perf_counter() - start, kept)
+
+
+def finger_joints(robot: Robot, side: str, finger: str) -> list[int]:
+    """Indices into ``robot.joint_names`` of the actuated joints that move ``finger``'s tip link of ``side`` and no
+    other finger's (a mimic joint counts as the joint it follows): what a search of that finger sets. Empty when
+    the arm has no such finger (or every joint above its tip moves another finger too)."""
+    arm = robot.arm(side)
+
+    def above(link: str) -> set[int]:  # the actuated joints between the wrist link and ``link``
+        out: set[int] = set()
+        while link != arm.wrist:
+            joint = robot.model.parent_joint(link)
+            if joint is None:  # not below the wrist: no hand joint moves it
+                return set()
+            name = joint.mimic[0] if joint.mimic else joint.name
+            if joint.moving and name in robot.joint_names:
+                out.add(robot.joint_names.index(name))
+            link = joint.parent
+        return out
+
+    if finger not in arm.fingers:
+        return []
+    own = above(arm.fingers[finger][1])
+    for other, (_, tip) in arm.fingers.items():
+        if other != finger:
+            own -= above(tip)
+    return sorted(own)
+
+
+def path_within_caps(cost: np.ndarray, values: np.ndarray, caps: np.ndarray | None) -> tuple[np.ndarray, float]:
+    """The path of least cost through a table: ``(T,)`` indices ``i_t`` into ``values (G,)`` minimising
+    ``sum_t cost[i_t, t]`` (``cost (G, T)``) with every step ``|values[i_t] - values[i_(t-1)]| <= caps[t-1]``
+    (``caps (T-1,)``; None: no bound, each frame its own best), and that sum. Dynamic programming (Viterbi):
+    ``G² T`` comparisons; the first of equal paths (the lowest index) wins."""
+    G, T = cost.shape
+    if caps is None:
+        best = cost.argmin(0)
+        return best, float(cost[best, np.arange(T)].sum())
+    jump = np.abs(values[:, None] - values[None, :])  # [to, from]
+    total, back = cost[:, 0].astype(np.float64), np.zeros((T, G), dtype=np.int64)
+    for t in range(1, T):
+        reach = np.where(jump <= caps[t - 1] + 1e-9, total[None, :], np.inf)  # 1e-9: a cap equal to a grid step
+        back[t] = reach.argmin(1)
+        total = reach.min(1) + cost[:, t]
+    path = np.zeros(T, dtype=np.int64)
+    path[-1] = int(total.argmin())
+    for t in range(T - 1, 0, -1):
+        path[t - 1] = back[t, path[t]]
+    return path, float(total[path[-1]])
+
+
+def searched_start(x: torch.Tensor, frame_cost: Callable[[torch.Tensor], torch.Tensor], columns: Sequence[int],
+                   lo: torch.Tensor, hi: torch.Tensor, caps: torch.Tensor | None, grid: int = SEARCH_GRID) -> torch.Tensor:
+    """``x (T, h)`` with each of ``columns`` in turn set along the whole clip to the path of least objective over
+    ``grid`` values spread evenly over its limits ``lo``, ``hi`` (``(h,)``), every step within ``caps (T-1, h)``
+    (:func:`path_within_caps`; None: frame by frame), the other columns as they are. ``frame_cost(x) -> (T,)`` is
+    the objective per frame. A column keeps its values where the path would cost more than they do (they are
+    within the caps: the caps are at least the start's steps)."""
+    x = x.clone()
+    for c in columns:
+        values = torch.linspace(float(lo[c]), float(hi[c]), grid, dtype=x.dtype)
+        table = []
+        for v in values:
+            trial = x.clone()
+            trial[:, c] = v
+            table.append(frame_cost(trial))
+        cost = torch.stack(table).double().numpy()
+        path, total = path_within_caps(cost, values.double().numpy(), None if caps is None else caps[:, c].double().numpy())
+        if total < float(frame_cost(x).double().sum()):
+            x[:, c] = values[torch.as_tensor(path)]
+    return x
 
 
 def step_caps(start: torch.Tensor, velocity_limits: torch.Tensor, fps: float) -> torch.Tensor:

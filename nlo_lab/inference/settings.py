@@ -40,6 +40,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from nlo_lab.errors import SettingsError
+from nlo_lab.human.demonstration import FINGERS
 from nlo_lab.inference.descent import STEPPERS
 from nlo_lab.objective import COLLISION_FORMS
 from nlo_lab.settings import (
@@ -65,6 +66,7 @@ __all__ = [
     "JOINT_LIMITS",
     "OptimizeSettings",
     "JointOptimizeSettings",
+    "HANDSHAPE_SEARCH",
 ]
 
 INITS = ("encoder", "random", "train-stats", "zeros")
@@ -74,6 +76,7 @@ RPROP_LR = 0.005  # Rprop's first step on z (it then adapts per coordinate)
 PAPER_ITERATIONS, PAPER_PATIENCE = 100, 5  # the paper's budget and early stop (Adam)
 JOINT_INITS = ("neutral", "midpoint", "zeros")
 JOINT_LIMITS = ("clamp", "penalty")
+HANDSHAPE_SEARCH = ("middle", "ring", "pinky")  # the handshape preset's searched fingers (LossWeights.handshape)
 
 
 @dataclass(frozen=True)
@@ -106,6 +109,14 @@ class OptimizeSettings:
             objective, of the hands the recording shows: a hand never seen keeps the latent optimisation's
             joints; 0 = none; robots without hand joints skip it).
         hand_lr: its step [rad].
+        hand_search: fingers (names of :data:`~nlo_lab.human.FINGERS`) whose own joints the hand stage first
+            searches along the whole clip (``hand_grid`` values of each, every step within the speed clamp's caps,
+            by the objective), before its Adam steps: a finger of one actuator (the Inspire hand's) has two basins,
+            curled and half open, and the descent stays in the one it starts in (``nlo_lab.inference.hand_stage``).
+            Default none; :data:`HANDSHAPE_SEARCH` with :meth:`LossWeights.handshape
+            <nlo_lab.objective.LossWeights.handshape>` is the handshape preset (``docs/RESULTS.md``, "Handshapes"):
+            the index is left out, searched it opens and the thumb-index distance loses the human's course (the pinch).
+        hand_grid: values per searched joint.
     """
 
     init: str = "encoder"
@@ -131,6 +142,8 @@ class OptimizeSettings:
     # after 10).
     hand_iterations: int = 60
     hand_lr: float = 0.03
+    hand_search: tuple[str, ...] = ()
+    hand_grid: int = 16
 
     def __post_init__(self) -> None:
         if self.init not in INITS:
@@ -141,6 +154,12 @@ class OptimizeSettings:
         check_int("warm_window", self.warm_window, 0, 1000)
         check_int("hand_iterations", self.hand_iterations, *ITERATIONS_RANGE)
         object.__setattr__(self, "hand_lr", check_range("hand_lr", self.hand_lr, *RATE_RANGE))
+        if not isinstance(self.hand_search, (tuple, list)) or not all(isinstance(f, str) for f in self.hand_search):
+            raise SettingsError(f"hand_search must be a sequence of finger names, got {self.hand_search!r}")
+        object.__setattr__(self, "hand_search", tuple(self.hand_search))
+        for finger in self.hand_search:
+            check_choice("hand_search finger", finger, FINGERS)
+        check_int("hand_grid", self.hand_grid, 2, 256)
         if self.lr is not None:
             object.__setattr__(self, "lr", check_range("lr", self.lr, *RATE_RANGE))
         object.__setattr__(self, "latent_sigma", check_range("latent_sigma", self.latent_sigma, *RATE_RANGE))

@@ -110,8 +110,17 @@ class LossWeights:
         return cls(smooth=0.0, **{name: 0.0 for name in HAND_TERMS})
 
     @classmethod
-    def from_string(cls, text: str) -> LossWeights:
-        """Parse ``"ee=1000,ori=100"``; unnamed weights keep their defaults.
+    def handshape(cls) -> LossWeights:
+        """The handshape preset's weights: the defaults with the wrist->fingertip directions (``tip_dir``) at 8000 and
+        the thumb->fingertip directions (``thumb``) at 800, for a hand stage that searches its one-actuator fingers
+        (``OptimizeSettings(hand_search=HANDSHAPE_SEARCH)``; ``nlo-lab retarget --handshape``). Without the search the
+        descent stays where the latent optimisation leaves those fingers and these weights change little
+        (``benchmarks/hands.py`` measures both: docs/RESULTS.md, "Handshapes")."""
+        return cls(tip_dir=8000.0, thumb=800.0)
+
+    @classmethod
+    def from_string(cls, text: str, base: LossWeights | None = None) -> LossWeights:
+        """Parse ``"ee=1000,ori=100"``; unnamed weights keep ``base``'s (default: the defaults).
 
         Raises:
             SettingsError: naming the bad key or value.
@@ -133,7 +142,7 @@ class LossWeights:
                 values[key] = float(raw)
             except ValueError:
                 raise SettingsError(f"weight {key}={raw.strip()!r} is not a number") from None
-        return cls(**values)
+        return dataclasses.replace(base, **values) if base is not None else cls(**values)
 
     def latent_stage(self) -> LossWeights:
         """These weights without the hand stage's terms (``HAND_STAGE_TERMS`` at 0): what the pipeline's latent optimisation runs."""

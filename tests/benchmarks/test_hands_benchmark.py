@@ -29,7 +29,8 @@ def test_the_benchmark_prints_its_tables_with_each_finger_s_error(tmp_path):
         return [c.strip() for c in line.strip("|").split("|")[1:]]
 
     head = cells("measure (mean over hand-frames)")
-    assert head[0] == "nlo_lab" and "dex, unfiltered" not in head
+    assert head[:2] == ["nlo_lab", "nlo_lab, handshape preset (`--handshape`)"] and "dex, unfiltered" not in head
+    assert "| handshape preset: 0 velocity violations after retiming | 0 | yes |" in out
     tip = [float(c.rstrip("°")) for c in cells("wrist→fingertip direction error")]
     fingers = cells("wrist→fingertip direction error per finger (thumb / index / middle / ring / little)")
     assert len(fingers) == len(head)

@@ -342,6 +342,8 @@ FLAG_CASES = {
     "weights unknown term": (["--weights", "nope=1"], "nope"),
     "weights negative": (["--weights", "ee=-1"], "ee"),
     "weights NaN": (["--weights", "ee=nan"], "ee"),
+    "hand-search unknown finger": (["--hand-search", "ring,toe"], "toe"),
+    "hand-search empty": (["--hand-search", ","], "--hand-search"),
     "unknown robot": (["--robot", "r2d2"], "r2d2"),
     "robot name with escapes": (["--robot", "x\x1b[2J\ny"], "x\\x1b[2J\\ny"),
 }

@@ -62,3 +62,22 @@ def test_retarget_sigma_is_the_standard_deviation_of_the_random_start(capsys):
     assert abs(frechet("--init", "random", "--sigma", "3") - zeros) > 0.01
     assert cli_main(["retarget", "demo:introduction_06", "--robot", "nao", "--sigma", "-1"]) == 2
     assert "--sigma" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra, search, tip_dir, thumb", [
+    ([], (), 4000.0, 500.0),
+    (["--handshape"], ("middle", "ring", "pinky"), 8000.0, 800.0),
+    (["--handshape", "--weights", "thumb=600", "--hand-search", "ring"], ("ring",), 8000.0, 600.0),
+    (["--hand-search", "ring,pinky"], ("ring", "pinky"), 4000.0, 500.0),
+])
+def test_retarget_handshape_and_hand_search_reach_the_pipeline(extra, search, tip_dir, thumb, capsys, monkeypatch):
+    """``--handshape`` is the preset (LossWeights.handshape, HANDSHAPE_SEARCH); ``--weights`` and ``--hand-search`` refine it."""
+    import nlo_lab.pipeline as pipeline
+
+    seen = []
+    build = pipeline.RetargetConfig.build
+    monkeypatch.setattr(pipeline.RetargetConfig, "build", lambda self: seen.append(self) or build(self))
+    assert cli_main(["retarget", "demo:introduction_06", "--robot", "yumi", "--iters", "0", "--json", "--quiet", *extra]) == 0
+    (config,) = seen
+    assert config.settings.hand_search == search
+    assert (config.weights.tip_dir, config.weights.thumb) == (tip_dir, thumb)

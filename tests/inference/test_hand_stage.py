@@ -17,7 +17,16 @@ from hypothesis import strategies as st
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.inference import OptimizeSettings, smoothness_term
-from nlo_lab.inference.hand_stage import hand_joint_mask, penetrating, refine_hands, step_caps, within_speed
+from nlo_lab.inference.hand_stage import (
+    finger_joints,
+    hand_joint_mask,
+    path_within_caps,
+    penetrating,
+    refine_hands,
+    searched_start,
+    step_caps,
+    within_speed,
+)
 from nlo_lab.inference.retime import segment_durations
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import LossWeights, Objective, point_plan, targets_from_demonstration
@@ -114,7 +123,9 @@ def test_robots_without_fingers_skip_the_hand_stage(demonstration_from_robot, ra
     assert "hand_steps" not in retargeter.optimize(retargeter.inputs(demo)).extra
 
 
-@pytest.mark.parametrize("field, value", [("hand_iterations", -1), ("hand_iterations", 1.5), ("hand_lr", 0.0), ("hand_lr", float("nan"))])
+@pytest.mark.parametrize("field, value", [("hand_iterations", -1), ("hand_iterations", 1.5), ("hand_lr", 0.0), ("hand_lr", float("nan")),
+                                          ("hand_search", ("ring", "toe")), ("hand_search", "ring"), ("hand_search", 3),
+                                          ("hand_grid", 1), ("hand_grid", 2.5)])
 def test_bad_hand_stage_settings_are_refused(field, value):
     with pytest.raises(SettingsError, match=field):
         dataclasses.replace(OptimizeSettings(), **{field: value})
@@ -451,3 +462,82 @@ def test_within_speed_keeps_pinned_frames_and_every_cap(frames, joints, seed):
     assert float(((out[1:] - out[:-1]).abs() - cap).max()) <= 1e-12
     if not bool(pinned.any()):
         torch.testing.assert_close(out, within_speed(x, cap))
+
+
+# --- the finger search (refine_hands' ``search``): a path of least objective through each finger joint's grid
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(2, 4), st.integers(1, 5), st.booleans())
+def test_the_path_within_caps_is_the_cheapest_of_all_paths_that_keep_the_caps(seed, G, T, capped):
+    """Against every one of the G^T paths: the same least total, and the path found keeps every cap."""
+    import itertools
+
+    rng = np.random.default_rng(seed)
+    cost, values = rng.random((G, T)), np.sort(rng.uniform(-1, 1, G))
+    caps = rng.uniform(0, 1.5, T - 1) if capped else None
+    path, total = path_within_caps(cost, values, caps)
+    feasible = [p for p in itertools.product(range(G), repeat=T)
+                if caps is None or all(abs(values[p[t]] - values[p[t - 1]]) <= caps[t - 1] + 1e-9 for t in range(1, T))]
+    best = min(sum(cost[i, t] for t, i in enumerate(p)) for p in feasible)
+    assert total == pytest.approx(best, abs=1e-12) and total == pytest.approx(cost[path, np.arange(T)].sum(), abs=1e-12)
+    if caps is not None:
+        assert (np.abs(np.diff(values[path])) <= caps + 1e-9).all()
+
+
+def test_the_search_leaves_a_basin_that_descent_stays_in_and_never_costs_more_than_the_start():
+    """One joint of two basins (a local minimum at 0.8, the global at -0.6) started in the local one, frames free
+    to move 0.3 per step: the search crosses to the global minimum; where no grid path beats the start it keeps
+    the start."""
+    T, lo, hi = 6, torch.tensor([-1.0, -1.0]), torch.tensor([1.0, 1.0])
+
+    def two_basins(x):  # (T,): column 0 matters; column 1 is carried along untouched
+        a = x[:, 0]
+        return torch.minimum((a - 0.8) ** 2 + 0.2, (a + 0.6) ** 2)
+
+    start = torch.tensor([[0.8, 0.5]] * T, dtype=torch.float64)
+    caps = torch.full((T - 1, 2), 0.3, dtype=torch.float64)
+    out = searched_start(start, two_basins, [0], lo, hi, caps, grid=21)
+    assert float(two_basins(out).sum()) < float(two_basins(start).sum())
+    assert abs(float(out[-1, 0]) + 0.6) < 0.051 and (out[:, 1] == 0.5).all()
+    assert (out[1:, 0] - out[:-1, 0]).abs().max() <= 0.3 + 1e-9  # the way there within the caps
+    best_start = torch.tensor([[-0.6, 0.5]] * T, dtype=torch.float64)  # not on the grid of 4 values
+    torch.testing.assert_close(searched_start(best_start, two_basins, [0], lo, hi, caps, grid=4), best_start)
+
+
+def test_finger_joints_are_the_joints_that_move_that_finger_alone(yumi):
+    for side, c in (("left", "l"), ("right", "r")):
+        for finger, own in (("index", "index_proximal"), ("middle", "middle_proximal"), ("ring", "ring_proximal"),
+                            ("pinky", "pinky_proximal")):
+            assert [yumi.joint_names[j] for j in finger_joints(yumi, side, finger)] == [f"yumi_hand_{c}_{own}_joint"]
+        thumb = {yumi.joint_names[j] for j in finger_joints(yumi, side, "thumb")}
+        assert thumb == {f"yumi_hand_{c}_thumb_proximal_yaw_joint", f"yumi_hand_{c}_thumb_proximal_pitch_joint"}
+    assert finger_joints(load_robot("nao"), "left", "ring") == []
+
+
+def test_a_searched_hand_stage_is_the_same_fast_and_readable_and_moves_the_searched_fingers(yumi, demonstration_from_robot,
+                                                                                          random_feasible_pose):
+    """The search's table comes from either form of the objective: the same hands. Started with the ring and the
+    little finger curled at their upper limit where the targets' are open, the search opens them."""
+    y64, start, t = _opened_hands(yumi, demonstration_from_robot, random_feasible_pose, 4, 31)
+    curled = start.clone()
+    ring_little = [y64.joint_names.index(f"yumi_hand_{c}_{f}_proximal_joint") for c in "lr" for f in ("ring", "pinky")]
+    curled[:, ring_little] = y64.upper_limits[ring_little]
+    a = refine_hands(y64, curled, t, iterations=3, fast=True, search=("ring", "pinky"))
+    b = refine_hands(y64, curled, t, iterations=3, fast=False, search=("ring", "pinky"))
+    torch.testing.assert_close(a.q, b.q, rtol=1e-7, atol=1e-9)
+    plain = refine_hands(y64, curled, t, iterations=3, fast=True)
+    assert float(a.loss.sum()) < float(plain.loss.sum())
+    assert (a.q[:, ring_little] < plain.q[:, ring_little] - 0.1).any()
+
+
+def test_retarget_passes_the_hand_search_to_the_stage(yumi, demonstration_from_robot, random_feasible_pose, monkeypatch):
+    import nlo_lab.inference.hand_stage as stage
+
+    seen = []
+    real = stage.searched_start
+    monkeypatch.setattr(stage, "searched_start", lambda x, f, columns, *a, **k: seen.append(len(columns)) or real(x, f, columns, *a, **k))
+    q = random_feasible_pose(yumi, 4, seed=5).to(yumi.lower_limits.dtype)
+    settings_ = OptimizeSettings(iterations=2, hand_iterations=2, hand_search=("middle", "ring"), hand_grid=4)
+    RetargetConfig(yumi, settings_, retime=False).build()(demonstration_from_robot(yumi, q))
+    assert seen == [4]  # both hands shown: their middle and ring joints
