@@ -131,6 +131,26 @@ tuning alike ahead on three measures and behind on base->tip; ``benchmarks/hands
 benchmark's search evaluates the whole objective 16 times per joint and hand, too slow for the time target: it needs the
 ring's own terms over a table of its joint's values).
 
+The finger search (``search``, :attr:`OptimizeSettings.hand_search <nlo_lab.inference.OptimizeSettings.hand_search>`;
+off by default) is that search in the stage, for every finger it names: before the descent each named finger's own
+joints (:func:`finger_joints`), one at a time and each hand the clip shows, go to the path of least objective through
+``grid`` values over the joint's limits, every step within the speed clamp's caps (:func:`searched_start`,
+:func:`path_within_caps`); the table is the objective per frame without the smoothness term (the caps bound the
+steps), from the same form of the objective the descent runs, and a joint keeps its start where the path costs more.
+The search lets weights act that the start's basin otherwise holds (``benchmarks/hands_levers.py``, 2026-11-27
+12:40-12:58 UTC, load below 1; wrist->tip / thumb / base->tip [deg] / pinch r, the clips' retimed duration): ``tip_dir``
+8000 and ``thumb`` 800 alone 17.05 / 24.18 / 36.03 / 0.803, 24.10 s; with ``path=middle,ring,pinky`` 16.46 / 27.50 /
+34.54 / 0.807, 24.04 s; the search alone at the default weights leaves the held-out corpus's measures within 0.2° and
+0.003 of the defaults' (``--corpus 25``). With the index searched too the pinch falls to 0.76 (an open index matches its
+wrist->tip direction and loses the thumb-index distance's course); ``tip_dir`` 10000, ``thumb`` 1000, ``finger_dir``
+2000 16.38 / 27.33 / 34.32 / 0.801; a grid of 8 values misses the ring's open basin (16.94°). The handshape preset,
+``HANDSHAPE_SEARCH`` with :meth:`LossWeights.handshape <nlo_lab.objective.LossWeights.handshape>` (``nlo-lab retarget
+--handshape``), is the first of these in the library: ``benchmarks/hands.py`` measures it beside the defaults
+(docs/RESULTS.md, "Handshapes": ahead of dex-retargeting on all four measures on the four recordings, by 0.1° on
+wrist->tip; on the held-out corpus better than the defaults on three measures, worse on base->tip). It is not the
+default: it was chosen on those same four recordings, the margins are narrow, it trades the base->tip direction on
+held-out clips, and its search costs about 0.9 ms per frame.
+
 It never makes the robot slower: after the descent, each hand joint's step between consecutive
 frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's
 (:func:`step_caps`: its velocity limit times the time the retiming gives the start's segment,
