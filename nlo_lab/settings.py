@@ -70,6 +70,10 @@ WEIGHT_RANGE = (0.0, 1e6)  # a loss weight: 1000x the largest default; beyond it
 RATE_RANGE = (1e-12, 1e3)  # step sizes, sigmas, damping, tolerances, clips
 SECONDS_RANGE = (1e-3, 1e7)  # wall-clock budgets [s] (1e7 s: 116 days)
 WORKERS_RANGE = (1, 1024)  # worker processes of a batch's local cluster
+# the handshape preset (`retarget --handshape`, `batch --handshape`): the hand stage's searched fingers and the weights
+# that differ from LossWeights' defaults (LossWeights.handshape; nlo_lab.inference.hand_stage says why)
+HANDSHAPE_SEARCH = ("middle", "ring", "pinky")
+HANDSHAPE_WEIGHTS = {"tip_dir": 8000.0, "thumb": 800.0}
 
 
 def check_int(name: str, value: Any, minimum: int | None = None, maximum: int | None = None) -> int:

@@ -286,7 +286,7 @@ def to_frame(rows: list[dict]):
 
 
 def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "encoder", iterations: int = 100, seed: int = 0,
-                  weights=None, viewer: bool = False, workers: int | None = None, scheduler: str | None = None,
+                  weights=None, viewer: bool = False, hand_search=(), workers: int | None = None, scheduler: str | None = None,
                   resume: bool = True, retry_failed: bool = False, progress: bool = False, on_row=None):
     """Retarget every input to ``robot`` on a dask.distributed cluster; the results table.
 
@@ -302,6 +302,7 @@ def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "
         init, iterations, seed, weights: as ``nlo-lab retarget``'s ``--init``, ``--iters``,
             ``--seed``, ``--weights`` (weights: ``"ee=1000,ori=100"``, a mapping or a ``LossWeights``).
         viewer: also write each input's ``viewer.html``.
+        hand_search: as ``--hand-search``: fingers the hand stage first searches (``OptimizeSettings.hand_search``).
         workers: worker processes of the LocalCluster (default: the cores available, at most one per input
             unless there is a video, whose segments spread over every worker).
         scheduler: the address of a running dask scheduler (``tcp://HOST:PORT``).
@@ -328,7 +329,7 @@ def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "
         raise SchedulerError("give a client or a scheduler address, not both")
     if workers is not None and (scheduler or client is not None):
         raise SchedulerError("workers sizes the local cluster; with a scheduler or a client, the cluster's own workers run")
-    settings = BatchSettings(robot, init, iterations, seed, weights, viewer)  # type: ignore[arg-type]  # a Robot is kept as its spec path
+    settings = BatchSettings(robot, init, iterations, seed, weights, viewer, hand_search)  # type: ignore[arg-type]  # a Robot is kept as its spec path
     out = check_out_place(out)  # before any input is read
     if workers is not None:
         check_int("workers", workers, *WORKERS_RANGE)

@@ -76,6 +76,9 @@ class BatchSettings:
             :class:`~nlo_lab.objective.LossWeights` or None (the defaults); kept in a
             canonical form: the pairs given, sorted by name.
         viewer: also write ``viewer.html`` for each input.
+        hand_search: fingers whose joints the hand stage first searches (``--hand-search``,
+            :attr:`OptimizeSettings.hand_search <nlo_lab.inference.OptimizeSettings.hand_search>`); in the
+            fingerprint only when given, so that the fingerprints of batches without it stay as they were.
     """
 
     robot: str
@@ -84,11 +87,14 @@ class BatchSettings:
     seed: int = 0
     weights: Any = ()
     viewer: bool = False
+    hand_search: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         robot = getattr(getattr(self.robot, "spec", None), "path", self.robot)  # a loaded Robot: its spec file
         object.__setattr__(self, "robot", str(robot))
         object.__setattr__(self, "weights", _canonical_weights(self.weights))
+        search = self.hand_search
+        object.__setattr__(self, "hand_search", (search,) if isinstance(search, str) else tuple(search or ()))
 
     def key(self) -> dict:
         """What the fingerprint is made of: the robot by its files' contents (a name and a path to the
@@ -96,8 +102,11 @@ class BatchSettings:
         digest = hashlib.sha256()
         for f in robot_files(self.robot):
             digest.update(f.name.encode() + b"\0" + file_sha256(f).encode())
-        return {"nlo_lab": nlo_lab.__version__, "robot_files": digest.hexdigest(),
-                "init": self.init, "iterations": self.iterations, "seed": self.seed, "weights": self.weights}
+        key = {"nlo_lab": nlo_lab.__version__, "robot_files": digest.hexdigest(),
+               "init": self.init, "iterations": self.iterations, "seed": self.seed, "weights": self.weights}
+        if self.hand_search:
+            key["hand_search"] = list(self.hand_search)
+        return key
 
     def fingerprint(self) -> str:
         """A short hash of :meth:`key` (hex): equal for equal settings and robot files."""
@@ -116,7 +125,7 @@ class BatchSettings:
         from nlo_lab.pipeline import RetargetConfig
         from nlo_lab.robot import load_robot
 
-        settings = OptimizeSettings(init=self.init, iterations=self.iterations, seed=self.seed)
+        settings = OptimizeSettings(init=self.init, iterations=self.iterations, seed=self.seed, hand_search=self.hand_search)
         text = self.weights if isinstance(self.weights, str) else ",".join(f"{k}={v!r}" for k, v in self.weights)
         weights = LossWeights.from_string(text)  # its errors name an unknown or bad weight
         return RetargetConfig(load_robot(self.robot), settings, weights).build()

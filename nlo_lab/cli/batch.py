@@ -14,9 +14,9 @@ import argparse
 import sys
 import time
 
-from nlo_lab.cli.flags import MAX_SEED, WEIGHT_RANGE, UsageError, add_optimisation_flags, ranged_int
+from nlo_lab.cli.flags import MAX_SEED, WEIGHT_RANGE, UsageError, add_hand_flags, add_optimisation_flags, hand_search, ranged_int
 from nlo_lab.errors import escape
-from nlo_lab.settings import WORKERS_RANGE  # worker processes of the local cluster (the library's bound too)
+from nlo_lab.settings import HANDSHAPE_WEIGHTS, WORKERS_RANGE  # workers: of the local cluster (the library's bound too)
 
 __all__ = ["WORKERS_RANGE", "NEEDS_TORCH", "add_parser", "run"]
 
@@ -40,14 +40,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--retry-failed", action="store_true",
                    help="run inputs that failed before on unchanged content again (default: keep their failed rows)")
     add_optimisation_flags(p, "ee=1000,ori=100,smooth=10")
+    add_hand_flags(p)
     p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
     p.add_argument("--viewer", action="store_true", help="also write each input's viewer.html")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr (failures are still listed)")
     return p
 
 
-def _check(args) -> None:
-    """Flags that contradict each other, and weights out of their stated range, before any work."""
+def _check(args):
+    """Flags that contradict each other, and weights out of their stated range, before any work; the weights to run
+    (``--handshape``'s under ``--weights``)."""
     from nlo_lab.batch import BatchSettings
 
     if args.scheduler and args.workers is not None:
@@ -61,6 +63,7 @@ def _check(args) -> None:
     for name, value in weights:
         if not lo <= value <= hi:  # NaN fails this too
             raise UsageError(f"nlo-lab batch: --weights: weight {name}={value!r} must be in [{lo:g}, {hi:g}]")
+    return {**HANDSHAPE_WEIGHTS, **dict(weights)} if args.handshape else args.weights
 
 
 def run(args) -> int:
@@ -68,7 +71,7 @@ def run(args) -> int:
 
     from nlo_lab.batch import RESULTS_FILE, retarget_many
 
-    _check(args)
+    weights = _check(args)
     start = time.perf_counter()
 
     def on_row(row: dict) -> None:
@@ -76,7 +79,7 @@ def run(args) -> int:
             tqdm.write(f"nlo-lab: error: {row['error']}", file=sys.stderr)  # above the bar, if there is one
 
     table = retarget_many(args.inputs, args.robot, args.out, init=args.init, iterations=args.iters, seed=args.seed,
-                          weights=args.weights, viewer=args.viewer, workers=args.workers, scheduler=args.scheduler,
+                          weights=weights, viewer=args.viewer, hand_search=hand_search(args), workers=args.workers, scheduler=args.scheduler,
                           resume=not args.no_resume, retry_failed=args.retry_failed, progress=not args.quiet, on_row=on_row)
     rows = table.to_dict("records") if hasattr(table, "to_dict") else table
     counts = {status: sum(r["status"] == status for r in rows) for status in ("ok", "skipped", "failed")}

@@ -14,7 +14,7 @@ from typing import NoReturn
 
 from nlo_lab import settings
 from nlo_lab.errors import NloLabError, SettingsError
-from nlo_lab.settings import LATENT_ITERATIONS, arg_type, check_int, check_positive
+from nlo_lab.settings import HANDSHAPE_SEARCH, LATENT_ITERATIONS, arg_type, check_int, check_positive
 from nlo_lab.threads import THREADS_RANGE
 
 __all__ = [
@@ -117,3 +117,29 @@ def add_optimisation_flags(parser: argparse.ArgumentParser, weights_example: str
                              " Rprop steps on a recording, see docs/DESIGN.md)")
     parser.add_argument("--weights", default=None,
                         help=f"loss weights, each {WEIGHT_RANGE[0]:g}..{WEIGHT_RANGE[1]:g}, e.g. {weights_example}")
+
+
+def finger_names(text: str) -> tuple[str, ...]:
+    """``--hand-search``: finger names separated by commas (``nlo_lab.human.FINGERS``)."""
+    from nlo_lab.human.demonstration import FINGERS  # numpy only
+
+    names = tuple(x.strip() for x in text.split(",") if x.strip())
+    unknown = [x for x in names if x not in FINGERS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(f"unknown fingers {unknown or text!r}; expected names from {', '.join(FINGERS)}")
+    return names
+
+
+def add_hand_flags(parser: argparse.ArgumentParser) -> None:
+    """``--handshape`` and ``--hand-search``: the hand stage's finger search (``retarget`` and ``batch``)."""
+    parser.add_argument("--handshape", action="store_true",
+                        help="the handshape preset: the hand stage first searches the middle, ring and little fingers along the "
+                             "clip, with tip_dir=8000,thumb=800 (--weights applies on top; see docs/RESULTS.md, Handshapes)")
+    parser.add_argument("--hand-search", type=finger_names, default=None, metavar="FINGERS",
+                        help="fingers whose joints the hand stage first searches along the clip, e.g. middle,ring,pinky "
+                             "(default: none; with --handshape: middle,ring,pinky)")
+
+
+def hand_search(args) -> tuple[str, ...]:
+    """The fingers ``--hand-search`` names, else the preset's with ``--handshape``, else none."""
+    return args.hand_search if args.hand_search is not None else (HANDSHAPE_SEARCH if args.handshape else ())

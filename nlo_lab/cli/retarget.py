@@ -13,7 +13,17 @@ import sys
 from pathlib import Path
 
 from nlo_lab.batch.output_folder import OUTPUT_FILES, finite_or_null, write_output_folder
-from nlo_lab.cli.flags import MAX_SEED, THREADS_RANGE, WEIGHT_RANGE, UsageError, add_optimisation_flags, positive_float, ranged_int
+from nlo_lab.cli.flags import (
+    MAX_SEED,
+    THREADS_RANGE,
+    WEIGHT_RANGE,
+    UsageError,
+    add_hand_flags,
+    add_optimisation_flags,
+    hand_search,
+    positive_float,
+    ranged_int,
+)
 from nlo_lab.cli.run_guard import raise_pending_signal
 from nlo_lab.errors import escape
 
@@ -28,12 +38,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--checkpoint", default=None, metavar="CKPT.pt",
                    help="a trained checkpoint of this robot (nlo-lab train --out); default: the shipped one")
     add_optimisation_flags(p, "ee=1000,ori=100,elbow=100,finger=100,collision=1000")
-    p.add_argument("--handshape", action="store_true",
-                   help="the handshape preset: the hand stage first searches the middle, ring and little fingers along the clip, "
-                        "with tip_dir=8000,thumb=800 (--weights applies on top; see docs/RESULTS.md, Handshapes)")
-    p.add_argument("--hand-search", type=_fingers, default=None, metavar="FINGERS",
-                   help="fingers whose joints the hand stage first searches along the clip, e.g. middle,ring,pinky "
-                        "(default: none; with --handshape: middle,ring,pinky)")
+    add_hand_flags(p)
     p.add_argument("--out", default=None, help="folder for trajectory.npz, trajectory.csv and viewer.html")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
@@ -47,17 +52,6 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help=f"video input: the most cores the pose estimation may use, {THREADS_RANGE[0]}..{THREADS_RANGE[1]} "
                         "(default: NLO_LAB_THREADS, else every core available; the result is the same for any N)")
     return p
-
-
-def _fingers(text: str) -> tuple[str, ...]:
-    """``--hand-search``: finger names separated by commas (``FINGERS``)."""
-    from nlo_lab.human.demonstration import FINGERS
-
-    names = tuple(x.strip() for x in text.split(",") if x.strip())
-    unknown = [x for x in names if x not in FINGERS]
-    if unknown or not names:
-        raise argparse.ArgumentTypeError(f"unknown fingers {unknown or text!r}; expected names from {', '.join(FINGERS)}")
-    return names
 
 
 def _check_weights(weights) -> None:
@@ -109,7 +103,7 @@ def _print_summary(summary: dict) -> None:
 
 def run(args) -> int:
     from nlo_lab.atomic_files import check_output_place
-    from nlo_lab.inference import HANDSHAPE_SEARCH, OptimizeSettings
+    from nlo_lab.inference import OptimizeSettings
     from nlo_lab.model import load_pretrained
     from nlo_lab.objective import LossWeights
     from nlo_lab.pipeline import RetargetConfig
@@ -121,8 +115,8 @@ def run(args) -> int:
     base = LossWeights.handshape() if args.handshape else LossWeights()
     weights = LossWeights.from_string(args.weights, base) if args.weights else base
     _check_weights(weights)
-    search = args.hand_search if args.hand_search is not None else (HANDSHAPE_SEARCH if args.handshape else ())
-    settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed, latent_sigma=args.sigma, hand_search=search)
+    settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed, latent_sigma=args.sigma,
+                                hand_search=hand_search(args))
     robot = load_robot(args.robot)
     model = load_pretrained(robot, args.checkpoint)  # before any work: a missing checkpoint is refused at once
     progress = not args.quiet and sys.stderr.isatty()

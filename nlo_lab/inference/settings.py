@@ -44,6 +44,7 @@ from nlo_lab.human.demonstration import FINGERS
 from nlo_lab.inference.descent import STEPPERS
 from nlo_lab.objective import COLLISION_FORMS
 from nlo_lab.settings import (
+    HANDSHAPE_SEARCH,
     ITERATIONS_RANGE,
     LATENT_ITERATIONS,
     PATIENCE_RANGE,
@@ -76,7 +77,6 @@ RPROP_LR = 0.005  # Rprop's first step on z (it then adapts per coordinate)
 PAPER_ITERATIONS, PAPER_PATIENCE = 100, 5  # the paper's budget and early stop (Adam)
 JOINT_INITS = ("neutral", "midpoint", "zeros")
 JOINT_LIMITS = ("clamp", "penalty")
-HANDSHAPE_SEARCH = ("middle", "ring", "pinky")  # the handshape preset's searched fingers (LossWeights.handshape)
 
 
 @dataclass(frozen=True)

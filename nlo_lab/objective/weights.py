@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass, fields
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.settings import WEIGHT_RANGE, check_range, validate_fields
+from nlo_lab.settings import HANDSHAPE_WEIGHTS, WEIGHT_RANGE, check_range, validate_fields
 
 __all__ = [
     "LossWeights",
@@ -116,7 +116,7 @@ class LossWeights:
         (``OptimizeSettings(hand_search=HANDSHAPE_SEARCH)``; ``nlo-lab retarget --handshape``). Without the search the
         descent stays where the latent optimisation leaves those fingers and these weights change little
         (``benchmarks/hands.py`` measures both: docs/RESULTS.md, "Handshapes")."""
-        return cls(tip_dir=8000.0, thumb=800.0)
+        return cls(**HANDSHAPE_WEIGHTS)
 
     @classmethod
     def from_string(cls, text: str, base: LossWeights | None = None) -> LossWeights:

@@ -91,7 +91,8 @@ def test_the_fingerprint_follows_the_settings_and_the_robots_files(tmp_path):
     assert BatchSettings("yumi", weights="ori=5, ee=3").fingerprint() == BatchSettings("yumi", weights={"ee": 3, "ori": 5}).fingerprint()
     assert BatchSettings("yumi", viewer=True).fingerprint() == base.fingerprint()  # a viewer changes no result
     different = [BatchSettings("nao"), BatchSettings("yumi", iterations=99), BatchSettings("yumi", init="zeros"),
-                 BatchSettings("yumi", seed=1), BatchSettings("yumi", weights="ee=3")]
+                 BatchSettings("yumi", seed=1), BatchSettings("yumi", weights="ee=3"), BatchSettings("yumi", hand_search=("ring",))]
+    assert "hand_search" not in base.key()  # without it, the fingerprints of earlier batches hold
     assert len({s.fingerprint() for s in different} | {base.fingerprint()}) == len(different) + 1
     # a copy of the spec whose checkpoint differs: another robot
     assert [f.name for f in robot_files("yumi")] == ["yumi.json", "yumi.urdf", "yumi.pt"]
@@ -126,3 +127,20 @@ def test_the_table_round_trips_and_only_holds_finished_rows(tmp_path):
     assert (tmp_path / "results.csv").read_text().splitlines()[0] == ",".join(COLUMNS)
     (tmp_path / "other.csv").write_text("name,value\n1,2\n")
     assert read_rows(tmp_path / "other.csv") == {}
+
+
+def test_batch_handshape_runs_the_preset_and_its_search(monkeypatch, capsys):
+    """``batch --handshape`` hands the preset's weights (``--weights`` on top) and fingers to the batch, and the settings
+    build a retargeter whose hand stage searches them."""
+    import nlo_lab.batch as batch_mod
+    from nlo_lab.cli import main as cli_main
+    from nlo_lab.settings import HANDSHAPE_SEARCH, HANDSHAPE_WEIGHTS
+
+    seen = {}
+    monkeypatch.setattr(batch_mod, "retarget_many", lambda inputs, robot, out, **kw: seen.update(kw) or [])
+    assert cli_main(["batch", str(POSE), "--robot", "yumi", "--out", "out", "--handshape", "--weights", "thumb=600"]) == 0
+    assert seen["weights"] == {**HANDSHAPE_WEIGHTS, "thumb": 600.0} and seen["hand_search"] == HANDSHAPE_SEARCH
+    assert cli_main(["batch", str(POSE), "--robot", "yumi", "--out", "out", "--hand-search", "ring"]) == 0
+    assert seen["weights"] is None and seen["hand_search"] == ("ring",)
+    settings = BatchSettings("yumi", weights=seen["weights"], hand_search=seen["hand_search"])
+    assert settings.build().config.settings.hand_search == ("ring",)
