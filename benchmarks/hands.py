@@ -323,8 +323,8 @@ def target_rows(label: str, ours: dict, dex: list[dict], dex_time: float | None,
         better = {k: (ours[k] > max(d[k] for d in dex)) if k == "pinch_r" else (ours[k] < min(d[k] for d in dex))
                   for k in ("tip_deg", "thumb_deg", "pinch_r", "finger_deg")}
         best_dex = {k: max(d[k] for d in dex) if k == "pinch_r" else min(d[k] for d in dex) for k in better}
-        measured = ", ".join(f"{k}: {fmt(ours[k], digits=3 if k == 'pinch_r' else 2)} vs {fmt(best_dex[k], digits=3 if k == 'pinch_r' else 2)}"
-                             for k in better)
+        digits = {k: 3 if k == "pinch_r" else 2 for k in better}
+        measured = ", ".join(f"{k}: {fmt(ours[k], digits=digits[k])} vs {fmt(best_dex[k], digits=digits[k])}" for k in better)
         missed = [k for k, b in better.items() if not b]
         rows.append(f"| {label} better than both dex variants on all four measures (ours vs dex's best) | {measured} | "
                     + ("yes |" if not missed else f"**no** ({', '.join(missed)}) |"))
@@ -378,7 +378,8 @@ def main() -> None:
 
     retarget = RetargetConfig(robot, model=model, weights=weights).build()
     pipelines = {"nlo_lab": retarget,
-                 PRESET: RetargetConfig(robot, OptimizeSettings(hand_search=HANDSHAPE_SEARCH), model=model, weights=LossWeights.handshape()).build()}
+                 PRESET: RetargetConfig(robot, OptimizeSettings(hand_search=HANDSHAPE_SEARCH), model=model,
+                                        weights=LossWeights.handshape()).build()}
     # what the collision pairs between one hand's fingers cost the handshape (not robot-safe: no collision term)
     diagnostic = RetargetConfig(robot, model=model, weights=dataclasses.replace(weights, collision=0.0)).build()
     no_stage = RetargetConfig(robot, OptimizeSettings(hand_iterations=0), model=model, weights=weights).build()
@@ -439,11 +440,12 @@ def main() -> None:
 
     # ------------------------------------------------------------------ tables
     hand_frames = pooled["nlo_lab"]["hand_frames"]
+    preset_weights = ", ".join(f"{k} {v:g}" for k, v in LossWeights.handshape().as_dict().items() if v != weights.as_dict()[k])
     lines = [f"- data: {len(items)} recordings ({', '.join(label for label, _ in items)}), {hand_frames} hand-frames",
              f"- nlo_lab: shipped checkpoint `assets/checkpoints/yumi.pt`, default weights ({weights.as_dict()}; the latent "
              f"optimisation without {', '.join(f'`{n}`' for n in HAND_STAGE_TERMS)}), then the hand stage ({OptimizeSettings().hand_iterations} Adam steps "
              f"of {OptimizeSettings().hand_lr} rad on the hand joints, same weights)",
-             f"- nlo_lab, handshape preset: the same with `LossWeights.handshape()` ({', '.join(f'{k} {v:g}' for k, v in LossWeights.handshape().as_dict().items() if v != weights.as_dict()[k])}) "
+             f"- nlo_lab, handshape preset: the same with `LossWeights.handshape()` ({preset_weights}) "
              f"and `OptimizeSettings(hand_search={HANDSHAPE_SEARCH})` ({OptimizeSettings().hand_grid} values of each searched joint)",
              "- dex-retargeting 0.5, vector retargeting, our configs `benchmarks/hands/inspire_{left,right}.yml` on "
              "`benchmarks/hands/yumi_hand_{left,right}.urdf`, run in `.venv-bench`" if have_dex else "- dex-retargeting: not run",

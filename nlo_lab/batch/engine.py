@@ -329,7 +329,8 @@ def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "
         raise SchedulerError("give a client or a scheduler address, not both")
     if workers is not None and (scheduler or client is not None):
         raise SchedulerError("workers sizes the local cluster; with a scheduler or a client, the cluster's own workers run")
-    settings = BatchSettings(robot, init, iterations, seed, weights, viewer, hand_search)  # type: ignore[arg-type]  # a Robot is kept as its spec path
+    # a Robot is kept as its spec path
+    settings = BatchSettings(robot, init, iterations, seed, weights, viewer, hand_search)  # type: ignore[arg-type]
     out = check_out_place(out)  # before any input is read
     if workers is not None:
         check_int("workers", workers, *WORKERS_RANGE)

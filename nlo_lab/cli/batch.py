@@ -79,7 +79,8 @@ def run(args) -> int:
             tqdm.write(f"nlo-lab: error: {row['error']}", file=sys.stderr)  # above the bar, if there is one
 
     table = retarget_many(args.inputs, args.robot, args.out, init=args.init, iterations=args.iters, seed=args.seed,
-                          weights=weights, viewer=args.viewer, hand_search=hand_search(args), workers=args.workers, scheduler=args.scheduler,
+                          weights=weights, viewer=args.viewer, hand_search=hand_search(args), workers=args.workers,
+                          scheduler=args.scheduler,
                           resume=not args.no_resume, retry_failed=args.retry_failed, progress=not args.quiet, on_row=on_row)
     rows = table.to_dict("records") if hasattr(table, "to_dict") else table
     counts = {status: sum(r["status"] == status for r in rows) for status in ("ok", "skipped", "failed")}

@@ -514,7 +514,9 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     x0 = q0[:, index].clamp(lo, hi)  # the start's hands: where a frame that would collide goes back to
     x_start = x0
     if search and iterations:
-        caps0 = step_caps(q0, robot.velocity_limits, float(targets.fps))[:, index] if targets.fps is not None and len(targets) > 1 else None
+        caps0 = None  # frame by frame without a frame rate (as the speed clamp below)
+        if targets.fps is not None and len(targets) > 1:
+            caps0 = step_caps(q0, robot.velocity_limits, float(targets.fps))[:, index]
         columns = [int((index == j).nonzero()) for side in seen for finger in search for j in finger_joints(robot, side, finger)]
         weights_t = loss_fn.weights
 
@@ -587,7 +589,7 @@ def path_within_caps(cost: np.ndarray, values: np.ndarray, caps: np.ndarray | No
     """The path of least cost through a table: ``(T,)`` indices ``i_t`` into ``values (G,)`` minimising
     ``sum_t cost[i_t, t]`` (``cost (G, T)``) with every step ``|values[i_t] - values[i_(t-1)]| <= caps[t-1]``
     (``caps (T-1,)``; None: no bound, each frame its own best), and that sum. Dynamic programming (Viterbi):
-    ``G² T`` comparisons; the first of equal paths (the lowest index) wins."""
+    ``G² T`` comparisons."""
     G, T = cost.shape
     if caps is None:
         best = cost.argmin(0)

@@ -271,16 +271,19 @@ ax.set(xlabel="right ring motor [rad] (0: open)", ylabel=f"objective, frame {t}"
 ax.legend(frameon=False, fontsize=8)
 plt.show()
 print(f"{'':18s} {'wrist→tip':>9s} {'thumb→tips':>10s} {'base→tip':>9s} {'pinch r':>8s} {'retimed':>8s}")
-measures = {name: hand_scores(robot, np.asarray(run.trajectory.angles, dtype=np.float64), real).summary() for name, run in runs.items()}
+measures = {name: hand_scores(robot, np.asarray(run.trajectory.angles, dtype=np.float64), real).summary()
+            for name, run in runs.items()}
 for name, m in measures.items():
     print(f"{name:18s} {m['tip_deg']:8.1f}° {m['thumb_deg']:9.1f}° {m['finger_deg']:8.1f}° {m['pinch_r']:8.2f} "
           f"{runs[name].trajectory.duration:7.2f} s")
 a, b = measures["handshape preset"], measures["defaults"]
-wins = [k for k in ("tip_deg", "thumb_deg", "finger_deg") if a[k] < b[k]] + (["pinch_r"] if a["pinch_r"] > b["pinch_r"] else [])
+wins = [k for k in ("tip_deg", "thumb_deg", "finger_deg") if a[k] < b[k]]
+wins += ["pinch_r"] if a["pinch_r"] > b["pinch_r"] else []
 print(f"on this clip the preset is better on: {', '.join(wins) or 'none'}")
 
 # %% [markdown]
-# One short clip decides little, and the preset was chosen on four real recordings. The numbers of `benchmarks/hands.py` (nlo_lab and the preset against dex-retargeting on every
+# One short clip decides little, and the preset was chosen on four real recordings.
+# The numbers of `benchmarks/hands.py` (nlo_lab and the preset against dex-retargeting on every
 # real recording we have, and on held-out synthetic clips) are in `docs/RESULTS.md`, section "Handshapes".
 #
 # ## Exercises
