@@ -40,6 +40,9 @@ __all__ = [
     "COUNT_RANGE",
     "WEIGHT_RANGE",
     "WORKERS_RANGE",
+    "HANDSHAPE_SEARCH",
+    "HANDSHAPE_WEIGHTS",
+    "SEARCH_GRID",
     "RATE_RANGE",
     "SECONDS_RANGE",
     "check_int",
@@ -74,6 +77,7 @@ WORKERS_RANGE = (1, 1024)  # worker processes of a batch's local cluster
 # that differ from LossWeights' defaults (LossWeights.handshape; nlo_lab.inference.hand_stage says why)
 HANDSHAPE_SEARCH = ("middle", "ring", "pinky")
 HANDSHAPE_WEIGHTS = {"tip_dir": 8000.0, "thumb": 800.0}
+SEARCH_GRID = 16  # values per joint of the hand stage's finger search (OptimizeSettings.hand_grid): 8 missed the ring's open basin
 
 
 def check_int(name: str, value: Any, minimum: int | None = None, maximum: int | None = None) -> int:

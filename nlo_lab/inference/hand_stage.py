@@ -195,14 +195,13 @@ from nlo_lab.objective.penetration import penetrating  # here too: where the sta
 from nlo_lab.robot.kinematics import KinematicTree
 from nlo_lab.robot.point_gradient import MapPoints
 from nlo_lab.robot.urdf import JointInfo
+from nlo_lab.settings import SEARCH_GRID
 
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
 
 __all__ = ["hand_joint_mask", "refine_hands", "penetrating", "within_speed", "step_caps", "HandStageResult", "HandChains", "HandStageLoss",
            "compact_terms", "finger_joints", "path_within_caps", "searched_start", "SEARCH_GRID"]
-
-SEARCH_GRID = 16  # values per joint of a finger search (refine_hands' ``search``): 8 missed the ring's open basin
 
 
 def hand_joint_mask(robot: Robot, sides: Sequence[str] = SIDES) -> torch.Tensor:

@@ -49,6 +49,7 @@ from nlo_lab.settings import (
     LATENT_ITERATIONS,
     PATIENCE_RANGE,
     RATE_RANGE,
+    SEARCH_GRID,
     SEED_RANGE,
     check_bool,
     check_choice,
@@ -143,7 +144,7 @@ class OptimizeSettings:
     hand_iterations: int = 60
     hand_lr: float = 0.03
     hand_search: tuple[str, ...] = ()
-    hand_grid: int = 16
+    hand_grid: int = SEARCH_GRID
 
     def __post_init__(self) -> None:
         if self.init not in INITS:
