@@ -14,7 +14,7 @@ from typing import NoReturn
 
 from nlo_lab import settings
 from nlo_lab.errors import NloLabError, SettingsError
-from nlo_lab.settings import HANDSHAPE_SEARCH, LATENT_ITERATIONS, arg_type, check_int, check_positive
+from nlo_lab.settings import HANDSHAPE_SEARCH, HANDSHAPE_WEIGHTS, LATENT_ITERATIONS, arg_type, check_int, check_positive
 from nlo_lab.threads import THREADS_RANGE
 
 __all__ = [
@@ -132,12 +132,14 @@ def finger_names(text: str) -> tuple[str, ...]:
 
 def add_hand_flags(parser: argparse.ArgumentParser) -> None:
     """``--handshape`` and ``--hand-search``: the hand stage's finger search (``retarget`` and ``batch``)."""
+    fingers = ",".join(HANDSHAPE_SEARCH)
+    weights = ",".join(f"{k}={v:g}" for k, v in HANDSHAPE_WEIGHTS.items())
     parser.add_argument("--handshape", action="store_true",
-                        help="the handshape preset: the hand stage first searches the middle, ring and little fingers along the "
-                             "clip, with tip_dir=8000,thumb=800 (--weights applies on top; see docs/RESULTS.md, Handshapes)")
+                        help=f"the handshape preset: the hand stage first searches {fingers} along the clip, with {weights} "
+                             "(--weights applies on top; see docs/RESULTS.md, Handshapes)")
     parser.add_argument("--hand-search", type=finger_names, default=None, metavar="FINGERS",
-                        help="fingers whose joints the hand stage first searches along the clip, e.g. middle,ring,pinky "
-                             "(default: none; with --handshape: middle,ring,pinky)")
+                        help=f"fingers whose joints the hand stage first searches along the clip, e.g. {fingers} "
+                             f"(default: none; with --handshape: {fingers})")
 
 
 def hand_search(args) -> tuple[str, ...]:
