@@ -23,7 +23,8 @@ little), and the retimed duration summed over the clips (the speed clamp's price
 * ``caps=X``: the hand stage's speed clamp with X times its caps. The caps stay the latent optimisation's (a
   searched start does not loosen them).
 
-The data: ``benchmarks/hands.py``'s recordings (and the video unless ``--no-video``), or with ``--corpus N`` the first N
+The data: ``benchmarks/hands.py``'s recordings (and the video unless ``--no-video``; with ``--recordings chosen`` only those
+the handshape preset was chosen on, ``added`` only the four added after that choice), or with ``--corpus N`` the first N
 clips of the synthetic corpus's test split that show a hand (``nlo_lab.corpus.sign_corpus("test")``: held out from the
 checkpoints' training and from the levers' tuning, a check that a lever does not fit the recordings alone). ``--dex``
 adds dex-retargeting's two variants on the same data (``benchmarks/hands.py``'s configs and runner, ``.venv-bench``).
@@ -44,7 +45,7 @@ import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from hands import DEX_PYTHON, corpus_items, dex_scores, recordings  # noqa: E402
+from hands import DEX_PYTHON, added_after_choice, corpus_items, dex_scores, recordings  # noqa: E402
 
 import nlo_lab.inference.hand_stage as hand_stage  # noqa: E402
 import nlo_lab.pipeline as pipeline  # noqa: E402
@@ -230,6 +231,9 @@ def main() -> None:
     ap.add_argument("--no-video", action="store_true", help="leave out the video (no MediaPipe)")
     ap.add_argument("--corpus", type=int, metavar="N", help="the first N clips of the synthetic corpus's test split instead")
     ap.add_argument("--dex", action="store_true", help="dex-retargeting's rows on the same data too (needs .venv-bench)")
+    ap.add_argument("--recordings", choices=("all", "chosen", "added"), default="all",
+                    help="all real recordings; those the handshape preset was chosen on; or those added after its choice "
+                         "(benchmarks/data/recordings/, tuned on by nothing)")
     args = ap.parse_args()
     levers = [Levers.parse(text) for text in args.runs or [""]]  # all refused before any work
     if args.corpus is not None and args.corpus < 1:
@@ -240,6 +244,8 @@ def main() -> None:
     robot = load_robot("yumi")
     model = load_pretrained(robot)
     items = corpus_items(args.corpus) if args.corpus is not None else recordings(video=not args.no_video)
+    if args.corpus is None and args.recordings != "all":
+        items = [(label, d) for label, d in items if added_after_choice(label) == (args.recordings == "added")]
     frames = sum(int(hand_frames_mask(d).sum()) for _, d in items)
     print(f"data: {', '.join(label for label, _ in items)} ({frames} hand-frames)")
     print("| levers | wrist→tip | thumb→tips | base→tip | pinch r | wrist→tip per finger (thumb, index, middle, ring, little) | retimed [s] |")

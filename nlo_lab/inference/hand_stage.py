@@ -149,7 +149,10 @@ wrist->tip direction and loses the thumb-index distance's course); ``tip_dir`` 1
 (docs/RESULTS.md, "Handshapes": ahead of dex-retargeting on all four measures on the four recordings, by 0.1° on
 wrist->tip; on the held-out corpus better than the defaults on three measures, worse on base->tip). It is not the
 default: it was chosen on those same four recordings, the margins are narrow, it trades the base->tip direction on
-held-out clips, and its search costs about 0.9 ms per frame.
+held-out clips, and its search costs about 0.9 ms per frame. On four real recordings added to the benchmark after
+that choice (``benchmarks/data/recordings/``, 2026-11-27 16:07 UTC) it is ahead of dex-retargeting on wrist->tip
+(14.2° against 14.7°) and the thumb (30.9° against 33.7°), level on the pinch (0.76) and behind on base->tip (27.6°
+against 26.7°), where the defaults are level on wrist->tip (14.8° against 14.7°) and ahead on the thumb and pinch.
 
 It never makes the robot slower: after the descent, each hand joint's step between consecutive
 frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's

@@ -284,7 +284,8 @@ print(f"on this clip the preset is better on: {', '.join(wins) or 'none'}")
 # %% [markdown]
 # One short clip decides little, and the preset was chosen on four real recordings.
 # The numbers of `benchmarks/hands.py` (nlo_lab and the preset against dex-retargeting on every
-# real recording we have, and on held-out synthetic clips) are in `docs/RESULTS.md`, section "Handshapes".
+# real recording we have, on four recordings added after the preset's choice apart, how sure each margin is,
+# and on held-out synthetic clips) are in `docs/RESULTS.md`, section "Handshapes".
 #
 # ## Exercises
 #

@@ -23,6 +23,10 @@ def test_the_benchmark_prints_its_tables_with_each_finger_s_error(tmp_path):
     assert "dex-retargeting left out" in proc.stderr
     out = proc.stdout
     assert "### Targets against the measurement" in out and "### Held out" not in out
+    # every real recording but the video, the four added after the preset's choice reported apart (no dex: no resampling)
+    assert "- data: 7 recordings" in out and "### How sure" not in out
+    assert "| the preset chosen on: 3 recordings (" in out and "| added after the choice: 4 recordings (both_hands_18f" in out
+    assert "| right_hand_121f | 121 | 103 |" in out
 
     def cells(name: str) -> list[str]:
         line = next(line for line in out.splitlines() if line.startswith(f"| {name} |"))
