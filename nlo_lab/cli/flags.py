@@ -127,6 +127,9 @@ def finger_names(text: str) -> tuple[str, ...]:
     unknown = [x for x in names if x not in FINGERS]
     if unknown or not names:
         raise argparse.ArgumentTypeError(f"unknown fingers {unknown or text!r}; expected names from {', '.join(FINGERS)}")
+    twice = sorted({x for x in names if names.count(x) > 1})
+    if twice:
+        raise argparse.ArgumentTypeError(f"{', '.join(twice)} named more than once in {text!r}")
     return names
 
 

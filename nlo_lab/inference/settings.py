@@ -160,6 +160,9 @@ class OptimizeSettings:
         object.__setattr__(self, "hand_search", tuple(self.hand_search))
         for finger in self.hand_search:
             check_choice("hand_search finger", finger, FINGERS)
+        twice = sorted({f for f in self.hand_search if self.hand_search.count(f) > 1})
+        if twice:  # a second pass over a finger only repeats the first's search
+            raise SettingsError(f"hand_search names {', '.join(twice)} more than once")
         check_int("hand_grid", self.hand_grid, 2, 256)
         if self.lr is not None:
             object.__setattr__(self, "lr", check_range("lr", self.lr, *RATE_RANGE))

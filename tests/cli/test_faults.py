@@ -344,6 +344,7 @@ FLAG_CASES = {
     "weights NaN": (["--weights", "ee=nan"], "ee"),
     "hand-search unknown finger": (["--hand-search", "ring,toe"], "toe"),
     "hand-search empty": (["--hand-search", ","], "--hand-search"),
+    "hand-search a finger twice": (["--hand-search", "ring,middle,ring"], "ring named more than once"),
     "unknown robot": (["--robot", "r2d2"], "r2d2"),
     "robot name with escapes": (["--robot", "x\x1b[2J\ny"], "x\\x1b[2J\\ny"),
 }

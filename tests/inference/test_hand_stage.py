@@ -125,6 +125,7 @@ def test_robots_without_fingers_skip_the_hand_stage(demonstration_from_robot, ra
 
 @pytest.mark.parametrize("field, value", [("hand_iterations", -1), ("hand_iterations", 1.5), ("hand_lr", 0.0), ("hand_lr", float("nan")),
                                           ("hand_search", ("ring", "toe")), ("hand_search", "ring"), ("hand_search", 3),
+                                          ("hand_search", ("ring", "middle", "ring")),
                                           ("hand_grid", 1), ("hand_grid", 2.5)])
 def test_bad_hand_stage_settings_are_refused(field, value):
     with pytest.raises(SettingsError, match=field):
