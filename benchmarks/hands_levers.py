@@ -225,6 +225,14 @@ def row(label: str, m: dict) -> str:
             f"{' / '.join(f'{x:.2f}' for x in m['fingers'])} | {duration} |")
 
 
+def recording_group(items: list, which: str) -> list:
+    """``items`` (``(label, demonstration)``) of the group ``which``: ``all``, ``chosen`` (those the handshape preset was
+    chosen on) or ``added`` (``benchmarks/data/recordings/``, added after that choice)."""
+    if which not in ("all", "chosen", "added"):
+        raise ValueError(f"unknown group {which!r}; expected all, chosen or added")
+    return items if which == "all" else [(label, d) for label, d in items if added_after_choice(label) == (which == "added")]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], epilog=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("runs", nargs="*", default=[""], help="levers of one run, separated by spaces (none: the pipeline as it is)")
@@ -238,14 +246,15 @@ def main() -> None:
     levers = [Levers.parse(text) for text in args.runs or [""]]  # all refused before any work
     if args.corpus is not None and args.corpus < 1:
         raise SystemExit(f"--corpus {args.corpus}: give at least one clip")
+    if args.corpus is not None and args.recordings != "all":
+        raise SystemExit(f"--recordings {args.recordings} picks among the real recordings; --corpus runs synthetic clips instead")
     if args.dex and not DEX_PYTHON.is_file():
         raise SystemExit(f"--dex: {DEX_PYTHON} is missing (make bench-venv builds it)")
     torch.set_num_threads(1)
     robot = load_robot("yumi")
     model = load_pretrained(robot)
     items = corpus_items(args.corpus) if args.corpus is not None else recordings(video=not args.no_video)
-    if args.corpus is None and args.recordings != "all":
-        items = [(label, d) for label, d in items if added_after_choice(label) == (args.recordings == "added")]
+    items = recording_group(items, args.recordings)
     frames = sum(int(hand_frames_mask(d).sum()) for _, d in items)
     print(f"data: {', '.join(label for label, _ in items)} ({frames} hand-frames)")
     print("| levers | wrist→tip | thumb→tips | base→tip | pinch r | wrist→tip per finger (thumb, index, middle, ring, little) | retimed [s] |")

@@ -91,7 +91,18 @@ def test_the_corpus_clips_are_the_held_out_test_split_with_hands(levers):
     assert all(hand_frames_mask(d).any() for _, d in items)
 
 
-@pytest.mark.parametrize("flags", [["--corpus", "0"], ["--corpus", "many"]])
+def test_the_recording_groups_split_the_real_recordings(levers):
+    labels = ["holistic_both_hands_47f", "signer_webcam_58f (MediaPipe)", "both_hands_5f", "right_hand_121f"]
+    items = [(label, None) for label in labels]
+    assert [label for label, _ in levers.recording_group(items, "added")] == ["both_hands_5f", "right_hand_121f"]
+    assert [label for label, _ in levers.recording_group(items, "chosen")] == labels[:2]
+    assert levers.recording_group(items, "all") == items
+    with pytest.raises(ValueError, match="some"):
+        levers.recording_group(items, "some")
+
+
+@pytest.mark.parametrize("flags", [["--corpus", "0"], ["--corpus", "many"], ["--corpus", "3", "--recordings", "added"],
+                                   ["--recordings", "some"]])
 def test_bad_data_flags_are_refused_before_any_work(flags):
     import subprocess
     import sys
