@@ -334,11 +334,16 @@ MEASURE_NAMES = {"tip_deg": "wrist→fingertip [deg]", "thumb_deg": "thumb tip�
                  "finger_deg": "finger base→tip [deg]"}
 
 
+def dex_best(dex: list[dict]) -> dict[str, float]:
+    """Per measure, the best of dex-retargeting's variants ``dex`` (their ``HandScores.summary``)."""
+    return {k: max(d[k] for d in dex) if k in BETTER_HIGH else min(d[k] for d in dex) for k in MEASURE_NAMES}
+
+
 def margins(ours: dict, dex: list[dict]) -> dict[str, float]:
     """Per measure, how far ``ours`` is ahead of the best of ``dex``'s variants (positive: ours better). The targets'
     comparison as a number."""
-    return {k: (ours[k] - max(d[k] for d in dex)) if k in BETTER_HIGH else (min(d[k] for d in dex) - ours[k])
-            for k in MEASURE_NAMES}
+    best = dex_best(dex)
+    return {k: (ours[k] - best[k]) if k in BETTER_HIGH else (best[k] - ours[k]) for k in MEASURE_NAMES}
 
 
 def recording_bootstrap(scores: dict[str, list[HandScores]], methods: list[str], draws: int = 2000,
@@ -410,10 +415,9 @@ def target_rows(label: str, ours: dict, dex: list[dict], dex_time: float | None,
     variants ``dex`` (empty: not run), its seconds ``per_frame`` against ``dex_time`` per hand-frame. Markdown rows."""
     rows = []
     if dex:
-        better = {k: (ours[k] > max(d[k] for d in dex)) if k == "pinch_r" else (ours[k] < min(d[k] for d in dex))
-                  for k in ("tip_deg", "thumb_deg", "pinch_r", "finger_deg")}
-        best_dex = {k: max(d[k] for d in dex) if k == "pinch_r" else min(d[k] for d in dex) for k in better}
-        digits = {k: 3 if k == "pinch_r" else 2 for k in better}
+        better = {k: margin > 0 for k, margin in margins(ours, dex).items()}
+        best_dex = dex_best(dex)
+        digits = {k: 3 if k in BETTER_HIGH else 2 for k in better}
         measured = ", ".join(f"{k}: {fmt(ours[k], digits=digits[k])} vs {fmt(best_dex[k], digits=digits[k])}" for k in better)
         missed = [k for k, b in better.items() if not b]
         rows.append(f"| {label} better than both dex variants on all four measures (ours vs dex's best) | {measured} | "

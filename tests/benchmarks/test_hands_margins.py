@@ -55,3 +55,13 @@ def test_resampling_recordings_tells_a_sure_margin_from_one_recording_s(hands):
     everywhere_cell = row.split("|")[2]
     assert float(everywhere_cell.split("[")[0]) == pytest.approx(1.0, abs=0.1) and everywhere_cell.strip().endswith(", 100 %")
     assert "| all four at once (the target) | ahead in 0 % | ahead in 0 % |" in table  # equal thumbs: never ahead on all
+
+
+def test_the_target_row_names_the_measures_where_ours_is_not_ahead(hands):
+    dex = [{"tip_deg": 12.0, "thumb_deg": 25.0, "pinch_r": 0.7, "finger_deg": 21.0}]
+    ahead = {"tip_deg": 11.0, "thumb_deg": 24.0, "pinch_r": 0.8, "finger_deg": 20.0}
+    rows = hands.target_rows("x", ahead, dex, 0.002, 0.003, 0, 0)
+    assert rows[0].endswith("| yes |") and "tip_deg: 11.00 vs 12.00" in rows[0] and "pinch_r: 0.800 vs 0.700" in rows[0]
+    level = dict(ahead, tip_deg=12.0, pinch_r=0.6)  # level is not ahead
+    assert hands.target_rows("x", level, dex, 0.002, 0.003, 0, 0)[0].endswith("| **no** (tip_deg, pinch_r) |")
+    assert "(ratio 1.50) | yes |" in hands.target_rows("x", ahead, dex, 0.002, 0.003, 0, 0)[-1]
