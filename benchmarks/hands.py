@@ -111,9 +111,9 @@ DEX = {"dex, filtered": "filtered", "dex, unfiltered": "unfiltered"}
 PER_FINGER = "wrist→fingertip direction error per finger (thumb / index / middle / ring / little)"  # a table row's name
 
 
-def recordings(video: bool, added: bool = True) -> list[tuple[str, object]]:
-    """``(label, demonstration)`` of every real recording (each file once), the video, then (``added``) the recordings
-    added after the preset's choice (:func:`added_after_choice` tells them by their label)."""
+def recordings(video: bool) -> list[tuple[str, object]]:
+    """``(label, demonstration)`` of every real recording (each file once), the video, then the recordings added after
+    the preset's choice (:func:`added_after_choice` tells them by their label)."""
     paths = sorted(SHARED_POSE.glob("*.pose")) if SHARED_POSE.is_dir() else []
     if not paths:
         print(f"note: {SHARED_POSE} is absent: only the recordings in {RECORDINGS} are used", file=sys.stderr)
@@ -132,7 +132,7 @@ def recordings(video: bool, added: bool = True) -> list[tuple[str, object]]:
             warnings.simplefilter("ignore")
             out.append((VIDEO.stem + " (MediaPipe)", load_demonstration(VIDEO)))
         print(f"video through MediaPipe Holistic: {time.perf_counter() - start:.1f} s", file=sys.stderr)
-    for path in sorted(ADDED.glob("*.pose")) if added else ():
+    for path in sorted(ADDED.glob("*.pose")):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             out.append((path.stem, load_demonstration(path)))
