@@ -111,6 +111,13 @@ DEX = {"dex, filtered": "filtered", "dex, unfiltered": "unfiltered"}
 PER_FINGER = "wrist→fingertip direction error per finger (thumb / index / middle / ring / little)"  # a table row's name
 
 
+def quiet_load(path: Path):
+    """The demonstration of ``path``, its readers' warnings (hands not seen in some frames) silenced."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_demonstration(path)
+
+
 def recordings(video: bool) -> list[tuple[str, object]]:
     """``(label, demonstration)`` of every real recording (each file once), the video, then the recordings added after
     the preset's choice (:func:`added_after_choice` tells them by their label)."""
@@ -123,19 +130,12 @@ def recordings(video: bool) -> list[tuple[str, object]]:
         if digest in seen:
             continue
         seen.add(digest)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            out.append((path.stem, load_demonstration(path)))
+        out.append((path.stem, quiet_load(path)))
     if video:
         start = time.perf_counter()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            out.append((VIDEO.stem + " (MediaPipe)", load_demonstration(VIDEO)))
+        out.append((VIDEO.stem + " (MediaPipe)", quiet_load(VIDEO)))
         print(f"video through MediaPipe Holistic: {time.perf_counter() - start:.1f} s", file=sys.stderr)
-    for path in sorted(ADDED.glob("*.pose")):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            out.append((path.stem, load_demonstration(path)))
+    out += [(path.stem, quiet_load(path)) for path in sorted(ADDED.glob("*.pose"))]
     return out
 
 
@@ -571,13 +571,12 @@ def main() -> None:
     table = "\n".join(rows)
     clean_table = measure_table(f"measure, on the {int(clean.sum())} of {len(clean)} hand-frames where no method's hand goes through itself",
                                 pooled_clean)
-    tip_methods = [*TIMED, *[m for m in DEX if scores[m]]]
     recs = ("| recording | frames | hand-frames | nlo_lab [s] | handshape preset [s] | added after the preset's choice | "
-            "wrist→tip: " + " / ".join(tip_methods) + " |\n|---|---|---|---|---|---|---|\n") + "\n".join(
+            "wrist→tip: " + " / ".join(compared) + " |\n|---|---|---|---|---|---|---|\n") + "\n".join(
         f"| {label} | {n} | {h} | {s:.2f} | {p:.2f} | {'yes' if added_after_choice(label) else 'no'} | "
-        + " / ".join(fmt(scores[m][i].summary()["tip_deg"], "°", 2) for m in tip_methods) + " |"
+        + " / ".join(fmt(scores[m][i].summary()["tip_deg"], "°", 2) for m in compared) + " |"
         for i, (label, n, h, s, p) in enumerate(per_recording))
-    groups = choice_groups(items, scores, [*TIMED, *[m for m in DEX if scores[m]]])
+    groups = choice_groups(items, scores, compared)
     sure = bootstrap_table(pooled, recording_bootstrap(scores, list(TIMED)), len(items)) if have_dex else []
 
     targets = ["| target | measured | met |", "|---|---|---|"]

@@ -225,10 +225,13 @@ def row(label: str, m: dict) -> str:
             f"{' / '.join(f'{x:.2f}' for x in m['fingers'])} | {duration} |")
 
 
+GROUPS = ("all", "chosen", "added")  # --recordings
+
+
 def recording_group(items: list, which: str) -> list:
     """``items`` (``(label, demonstration)``) of the group ``which``: ``all``, ``chosen`` (those the handshape preset was
     chosen on) or ``added`` (``benchmarks/data/recordings/``, added after that choice)."""
-    if which not in ("all", "chosen", "added"):
+    if which not in GROUPS:
         raise ValueError(f"unknown group {which!r}; expected all, chosen or added")
     return items if which == "all" else [(label, d) for label, d in items if added_after_choice(label) == (which == "added")]
 
@@ -239,7 +242,7 @@ def main() -> None:
     ap.add_argument("--no-video", action="store_true", help="leave out the video (no MediaPipe)")
     ap.add_argument("--corpus", type=int, metavar="N", help="the first N clips of the synthetic corpus's test split instead")
     ap.add_argument("--dex", action="store_true", help="dex-retargeting's rows on the same data too (needs .venv-bench)")
-    ap.add_argument("--recordings", choices=("all", "chosen", "added"), default="all",
+    ap.add_argument("--recordings", choices=GROUPS, default="all",
                     help="all real recordings; those the handshape preset was chosen on; or those added after its choice "
                          "(benchmarks/data/recordings/, tuned on by nothing)")
     args = ap.parse_args()
