@@ -16,7 +16,8 @@ import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.evaluation.hands import hand_scores
-from nlo_lab.inference import OptimizeSettings
+from nlo_lab.human import FINGERS
+from nlo_lab.inference import HANDSHAPE_SEARCH, OptimizeSettings
 from nlo_lab.lab.views import View, guarded
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import HAND_TERMS, LossWeights, point_plan, targets_from_demonstration
@@ -34,7 +35,8 @@ HAND_SLIDERS = ("finger", *HAND_TERMS)  # the weights on the panel: finger base 
 
 
 class HandPanel:
-    """Sliders for the hand weights, a frame (letter) chooser, and a close-up of one robot hand.
+    """Sliders for the hand weights, the fingers the hand stage searches, a frame (letter) chooser, and a
+    close-up of one robot hand.
 
     Args:
         demo: a :class:`~nlo_lab.human.Demonstration` (its ``meta["letters"]`` name the frames, if present).
@@ -48,9 +50,14 @@ class HandPanel:
         height: 3-D view height [px].
 
     Attributes:
-        controls: ``{"finger", "tip", "thumb", "pinch", "frame"}`` widgets.
+        controls: widgets: a slider per weight of ``HAND_SLIDERS``, ``"search"`` (the fingers whose motor the hand
+            stage searches first: :attr:`OptimizeSettings.hand_search <nlo_lab.inference.OptimizeSettings.hand_search>`)
+            and ``"frame"``.
+        preset: a button that sets the handshape preset (:meth:`LossWeights.handshape
+            <nlo_lab.objective.LossWeights.handshape>` and :data:`~nlo_lab.inference.HANDSHAPE_SEARCH`), one update;
+            :meth:`use_weights` does the same for any weights and fingers.
         q: ``(n,)`` the robot's angles for the shown frame [rad]; measures: its hand measures (dict).
-        error: the last callback error shown in the panel ("" when the last update worked).
+        error: the last callback error shown in the panel's status line ("" when the last update worked).
     """
 
     def __init__(self, demo, robot: Robot, model: RetargetModel | None = None, weights: LossWeights | None = None, frame: int = 0, side: str = "right",
@@ -75,20 +82,26 @@ class HandPanel:
                                    description=name, style=style, continuous_update=False)
             for name in HAND_SLIDERS
         }
+        self.controls["search"] = W.SelectMultiple(options=list(FINGERS), value=(), rows=len(FINGERS), description="search",
+                                                   style=style, layout=W.Layout(width="180px"))
         labels = demo.meta.get("letters") or [str(t) for t in range(len(demo))]
         self.controls["frame"] = W.Dropdown(options=[(str(label), t) for t, label in enumerate(labels)], value=frame,
                                             description="frame", style=style)
         self.readout = W.HTML()
+        self.status = W.HTML()  # an update's error (lab.views.guarded writes it)
+        self.preset = W.Button(description="handshape preset", tooltip="LossWeights.handshape() and the search of HANDSHAPE_SEARCH")
         self.error = ""
+        self._holding = False  # use_weights: several controls set, one update
         self.q = np.zeros(robot.n_joints)
         self.measures: dict[str, float] = {}
         self._view = View(view, height)
         self._camera = None
         update = guarded(self, self.update)
         for control in self.controls.values():
-            control.observe(update, names="value")
+            control.observe(lambda change: None if self._holding else update(change), names="value")
+        self.preset.on_click(lambda _: guarded(self, self.use_weights)(LossWeights.handshape(), HANDSHAPE_SEARCH))
         self.update()
-        left = W.VBox([*self.controls.values(), self.readout], layout=W.Layout(flex="0 0 300px"))
+        left = W.VBox([*self.controls.values(), self.preset, self.readout, self.status], layout=W.Layout(flex="0 0 300px"))
         parts = [left] + ([W.Box([self._view.widget], layout=W.Layout(flex="1 1 380px"))] if self._view.widget is not None else [])
         self.widget = W.HBox(parts, layout=W.Layout(flex_flow="row wrap", width="100%"))
 
@@ -102,11 +115,28 @@ class HandPanel:
         values = self.base_weights.as_dict() | {n: float(self.controls[n].value) for n in HAND_SLIDERS}
         return LossWeights(**(values | {"smooth": 0.0}))
 
+    @property
+    def settings(self) -> OptimizeSettings:
+        """The optimisation's settings: the panel's iterations and the fingers the hand stage searches."""
+        return OptimizeSettings(iterations=self.iterations, hand_search=tuple(self.controls["search"].value))
+
+    def use_weights(self, weights: LossWeights, search: tuple[str, ...] = ()) -> None:
+        """Set the sliders to ``weights``' hand weights (each within its slider's range) and the searched fingers to
+        ``search``, then retarget once (not once per control)."""
+        self._holding = True
+        try:
+            for name in HAND_SLIDERS:
+                self.controls[name].value = getattr(weights, name)
+            self.controls["search"].value = tuple(search)
+        finally:
+            self._holding = False
+        self.update()
+
     def update(self, change=None) -> None:
         """Retarget the chosen frame with the sliders' weights; show the robot, the human hand and the measures."""
         t = self.frame
         one = self.demo.slice(t, t + 1)
-        config = RetargetConfig(self.robot, settings=OptimizeSettings(iterations=self.iterations), weights=self.weights,
+        config = RetargetConfig(self.robot, settings=self.settings, weights=self.weights,
                                 model=self.model, retime=False)
         self.q = np.asarray(config.build()(one).trajectory.angles[0], dtype=np.float64)
         scores = hand_scores(self.robot, self.q[None], one)

@@ -204,7 +204,9 @@ print(f"\nmade: {''.join(c for c, m in zip(letters, made, strict=True) if m) or 
 # `HandPanel` re-optimises one letter with the weights on its sliders (`finger`, `tip`, `thumb`,
 # `pinch`, `tip_dir`, `finger_dir`, `thumb_gap`; the latent optimisation, then the hand stage) and shows the robot
 # framed on its right hand; the red spheres above it are the human's wrist and fingertips at the robot
-# hand's size, in the robot's wrist frame: where the fingertips should be.
+# hand's size, in the robot's wrist frame: where the fingertips should be. Its `search` list names the fingers
+# whose motor the hand stage searches before its descent (the next section), and its *handshape preset* button sets
+# the preset's weights and search at once.
 # Try the letter V with `tip` and `tip_dir` at 0.1, then `tip` at 1000: the robot cannot spread, so only
 # the curl follows.
 
@@ -280,6 +282,17 @@ a, b = measures["handshape preset"], measures["defaults"]
 wins = [k for k in ("tip_deg", "thumb_deg", "finger_deg") if a[k] < b[k]]
 wins += ["pinch_r"] if a["pinch_r"] > b["pinch_r"] else []
 print(f"on this clip the preset is better on: {', '.join(wins) or 'none'}")
+
+# %% [markdown]
+# On the panel, the preset's button (`panel.use_weights` with the preset's weights and fingers, one update) on the
+# letter the panel shows:
+
+# %%
+before = dict(panel.measures)
+panel.use_weights(LossWeights.handshape(), HANDSHAPE_SEARCH)
+print(f"searched: {', '.join(panel.settings.hand_search)}; tip_dir {panel.weights.tip_dir:.0f}, thumb {panel.weights.thumb:.0f}")
+for key, label in (("tip_deg", "wrist→tip"), ("thumb_deg", "thumb→tips"), ("finger_deg", "base→tip")):
+    print(f"{label:10s} {before[key]:6.1f}° -> {panel.measures[key]:6.1f}°")
 
 # %% [markdown]
 # One short clip decides little, and the preset was chosen on four real recordings.
