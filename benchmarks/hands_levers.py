@@ -20,6 +20,9 @@ little), and the retimed duration summed over the clips (the speed clamp's price
   ``path=JOINTS``: the same along the whole clip, each step within the speed clamp's cap (dynamic programming,
   ``nlo_lab.inference.hand_stage.path_within_caps``; the library's own search, ``setting:hand_search=FINGERS``, keeps a
   column's start where the path costs more and leaves the smoothness term out of its table);
+* ``thumb-gate=F``: a handshape-dependent thumb: the thumb's wrist->tip direction item (``tip_dir``) masked in the frames
+  where its hand pinches (the largest pinch activation of its thumb pairs at least ``thumb-gate-on=A``, default 0.5),
+  F times its weight elsewhere (pinching frames ask the pinch, open frames the direction);
 * ``caps=X``: the hand stage's speed clamp with X times its caps. The caps stay the latent optimisation's (a
   searched start does not loosen them).
 
@@ -76,6 +79,8 @@ class Levers:
         self.path: tuple = ()
         self.grid = 16
         self.caps = 1.0
+        self.thumb_gate = 0.0  # 0: off
+        self.thumb_gate_on = 0.5
 
     @classmethod
     def parse(cls, text: str) -> Levers:
@@ -96,6 +101,8 @@ class Levers:
                 out.pinch_scale = float(value)
             elif key in ("search", "path"):
                 setattr(out, key, tuple(value.split(",")))
+            elif key in ("thumb-gate", "thumb-gate-on"):
+                setattr(out, key.replace("-", "_"), float(value))
             elif key in ("grid", "caps"):
                 setattr(out, key, type(getattr(out, key))(value))
             else:
@@ -103,6 +110,10 @@ class Levers:
         for name, factors in (*out.finger.items(), *out.pair.items()):
             if len(factors) != (5 if name in FINGER_KINDS else 4) or (factors <= 0).any():
                 raise SystemExit(f"{name}: {len(factors)} factors; give one positive factor per finger")
+        if out.thumb_gate < 0 or not 0 < out.thumb_gate_on <= 1:
+            raise SystemExit("thumb-gate: a factor >= 0 (0: off); thumb-gate-on: an activation in (0, 1]")
+        if out.thumb_gate and "pinch" in out.pair:
+            raise SystemExit("thumb-gate reads the pinch's activation, which pair:pinch scales: use one of them")
         unknown = [j for j in (*out.search, *out.path) if j not in JOINTS]
         if unknown:
             raise SystemExit(f"unknown hand joints {unknown}; known: {', '.join(JOINTS)}")
@@ -119,6 +130,8 @@ def applied(robot, levers: Levers):
         raise SystemExit("the per-finger levers need both hands' fingers in one order")
     pair_finger = finger[plan.thumb_pairs[:, 1].numpy()] - 1  # 0 index .. 3 little
     floor = plan.pinch_floor().numpy()
+    tips = np.arange(*plan.rows["finger_tip"].indices(plan.vectors.shape[0]))
+    thumb_tips = tips[finger == 0]  # the thumbs' tip points (HandTerms' plus point of their items)
     init, build, refine, caps = HandTerms.__init__, HandTerms.build.__func__, pipeline.refine_hands, hand_stage.step_caps
 
     def order(n, full, half):  # the items of one kind: every finger (both hands) or one hand's (a hand never seen)
@@ -131,6 +144,15 @@ def applied(robot, levers: Levers):
             items = np.flatnonzero(kinds == FINGER_KINDS[name])
             self.kind[items, FINGER_KINDS[name]] *= factors[order(len(items), finger, one_side)]
         pairs = np.flatnonzero(kinds == 1)
+        if levers.thumb_gate:  # the thumb's tip_dir items: masked where its hand pinches, x thumb_gate elsewhere
+            thumbs = np.flatnonzero((kinds == 2) & np.isin(self.plus, thumb_tips))  # by point: a masked-out item is dropped
+            self.mask = self.mask.copy()  # the caller's array stays as it was
+            for i in thumbs:
+                own = self.side[pairs] == self.side[i]  # the thumb pairs of this thumb's hand
+                pinching = self.pinch_weight[:, pairs[own] - pairs[0]].max(1) if own.any() else np.zeros(len(self.mask))
+                self.mask[:, i, 0] = self.mask[:, i, 0] * (pinching < levers.thumb_gate_on)
+            self.mask_planes = np.ascontiguousarray(self.mask[:, None, :, 0])
+            self.kind[thumbs, 2] *= levers.thumb_gate
         if "thumb" in levers.pair:
             self.kind[pairs, 1] *= levers.pair["thumb"][order(len(pairs), pair_finger, pair_finger[: len(pair_finger) // 2])]
         if "thumb_gap" in levers.pair:

@@ -127,3 +127,53 @@ def test_dex_rows_score_dex_s_hands_on_the_same_data(levers, setup):
         assert m["hand_frames"] == still["hand_frames"]
         assert np.isclose(m["fingers"].mean(), m["tip_deg"])
         assert m["tip_deg"] < still["tip_deg"] - 1.0
+
+
+def test_the_thumb_gate_masks_the_thumb_direction_where_its_hand_pinches(levers, setup):
+    """``thumb-gate=2``: each thumb's wrist->tip direction item counts only in the frames where its own hand does not
+    pinch (its largest pinch activation, from the human's thumb-fingertip distances, below 0.5), at twice its weight;
+    every other item as without the lever."""
+    from nlo_lab.objective import Objective, point_plan, targets_from_demonstration
+    from nlo_lab.objective.numpy_backend import HandTerms
+    from nlo_lab.objective.terms import pinch_activation
+
+    robot, _, items = setup
+    t = targets_from_demonstration(items[0][1], dtype=robot.lower_limits.dtype)
+    plan, objective = point_plan(robot, robot.lower_limits.dtype), Objective(robot, t)
+
+    def terms():
+        return HandTerms.build(plan, t, objective.tip_mask, objective.pair_mask, plan.pinch_floor())
+
+    plain = terms()
+    with levers.applied(robot, levers.Levers.parse("thumb-gate=2")):
+        gated = terms()
+    d = (t.finger_tip[:, :, 1:] - t.finger_tip[:, :, :1]).norm(dim=-1) / t.hand_length[..., None]  # (T, 2, 4)
+    pinching = (pinch_activation(d).amax(-1) >= 0.5).numpy()  # (T, 2)
+    assert pinching.any() and (~pinching).any()  # the clip has both kinds of frame
+    kinds = plain.kind.argmax(1)
+    thumb_dirs = np.flatnonzero(kinds == 2)[plan.finger_index.numpy() == 0]
+    expected = plain.mask[..., 0].copy()
+    for i in thumb_dirs:
+        expected[:, i] &= ~pinching[:, plain.side[i]]
+    assert (gated.mask[..., 0] == expected).all() and (gated.mask_planes[:, 0] == expected).all()
+    assert (gated.mask[..., 0] != plain.mask[..., 0]).any()
+    factor = np.ones(len(kinds))
+    factor[thumb_dirs] = 2.0
+    np.testing.assert_array_equal(gated.kind, plain.kind * factor[:, None])
+
+
+@pytest.mark.parametrize("text", ["thumb-gate=-1", "thumb-gate=1 thumb-gate-on=0", "thumb-gate=1 pair:pinch=2,1,1,1"])
+def test_bad_thumb_gates_are_refused(levers, text):
+    with pytest.raises(SystemExit, match="thumb-gate"):
+        levers.Levers.parse(text)
+
+
+def test_the_thumb_gate_on_a_hand_that_pinches_in_every_frame(levers, setup):
+    """Frames 9-28 of the clip: the right hand pinches in all of them, so the gate masks its thumb's direction item in
+    every frame and the terms drop it (``HandTerms.observed``); the levers find the thumb by its point, not by position."""
+    robot, model, items = setup
+    clip = [("pinching", items[0][1].slice(9, 29))]
+    got = levers.run(robot, model, clip, levers.Levers.parse("thumb-gate=2"))
+    plain = levers.run(robot, model, clip, levers.Levers())
+    assert np.isfinite(got["fingers"]).all() and got["hand_frames"] == plain["hand_frames"]
+    assert got["fingers"][0] != plain["fingers"][0]
