@@ -9,6 +9,7 @@ headlessly: set ``panel.controls[name].value`` and read ``panel.q``, ``panel.mea
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -46,6 +47,8 @@ class HandPanel:
         frame: the frame shown first.
         side: ``"right"`` or ``"left"``: the hand in close-up.
         iterations: latent optimisation steps per update.
+        search: the fingers the hand stage searches first (default none; ``HANDSHAPE_SEARCH`` with
+            ``LossWeights.handshape()`` is the handshape preset).
         view: ``"auto"`` (a 3-D widget), None (no view: tests) or a meshcat ``Visualizer``.
         height: 3-D view height [px].
 
@@ -61,7 +64,7 @@ class HandPanel:
     """
 
     def __init__(self, demo, robot: Robot, model: RetargetModel | None = None, weights: LossWeights | None = None, frame: int = 0, side: str = "right",
-                 iterations: int = 60, view: Any = "auto", height: int = 380):
+                 iterations: int = 60, view: Any = "auto", height: int = 380, search: Sequence[str] = ()):
         # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W
 
@@ -71,6 +74,7 @@ class HandPanel:
             raise SettingsError(f"side must be 'left' or 'right', got {side!r}")
         if not 0 <= frame < len(demo):
             raise SettingsError(f"frame {frame} is outside 0..{len(demo) - 1}")
+        search = OptimizeSettings(hand_search=tuple(search)).hand_search  # a finger unknown or named twice: refused here
         if model is None:
             model = load_pretrained(robot)
         self.demo, self.robot, self.model, self.side = demo, robot, model, side
@@ -82,7 +86,7 @@ class HandPanel:
                                    description=name, style=style, continuous_update=False)
             for name in HAND_SLIDERS
         }
-        self.controls["search"] = W.SelectMultiple(options=list(FINGERS), value=(), rows=len(FINGERS), description="search",
+        self.controls["search"] = W.SelectMultiple(options=list(FINGERS), value=search, rows=len(FINGERS), description="search",
                                                    style=style, layout=W.Layout(width="180px"))
         labels = demo.meta.get("letters") or [str(t) for t in range(len(demo))]
         self.controls["frame"] = W.Dropdown(options=[(str(label), t) for t, label in enumerate(labels)], value=frame,

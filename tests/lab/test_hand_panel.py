@@ -39,6 +39,15 @@ def test_sliders_retarget_the_chosen_letter(yumi):
     assert (panel.q != fist_q).any()  # the weights changed the robot's hand
 
 
+def test_the_panel_starts_with_the_search_it_is_given(yumi):
+    panel = HandPanel(fingerspelling_demonstration("A"), yumi, iterations=10, view=None, weights=LossWeights.handshape(),
+                      search=HANDSHAPE_SEARCH)
+    assert panel.settings.hand_search == HANDSHAPE_SEARCH and panel.controls["search"].value == HANDSHAPE_SEARCH
+    for bad in (("wrist",), ("ring", "ring")):
+        with pytest.raises(SettingsError, match="hand_search"):
+            HandPanel(fingerspelling_demonstration("A"), yumi, iterations=10, view=None, search=bad)
+
+
 def test_a_robot_without_hands_is_refused():
     with pytest.raises(SettingsError, match="no fingers"):
         HandPanel(fingerspelling_demonstration("A"), load_robot("nao"), view=None)
