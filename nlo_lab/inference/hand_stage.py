@@ -153,6 +153,16 @@ held-out clips, and its search costs about 0.9 ms per frame. On four real record
 that choice (``benchmarks/data/recordings/``, 2026-11-27 16:07 UTC) it is ahead of dex-retargeting on wrist->tip
 (14.2° against 14.7°) and the thumb (30.9° against 33.7°), level on the pinch (0.76) and behind on base->tip (27.6°
 against 26.7°), where the defaults are level on wrist->tip (14.8° against 14.7°) and ahead on the thumb and pinch.
+A thumb that trades per handshape (``hands_levers.py``'s ``thumb-gate``: the thumb's wrist->tip direction left out
+where its hand pinches, pinching frames asking the pinch; 2026-11-27 19:00-19:25 UTC) costs the thumb's own wrist->tip
+direction on both groups (13.55 -> 14.46° on the preset's four, 5.91 -> 9.14° on the added four, only full pinches
+gated): the relaxed hands MediaPipe sees hold the thumb near a fingertip most of the time (the right hand of
+``holistic_both_hands_47f`` in 42 of 47 frames at an activation of 0.5), so the thumb's direction counts there too.
+Searching the thumb with the preset and weighing the thumb gap and the base->tip directions more (``weight:tip_dir=8000
+weight:thumb=800 setting:hand_search=thumb,middle,ring,pinky weight:thumb_gap=3000 weight:finger_dir=3000``) is ahead
+of dex-retargeting on all four measures on the added recordings (14.63 / 31.17 / 26.57 / 0.856 against 14.73 / 33.75 /
+26.66 / 0.757), behind on wrist->tip on the preset's four (16.67° against 16.57°) and, on the held-out corpus, worse
+than the defaults on wrist->tip and the thumb (11.51 / 16.99 / 13.78 / 0.726 against 11.23 / 16.54 / 14.42 / 0.720).
 
 It never makes the robot slower: after the descent, each hand joint's step between consecutive
 frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's
