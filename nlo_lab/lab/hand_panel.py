@@ -142,7 +142,7 @@ class HandPanel:
         one = self.demo.slice(t, t + 1)
         config = RetargetConfig(self.robot, settings=self.settings, weights=self.weights,
                                 model=self.model, retime=False)
-        self.q = np.asarray(config.build()(one).trajectory.angles[0], dtype=np.float64)
+        self.q = np.array(config.build()(one).trajectory.angles[0], dtype=np.float64)  # a copy: the trajectory's is read-only
         scores = hand_scores(self.robot, self.q[None], one)
         s = 1 if self.side == "right" else 0
         pick = scores.side == s

@@ -442,3 +442,41 @@ def test_an_animation_loops_and_its_button_pauses_it(lab_page):
     button.click()
     assert state() == "playing"
     _check_clean(page)
+
+
+def test_the_hand_panel_s_preset_button_in_jupyterlab(lab_page, robot_colours):
+    """Notebook 12's HandPanel on the letter V: every control visible at 1280 px (the search list and the button
+    too), the YuMi hand drawn; its "handshape preset" button selects the preset's fingers in the page, changes the
+    readout and the picture, in one view update."""
+    import nbformat
+
+    page, tmp = lab_page
+    source = ("from nlo_lab.corpus.fingerspelling import fingerspelling_demonstration\nfrom nlo_lab.lab import HandPanel\n"
+              "from nlo_lab.robot import load_robot\n"
+              "panel = HandPanel(fingerspelling_demonstration('V'), load_robot('yumi'), iterations=10)\npanel.widget")
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(source)])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
+    nbformat.write(nb, tmp / "notebooks" / "hands.ipynb")
+    page.open_notebook("hands.ipynb")
+    page.run_all()
+    page.wait_views(1)
+    _check_clean(page)
+    cell = page.cell_with("HandPanel(")
+    assert _readouts_visible(page, cell) == [], "controls covered at 1280 px"
+    output = page.cells().nth(cell).locator(".jp-Cell-outputArea")
+    before = page.canvas_image(0, tmp / "12-before.png")
+    assert robot_colours(before)["hand"] > 0.003, "the close-up shows no hand"
+    readout = output.locator(".widget-html-content", has_text="wrist→tip").text_content()
+    messages = page.view_stats().get("messages", 0)
+    output.get_by_role("button", name="handshape preset").click()
+    page.wait_kernel_idle()
+    page.page.wait_for_timeout(1000)
+    after = page.canvas_image(0, tmp / "12-after.png")
+    selected = output.locator("select[multiple]").evaluate("s => Array.from(s.selectedOptions).map(o => o.textContent)")
+    assert selected == ["middle", "ring", "pinky"]
+    assert output.locator(".widget-html-content", has_text="wrist→tip").text_content() != readout
+    assert page.view_stats().get("messages", 0) - messages == 1  # one update for every control the button set
+    # the hand fills under 1 % of this view and the preset moves V's fingers by a few hundredths of a radian: 0.06 %
+    # of the pixels changed when this test was written
+    assert _changed(before, after) > 0.0002, "the preset did not change the picture"
+    _check_clean(page)
