@@ -42,6 +42,10 @@ print("mesh files:", sorted({p.name for p in (urdf.parent / "meshes").glob("*.st
 # finds the fingers below each wrist by name, actuates the joints on the chains from the base to the wrists
 # and fingertips (the neck is fixed), takes the velocity limits from the URDF, places the robot frame between
 # the shoulders, derives the wrist alignment from the finger bases and fits capsules to the collision meshes.
+# Where two links' capsules touch at the rest pose though their meshes do not (a capsule is rounder than the
+# mesh inside it), the pair cannot be kept apart without leaving the rest pose, so the draft leaves it unchecked
+# and says so: a warning below the cell names the pairs, a `note:` line in the summary counts them. Read them for
+# your own robot: the optimiser does not keep an unchecked pair apart.
 
 # %%
 from nlo_lab.lab import work_folder
