@@ -240,6 +240,23 @@ def _changed(a: np.ndarray, b: np.ndarray) -> float:
     return float((np.abs(a - b).max(axis=-1) > 0.1).mean())
 
 
+def _write_notebook(path: Path, cells: list[str]) -> None:
+    """A notebook of the code ``cells`` at ``path``, on the python3 kernel: what a test opens in the page."""
+    import nbformat
+
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
+    nbformat.write(nb, path)
+
+
+def _run_cells(page, folder: Path, name: str, cells: list[str]) -> None:
+    """The code ``cells`` as notebook ``name`` in the lab's ``folder``, opened, run, its one 3-D view drawn."""
+    _write_notebook(folder / name, cells)
+    page.open_notebook(name)
+    page.run_all()
+    page.wait_views(1)
+
+
 def _readouts_visible(page, cell: int) -> list[str]:
     """Slider readouts of a cell's output that something else covers (scrolled into view first)."""
     return page.page.evaluate(
@@ -333,8 +350,6 @@ def test_a_view_inside_a_container_draws_while_the_kernel_is_busy(lab_page, robo
     the robot from its saved scene while the kernel still runs that cell, and goes live when it answers."""
     import time
 
-    import nbformat
-
     page, tmp = lab_page
     cells = [
         "import ipywidgets\nfrom nlo_lab.lab import show_robot\nfrom nlo_lab.viz import SceneWidget\n"
@@ -342,9 +357,7 @@ def test_a_view_inside_a_container_draws_while_the_kernel_is_busy(lab_page, robo
         "ipywidgets.VBox([show_robot('yumi')])",
         f"import time\ntime.sleep({BUSY_SECONDS})",
     ]
-    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
-    nbformat.write(nb, tmp / "notebooks" / "busy.ipynb")
+    _write_notebook(tmp / "notebooks" / "busy.ipynb", cells)
     page.open_notebook("busy.ipynb")
     page.page.locator(".lm-MenuBar-itemLabel", has_text=re.compile(r"^Run$")).click()
     page.page.locator(".lm-Menu-itemLabel", has_text=re.compile(r"^Run All Cells$")).click()
@@ -373,9 +386,7 @@ def test_the_view_and_a_panel_in_notebook_7(tmp_path, browser, lab_browser, robo
         "from nlo_lab.lab import show_robot\nshow_robot('yumi')",
         "from nlo_lab.lab import JointPanel\nfrom nlo_lab.robot import load_robot\nJointPanel(load_robot('nao'))",
     ]
-    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
-    nbformat.write(nb, tmp_path / "nb" / "views.ipynb")
+    _write_notebook(tmp_path / "nb" / "views.ipynb", cells)
     saving = {"@jupyter-widgets/jupyterlab-manager/plugin": {"saveState": True}}  # File > Save keeps widget state
     with lab_browser.Lab(tmp_path / "nb", tmp_path / "state", app="notebook", settings=saving) as lab:
         page = lab_browser.LabPage(browser, lab, width=1280, height=900)
@@ -417,18 +428,11 @@ def test_the_view_and_a_panel_in_notebook_7(tmp_path, browser, lab_browser, robo
 
 def test_an_animation_loops_and_its_button_pauses_it(lab_page):
     """show_view's animation (1 s) still plays after two passes; the view's button pauses it (the picture stops) and plays it."""
-    import nbformat
-
     page, tmp = lab_page
     cell = ("import numpy as np\nfrom nlo_lab.lab import show_view\nfrom nlo_lab.robot import load_robot\nnao = load_robot('nao')\n"
             "lo, hi = nao.lower_limits.numpy(), nao.upper_limits.numpy()\n"
             "show_view(nao, np.linspace(0.8 * lo + 0.2 * hi, 0.2 * lo + 0.8 * hi, 31))  # 30 steps at 30 fps: 1 s")
-    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(cell)])
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
-    nbformat.write(nb, tmp / "notebooks" / "loop.ipynb")
-    page.open_notebook("loop.ipynb")
-    page.run_all()
-    page.wait_views(1)
+    _run_cells(page, tmp / "notebooks", "loop.ipynb", [cell])
     button = page.page.locator(".nlo-lab-play").first
     state = lambda: button.get_attribute("data-state")  # noqa: E731
     page.page.wait_for_timeout(2500)  # two passes and a half
@@ -448,18 +452,11 @@ def test_the_hand_panel_s_preset_button_in_jupyterlab(lab_page, robot_colours):
     """Notebook 12's HandPanel on the letter V: every control visible at 1280 px (the search list and the button
     too), the YuMi hand drawn; its "handshape preset" button selects the preset's fingers in the page, changes the
     readout and the picture, in one view update."""
-    import nbformat
-
     page, tmp = lab_page
     source = ("from nlo_lab.corpus.fingerspelling import fingerspelling_demonstration\nfrom nlo_lab.lab import HandPanel\n"
               "from nlo_lab.robot import load_robot\n"
               "panel = HandPanel(fingerspelling_demonstration('V'), load_robot('yumi'), iterations=10)\npanel.widget")
-    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(source)])
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)", "language": "python"}
-    nbformat.write(nb, tmp / "notebooks" / "hands.ipynb")
-    page.open_notebook("hands.ipynb")
-    page.run_all()
-    page.wait_views(1)
+    _run_cells(page, tmp / "notebooks", "hands.ipynb", [source])
     _check_clean(page)
     cell = page.cell_with("HandPanel(")
     assert _readouts_visible(page, cell) == [], "controls covered at 1280 px"
