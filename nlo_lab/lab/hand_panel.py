@@ -103,7 +103,8 @@ class HandPanel:
         update = guarded(self, self.update)
         for control in self.controls.values():
             control.observe(lambda change: None if self._holding else update(change), names="value")
-        self.preset.on_click(lambda _: guarded(self, self.use_weights)(LossWeights.handshape(), HANDSHAPE_SEARCH))
+        use_weights = guarded(self, self.use_weights)
+        self.preset.on_click(lambda _: use_weights(LossWeights.handshape(), HANDSHAPE_SEARCH))
         self.update()
         left = W.VBox([*self.controls.values(), self.preset, self.readout, self.status], layout=W.Layout(flex="0 0 300px"))
         parts = [left] + ([W.Box([self._view.widget], layout=W.Layout(flex="1 1 380px"))] if self._view.widget is not None else [])
