@@ -127,7 +127,9 @@ class HandPanel:
 
     def use_weights(self, weights: LossWeights, search: tuple[str, ...] = ()) -> None:
         """Set the sliders to ``weights``' hand weights (each within its slider's range) and the searched fingers to
-        ``search``, then retarget once (not once per control)."""
+        ``search``, then retarget once (not once per control). A finger unknown or named twice is refused before
+        any control is set, as by the constructor."""
+        search = OptimizeSettings(hand_search=tuple(search)).hand_search
         self._holding = True
         try:
             for name in HAND_SLIDERS:

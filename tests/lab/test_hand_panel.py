@@ -76,6 +76,18 @@ def test_the_preset_button_sets_weights_and_search_in_one_update(yumi):
     assert panel.settings.hand_search == HANDSHAPE_SEARCH
 
 
+def test_use_weights_refuses_a_bad_search_before_it_sets_any_control(yumi):
+    panel = HandPanel(fingerspelling_demonstration("B"), yumi, iterations=10, view=None)
+    before = {n: panel.controls[n].value for n in (*HAND_SLIDERS, "search")}
+    drawn = []
+    panel._draw = drawn.append
+    for bad in (("thumb", "toe"), ("ring", "ring")):
+        with pytest.raises(SettingsError, match="hand_search"):
+            panel.use_weights(LossWeights.handshape(), bad)
+    assert {n: panel.controls[n].value for n in (*HAND_SLIDERS, "search")} == before and drawn == []
+    assert panel._holding is False
+
+
 def test_an_update_error_is_shown_in_the_status_line(yumi, monkeypatch):
     panel = HandPanel(fingerspelling_demonstration("A"), yumi, iterations=10, view=None)
 
