@@ -41,6 +41,11 @@ from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
+# matplotlib's font cache in the checkout, not the account's: a cache another install rewrote (seen once: only the
+# system's fonts, none of matplotlib's own) made a notebook print "findfont" warnings a browser test reads as a fault.
+# Set before anything imports matplotlib; the notebooks' kernels and JupyterLab inherit it.
+os.environ.setdefault("MPLCONFIGDIR", str(Path(__file__).resolve().parents[1] / "build" / "matplotlib"))
+
 import h5py
 import numpy as np
 import pytest
