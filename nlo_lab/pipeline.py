@@ -56,7 +56,7 @@ from nlo_lab.threads import single_thread
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.model import RetargetModel
 
-__all__ = ["CHUNK_FRAMES", "RetargetConfig", "Retargeter", "RetargetResult", "retarget", "summary"]
+__all__ = ["CHUNK_FRAMES", "RetargetConfig", "Retargeter", "RetargetResult", "has_hand_joints", "retarget", "summary"]
 
 # Frames optimised together. Frames are independent (per-frame losses, per-frame Adam),
 # so chunks only bound memory: the autograd graph of one step holds about 0.3 MB per
@@ -84,6 +84,11 @@ class RetargetResult:
     optimization: OptimizeResult
     seconds: float
     summary: dict[str, Any] = field(default_factory=dict)
+
+
+def has_hand_joints(robot: Robot) -> bool:
+    """Does ``robot`` have finger joints below its wrists, the hand stage's (YuMi's hands; not NAO's or Pepper's)?"""
+    return robot.has_fingers and bool(hand_joint_mask(robot).any())
 
 
 @dataclass(frozen=True)
@@ -125,7 +130,8 @@ class RetargetConfig:
 
         Raises:
             SettingsError: ``chunk_frames`` is not a whole number >= 1 or None; ``fast`` is
-                not True, False or a FastPaths.
+                not True, False or a FastPaths; ``settings.hand_search`` names fingers for a robot without
+                finger joints (nothing to search: the hand stage runs on robots with hands).
             CheckpointError: no shipped checkpoint for this robot (``model`` and ``checkpoint``
                 omitted), or a ``checkpoint`` that is missing, damaged or made for another robot.
         """
@@ -141,6 +147,10 @@ class RetargetConfig:
         check_bool("retime", self.retime)
         check_bool("progress", self.progress)
         fast_paths(self.fast, 1)  # checked here, before any work
+        search = self.settings.hand_search if self.settings is not None else ()
+        if search and not has_hand_joints(self.robot):  # else the search was silently nothing
+            raise SettingsError(f"hand_search ({', '.join(search)}): {self.robot.name} has no finger joints to search "
+                                "(the hand stage runs on a robot with hands, such as yumi)")
         model = self.model if self.model is not None else load_pretrained(self.robot, self.checkpoint)
         return Retargeter(self, model, self.settings or OptimizeSettings(), self.weights or LossWeights())
 
@@ -158,7 +168,7 @@ class Retargeter:
     def __init__(self, config: RetargetConfig, model: RetargetModel, settings: OptimizeSettings, weights: LossWeights):
         self.config, self.robot, self.model = config, config.robot, model
         self.settings, self.weights = settings, weights
-        self.has_hand_joints = self.robot.has_fingers and bool(hand_joint_mask(self.robot).any())  # the hand stage: YuMi
+        self.has_hand_joints = has_hand_joints(self.robot)
 
     def inputs(self, demo: Demonstration) -> RetargetInputs:
         """The demonstration's targets (in the robot's dtype and device) and encoder input."""

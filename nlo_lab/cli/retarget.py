@@ -106,7 +106,7 @@ def run(args) -> int:
     from nlo_lab.inference import OptimizeSettings
     from nlo_lab.model import load_pretrained
     from nlo_lab.objective import LossWeights
-    from nlo_lab.pipeline import RetargetConfig
+    from nlo_lab.pipeline import RetargetConfig, has_hand_joints
     from nlo_lab.robot import load_robot
 
     if args.out is not None:
@@ -118,6 +118,10 @@ def run(args) -> int:
     settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed, latent_sigma=args.sigma,
                                 hand_search=hand_search(args))
     robot = load_robot(args.robot)
+    if settings.hand_search and not has_hand_joints(robot):  # the pipeline refuses it too, naming the setting
+        flag = "--hand-search" if args.hand_search is not None else "--handshape"
+        raise UsageError(f"nlo-lab retarget: {flag}: {robot.name} has no finger joints for the hand stage to search "
+                         "(a robot with hands, such as yumi)")
     model = load_pretrained(robot, args.checkpoint)  # before any work: a missing checkpoint is refused at once
     progress = not args.quiet and sys.stderr.isatty()
     video = None

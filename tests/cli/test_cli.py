@@ -39,6 +39,14 @@ def test_unknown_robot_exit_2(capsys, tmp_path, assert_one_line_error):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("flags, needle", [(["--handshape"], "--handshape"), (["--hand-search", "ring"], "--hand-search"),
+                                          (["--handshape", "--hand-search", "ring"], "--hand-search")])
+def test_a_hand_search_for_a_robot_without_fingers_exit_2(capsys, tmp_path, assert_one_line_error, flags, needle):
+    code, _, err = run(["retarget", "demo:introduction_06", "--robot", "pepper", *flags, "--out", str(tmp_path / "o")], capsys)
+    assert_one_line_error(code, err, needle, "pepper has no finger joints")
+    assert not (tmp_path / "o").exists()
+
+
 def test_bad_weights_exit_2(capsys, assert_one_line_error):
     code, _, err = run(["retarget", "demo:x", "--robot", "nao", "--weights", "ee=banana"], capsys)
     assert_one_line_error(code, err, "ee")

@@ -93,6 +93,13 @@ def test_bad_chunk_frames_are_refused_when_built(nao, model, chunk):
         RetargetConfig(nao, model=model, chunk_frames=chunk).build()
 
 
+def test_a_finger_search_on_a_robot_without_fingers_is_refused_when_built(nao, model):
+    settings = OptimizeSettings(iterations=8, hand_search=("ring",))
+    with pytest.raises(SettingsError, match=r"hand_search \(ring\): nao has no finger joints"):
+        RetargetConfig(nao, settings, model=model).build()
+    assert not RetargetConfig(nao, SETTINGS, model=model).build().has_hand_joints  # without the search: built
+
+
 def test_the_evaluation_runs_the_pipeline(nao, model, demo, monkeypatch):
     s = BaselineSettings(iterations=5)
     ours = run_method("latent_encoder", nao, demo, s, model=model)
