@@ -56,6 +56,12 @@ from nlo_lab.human.transforms import quat_to_matrix
 from nlo_lab.objective import robot_points
 from nlo_lab.robot import Robot, load_robot
 
+
+def pytest_sessionstart(session) -> None:
+    """Build that font cache here, once, not in the first notebook a test runs (where a slow build logs a warning)."""
+    import matplotlib.font_manager  # noqa: F401  (importing it builds the cache where there is none)
+
+
 ROOT = Path(__file__).resolve().parents[1]  # the checkout
 SHARED = ROOT.parent / "shared"  # beside the checkout (and in CI), never in a user's clone
 sys.path.insert(0, str(ROOT / "tests" / "fuzz"))  # test modules are imported by path: name the helpers' folder
