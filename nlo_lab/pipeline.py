@@ -30,10 +30,10 @@ import torch
 from tqdm.auto import tqdm
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.human import Demonstration
+from nlo_lab.human import FINGERS, SIDES, Demonstration
 from nlo_lab.inference.descent import OptimizeResult, join_results
 from nlo_lab.inference.fast_paths import FastPaths, fast_paths
-from nlo_lab.inference.hand_stage import hand_joint_mask, refine_hands
+from nlo_lab.inference.hand_stage import finger_joints, hand_joint_mask, refine_hands
 from nlo_lab.inference.inputs import RetargetInputs
 from nlo_lab.inference.latent import initial_latent, optimize_latent
 from nlo_lab.inference.retime import retime_times
@@ -131,7 +131,7 @@ class RetargetConfig:
         Raises:
             SettingsError: ``chunk_frames`` is not a whole number >= 1 or None; ``fast`` is
                 not True, False or a FastPaths; ``settings.hand_search`` names fingers for a robot without
-                finger joints (nothing to search: the hand stage runs on robots with hands).
+                finger joints, or a finger no joint of its hands moves alone (nothing to search).
             CheckpointError: no shipped checkpoint for this robot (``model`` and ``checkpoint``
                 omitted), or a ``checkpoint`` that is missing, damaged or made for another robot.
         """
@@ -147,12 +147,23 @@ class RetargetConfig:
         check_bool("retime", self.retime)
         check_bool("progress", self.progress)
         fast_paths(self.fast, 1)  # checked here, before any work
-        search = self.settings.hand_search if self.settings is not None else ()
-        if search and not has_hand_joints(self.robot):  # else the search was silently nothing
-            raise SettingsError(f"hand_search ({', '.join(search)}): {self.robot.name} has no finger joints to search "
-                                "(the hand stage runs on a robot with hands, such as yumi)")
+        self._check_hand_search()
         model = self.model if self.model is not None else load_pretrained(self.robot, self.checkpoint)
         return Retargeter(self, model, self.settings or OptimizeSettings(), self.weights or LossWeights())
+
+    def _check_hand_search(self) -> None:
+        """A searched finger must have joints of its own on this robot: else the search would silently do nothing."""
+        search = self.settings.hand_search if self.settings is not None else ()
+        if not search:
+            return
+        if not has_hand_joints(self.robot):
+            raise SettingsError(f"hand_search ({', '.join(search)}): {self.robot.name} has no finger joints to search "
+                                "(the hand stage runs on a robot with hands, such as yumi)")
+        own = {f for side in SIDES for f in self.robot.arm(side).fingers if finger_joints(self.robot, side, f)}
+        missing = [f for f in search if f not in own]
+        if missing:
+            raise SettingsError(f"hand_search: no joint of {self.robot.name}'s hands moves {', '.join(missing)} alone, so nothing "
+                                f"would be searched (fingers with joints of their own: {', '.join(f for f in FINGERS if f in own) or 'none'})")
 
 
 class Retargeter:

@@ -100,6 +100,24 @@ def test_a_finger_search_on_a_robot_without_fingers_is_refused_when_built(nao, m
     assert not RetargetConfig(nao, SETTINGS, model=model).build().has_hand_joints  # without the search: built
 
 
+def test_a_searched_finger_the_hands_do_not_have_is_refused_when_built(tmp_path):
+    import json
+    from pathlib import Path
+
+    from nlo_lab.robot import load_robot
+
+    assets = Path(__file__).resolve().parents[2] / "assets" / "robots"
+    spec = json.loads((assets / "yumi.json").read_text())
+    spec["urdf"] = str(assets / "yumi.urdf")
+    for arm in spec["arms"].values():
+        del arm["fingers"]["pinky"]  # a four-finger hand: the pinky's joint moves a link no finger names
+    (tmp_path / "four.json").write_text(json.dumps(spec))
+    four = load_robot(tmp_path / "four.json")
+    with pytest.raises(SettingsError, match=r"moves pinky alone.*thumb, index, middle, ring\)"):
+        RetargetConfig(four, OptimizeSettings(hand_search=("ring", "pinky"))).build()
+    RetargetConfig(four, OptimizeSettings(hand_search=("ring",)))._check_hand_search()  # a finger it has: accepted
+
+
 def test_the_evaluation_runs_the_pipeline(nao, model, demo, monkeypatch):
     s = BaselineSettings(iterations=5)
     ours = run_method("latent_encoder", nao, demo, s, model=model)
