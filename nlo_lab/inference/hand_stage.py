@@ -163,6 +163,13 @@ weight:thumb=800 setting:hand_search=thumb,middle,ring,pinky weight:thumb_gap=30
 of dex-retargeting on all four measures on the added recordings (14.63 / 31.17 / 26.57 / 0.856 against 14.73 / 33.75 /
 26.66 / 0.757), behind on wrist->tip on the preset's four (16.67° against 16.57°) and, on the held-out corpus, worse
 than the defaults on wrist->tip and the thumb (11.51 / 16.99 / 13.78 / 0.726 against 11.23 / 16.54 / 14.42 / 0.720).
+The thumb's ``tip`` item (its scaled wrist->tip vector: dex-retargeting's whole objective) is what holds its direction,
+not the direction item alone (``finger:tip=...``, 2026-11-27 22:02-22:30 UTC; the preset's four / the added four):
+0.01x 17.32 / 25.15 / 34.28 / 0.808 and 14.83 / 28.19 / 26.82 / 0.841 (the thumb 14.33° and 6.27° against 13.55° and
+5.91°); ``tip`` 0.01x for every finger 17.30 / 27.25 / 34.76 / 0.776 and 15.02 / 29.20 / 29.08 / 0.831. More of it
+moves along the same frontier: 3x 16.99 / 25.95 / 33.74 / 0.808 and 14.38 / 30.70 / 26.78 / 0.793 (behind
+dex-retargeting on wrist->tip on the first group by 0.42°, on base->tip on the second by 0.12°), 6x 17.03 / 26.74 /
+34.31 / 0.795 and 14.24 / 31.32 / 26.81 / 0.769.
 
 It never makes the robot slower: after the descent, each hand joint's step between consecutive
 frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's
