@@ -254,7 +254,8 @@ class Retargeter:
         stage = refine_hands(self.robot, result.q, targets, self.weights, iterations=self.settings.hand_iterations,
                              patience=self.settings.patience, lr=self.settings.hand_lr,
                              collision_form=self.settings.collision_form, anchor=options.get("anchor"), fast=fast,
-                             search=self.settings.hand_search, grid=self.settings.hand_grid)
+                             search=self.settings.hand_search, grid=self.settings.hand_grid,
+                             slowdown=self.settings.hand_slowdown)
         if result.z is not None:  # the latent term, as in the latent optimisation's loss
             latent = result.z.detach().pow(2).flatten(1).sum(1).to(stage.loss.dtype)
             stage.loss = stage.loss + self.weights.latent * latent

@@ -42,6 +42,8 @@ __all__ = [
     "WORKERS_RANGE",
     "HANDSHAPE_SEARCH",
     "HANDSHAPE_WEIGHTS",
+    "HANDSHAPE_SLOWDOWN",
+    "SLOWDOWN_RANGE",
     "SEARCH_GRID",
     "RATE_RANGE",
     "SECONDS_RANGE",
@@ -76,7 +78,11 @@ WORKERS_RANGE = (1, 1024)  # worker processes of a batch's local cluster
 # the handshape preset (`retarget --handshape`, `batch --handshape`): the hand stage's searched fingers and the weights
 # that differ from LossWeights' defaults (LossWeights.handshape; nlo_lab.inference.hand_stage says why)
 HANDSHAPE_SEARCH = ("middle", "ring", "pinky")
-HANDSHAPE_WEIGHTS = {"tip_dir": 8000.0, "thumb": 800.0}
+HANDSHAPE_WEIGHTS = {"tip_dir": 8000.0, "thumb": 800.0, "finger_dir": 2000.0}
+# ... and how much longer than the latent optimisation's the hand stage may make each retimed segment
+# (OptimizeSettings.hand_slowdown): the preset's robot time stays below dex-retargeting's (docs/RESULTS.md, "Handshapes")
+HANDSHAPE_SLOWDOWN = 1.7
+SLOWDOWN_RANGE = (1.0, 10.0)  # the hand stage's slowdown: 1 = never slower than the latent optimisation's output
 SEARCH_GRID = 16  # values per joint of the hand stage's finger search (OptimizeSettings.hand_grid): 8 missed the ring's open basin
 
 

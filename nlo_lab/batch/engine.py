@@ -286,7 +286,7 @@ def to_frame(rows: list[dict]):
 
 
 def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "encoder", iterations: int = 100, seed: int = 0,
-                  weights=None, viewer: bool = False, hand_search=(), workers: int | None = None, scheduler: str | None = None,
+                  weights=None, viewer: bool = False, hand_search=(), hand_slowdown: float = 1.0, workers: int | None = None, scheduler: str | None = None,
                   resume: bool = True, retry_failed: bool = False, progress: bool = False, on_row=None):
     """Retarget every input to ``robot`` on a dask.distributed cluster; the results table.
 
@@ -303,6 +303,8 @@ def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "
             ``--seed``, ``--weights`` (weights: ``"ee=1000,ori=100"``, a mapping or a ``LossWeights``).
         viewer: also write each input's ``viewer.html``.
         hand_search: as ``--hand-search``: fingers the hand stage first searches (``OptimizeSettings.hand_search``).
+        hand_slowdown: as ``--hand-slowdown``: how much longer than the latent optimisation's the hand stage may make
+            each retimed segment (``OptimizeSettings.hand_slowdown``).
         workers: worker processes of the LocalCluster (default: the cores available, at most one per input
             unless there is a video, whose segments spread over every worker).
         scheduler: the address of a running dask scheduler (``tcp://HOST:PORT``).
@@ -330,7 +332,7 @@ def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "
     if workers is not None and (scheduler or client is not None):
         raise SchedulerError("workers sizes the local cluster; with a scheduler or a client, the cluster's own workers run")
     # a Robot is kept as its spec path
-    settings = BatchSettings(robot, init, iterations, seed, weights, viewer, hand_search)  # type: ignore[arg-type]
+    settings = BatchSettings(robot, init, iterations, seed, weights, viewer, hand_search, hand_slowdown)  # type: ignore[arg-type]
     out = check_out_place(out)  # before any input is read
     if workers is not None:
         check_int("workers", workers, *WORKERS_RANGE)

@@ -21,7 +21,7 @@ from typing import Any
 import nlo_lab
 from nlo_lab.batch.inputs import file_sha256
 from nlo_lab.paths import CHECKPOINTS_DIR, ROBOTS_DIR
-from nlo_lab.settings import LATENT_ITERATIONS
+from nlo_lab.settings import LATENT_ITERATIONS, SLOWDOWN_RANGE, check_range
 
 __all__ = ["BatchSettings", "robot_files"]
 
@@ -79,6 +79,9 @@ class BatchSettings:
         hand_search: fingers whose joints the hand stage first searches (``--hand-search``,
             :attr:`OptimizeSettings.hand_search <nlo_lab.inference.OptimizeSettings.hand_search>`); in the
             fingerprint only when given, so that the fingerprints of batches without it stay as they were.
+        hand_slowdown: how much longer than the latent optimisation's the hand stage may make each retimed segment
+            (``--hand-slowdown``, :attr:`OptimizeSettings.hand_slowdown
+            <nlo_lab.inference.OptimizeSettings.hand_slowdown>`); in the fingerprint only when not 1, likewise.
     """
 
     robot: str
@@ -88,6 +91,7 @@ class BatchSettings:
     weights: Any = ()
     viewer: bool = False
     hand_search: tuple[str, ...] = ()
+    hand_slowdown: float = 1.0
 
     def __post_init__(self) -> None:
         robot = getattr(getattr(self.robot, "spec", None), "path", self.robot)  # a loaded Robot: its spec file
@@ -95,6 +99,8 @@ class BatchSettings:
         object.__setattr__(self, "weights", _canonical_weights(self.weights))
         search = self.hand_search
         object.__setattr__(self, "hand_search", (search,) if isinstance(search, str) else tuple(search or ()))
+        # refused here, in the client, before any input is read (the workers' OptimizeSettings checks it again)
+        object.__setattr__(self, "hand_slowdown", check_range("hand_slowdown", self.hand_slowdown, *SLOWDOWN_RANGE))
 
     def key(self) -> dict:
         """What the fingerprint is made of: the robot by its files' contents (a name and a path to the
@@ -106,6 +112,8 @@ class BatchSettings:
                "init": self.init, "iterations": self.iterations, "seed": self.seed, "weights": self.weights}
         if self.hand_search:
             key["hand_search"] = list(self.hand_search)
+        if self.hand_slowdown != 1.0:
+            key["hand_slowdown"] = float(self.hand_slowdown)
         return key
 
     def fingerprint(self) -> str:
@@ -125,7 +133,8 @@ class BatchSettings:
         from nlo_lab.pipeline import RetargetConfig
         from nlo_lab.robot import load_robot
 
-        settings = OptimizeSettings(init=self.init, iterations=self.iterations, seed=self.seed, hand_search=self.hand_search)
+        settings = OptimizeSettings(init=self.init, iterations=self.iterations, seed=self.seed, hand_search=self.hand_search,
+                                    hand_slowdown=self.hand_slowdown)
         text = self.weights if isinstance(self.weights, str) else ",".join(f"{k}={v!r}" for k, v in self.weights)
         weights = LossWeights.from_string(text)  # its errors name an unknown or bad weight
         return RetargetConfig(load_robot(self.robot), settings, weights).build()

@@ -14,7 +14,17 @@ from typing import NoReturn
 
 from nlo_lab import settings
 from nlo_lab.errors import NloLabError, SettingsError
-from nlo_lab.settings import HANDSHAPE_SEARCH, HANDSHAPE_WEIGHTS, LATENT_ITERATIONS, arg_type, check_int, check_positive
+from nlo_lab.settings import (
+    HANDSHAPE_SEARCH,
+    HANDSHAPE_SLOWDOWN,
+    HANDSHAPE_WEIGHTS,
+    LATENT_ITERATIONS,
+    SLOWDOWN_RANGE,
+    arg_type,
+    check_int,
+    check_positive,
+    check_range,
+)
 from nlo_lab.threads import THREADS_RANGE
 
 __all__ = [
@@ -134,17 +144,27 @@ def finger_names(text: str) -> tuple[str, ...]:
 
 
 def add_hand_flags(parser: argparse.ArgumentParser) -> None:
-    """``--handshape`` and ``--hand-search``: the hand stage's finger search (``retarget`` and ``batch``)."""
+    """``--handshape``, ``--hand-search`` and ``--hand-slowdown``: the hand stage's finger search and speed clamp
+    (``retarget`` and ``batch``)."""
     fingers = ",".join(HANDSHAPE_SEARCH)
     weights = ",".join(f"{k}={v:g}" for k, v in HANDSHAPE_WEIGHTS.items())
     parser.add_argument("--handshape", action="store_true",
                         help=f"the handshape preset: the hand stage first searches {fingers} along the clip, with {weights} "
-                             "(--weights applies on top; see docs/RESULTS.md, Handshapes)")
+                             f"and --hand-slowdown {HANDSHAPE_SLOWDOWN:g} (--weights applies on top; see docs/RESULTS.md, Handshapes)")
     parser.add_argument("--hand-search", type=finger_names, default=None, metavar="FINGERS",
                         help=f"fingers whose joints the hand stage first searches along the clip, e.g. {fingers} "
                              f"(default: none; with --handshape: {fingers})")
+    lo, hi = SLOWDOWN_RANGE
+    parser.add_argument("--hand-slowdown", type=arg_type(check_range, float, lo=lo, hi=hi), default=None, metavar="X",
+                        help=f"how much longer than the latent optimisation's the hand stage may make each segment of the "
+                             f"retimed motion, {lo:g}..{hi:g} (default: 1, never slower; with --handshape: {HANDSHAPE_SLOWDOWN:g})")
 
 
 def hand_search(args) -> tuple[str, ...]:
     """The fingers ``--hand-search`` names, else the preset's with ``--handshape``, else none."""
     return args.hand_search if args.hand_search is not None else (HANDSHAPE_SEARCH if args.handshape else ())
+
+
+def hand_slowdown(args) -> float:
+    """The slowdown ``--hand-slowdown`` gives, else the preset's with ``--handshape``, else 1 (never slower)."""
+    return args.hand_slowdown if args.hand_slowdown is not None else (HANDSHAPE_SLOWDOWN if args.handshape else 1.0)

@@ -24,6 +24,7 @@ from nlo_lab.inference.latent import initial_latent, optimize_latent, optimize_s
 from nlo_lab.inference.retime import retime_times, segment_durations
 from nlo_lab.inference.settings import (
     HANDSHAPE_SEARCH,
+    HANDSHAPE_SLOWDOWN,
     INITS,
     JOINT_INITS,
     JOINT_LIMITS,
@@ -40,7 +41,7 @@ from nlo_lab.inference.trajectory import FORMAT_VERSION, RobotTrajectory, Trajec
 __all__ = [
     # settings
     "INITS", "JOINT_INITS", "JOINT_LIMITS", "PAPER_LR", "SMOOTH_LR", "RPROP_LR", "PAPER_ITERATIONS", "PAPER_PATIENCE",
-    "OptimizeSettings", "JointOptimizeSettings", "HANDSHAPE_SEARCH",
+    "OptimizeSettings", "JointOptimizeSettings", "HANDSHAPE_SEARCH", "HANDSHAPE_SLOWDOWN",
     # fast paths
     "FastPaths", "fast_paths",
     # descent

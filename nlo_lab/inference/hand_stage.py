@@ -215,7 +215,7 @@ from nlo_lab.objective.penetration import penetrating  # here too: where the sta
 from nlo_lab.robot.kinematics import KinematicTree
 from nlo_lab.robot.point_gradient import MapPoints
 from nlo_lab.robot.urdf import JointInfo
-from nlo_lab.settings import SEARCH_GRID
+from nlo_lab.settings import SEARCH_GRID, SLOWDOWN_RANGE, check_range
 
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
@@ -460,7 +460,7 @@ class HandStageResult:
 def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossWeights | None = None, *,
                  iterations: int = 30, patience: int = 5, lr: float = 0.05, collision_form: str = "hinge",
                  anchor: torch.Tensor | None = None, fast: bool | FastPaths = False, search: Sequence[str] = (),
-                 grid: int = SEARCH_GRID) -> HandStageResult:
+                 grid: int = SEARCH_GRID, slowdown: float = 1.0) -> HandStageResult:
     """Optimise the hand joints of ``q (T, n)`` on the objective of ``targets``, the other joints kept.
 
     Only the hands with a finger target in some frame of ``targets`` move; a hand never seen keeps ``q``'s joints.
@@ -478,8 +478,11 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
         search: fingers (names of ``FINGERS``) whose own joints (:func:`finger_joints`) are first searched along the
             whole clip, one joint at a time, each hand the clip shows (:func:`searched_start`: ``grid`` values, the
             speed clamp's caps between frames, the objective without the smoothness term); Adam starts there.
+        slowdown: the speed clamp's caps (:func:`step_caps`) times this (``OptimizeSettings.hand_slowdown``): each
+            retimed segment at most ``slowdown`` times the start's (1: the robot never slower than the start).
     """
     start = time.perf_counter()
+    slowdown = check_range("slowdown", slowdown, *SLOWDOWN_RANGE)
     weights = weights or LossWeights()
     dtype = robot.lower_limits.dtype
     targets = targets.to(dtype=dtype)
@@ -535,7 +538,7 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     if search and iterations:
         caps0 = None  # frame by frame without a frame rate (as the speed clamp below)
         if targets.fps is not None and len(targets) > 1:
-            caps0 = step_caps(q0, robot.velocity_limits, float(targets.fps))[:, index]
+            caps0 = slowdown * step_caps(q0, robot.velocity_limits, float(targets.fps))[:, index]
         columns = [int((index == j).nonzero()) for side in seen for finger in search for j in finger_joints(robot, side, finger)]
         weights_t = loss_fn.weights
 
@@ -550,8 +553,8 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
     best_q = best_q.detach()
     with torch.no_grad():
         caps = None
-        if targets.fps is not None and len(targets) > 1:  # never slower than the start
-            caps = step_caps(q0, robot.velocity_limits, float(targets.fps))[:, index]
+        if targets.fps is not None and len(targets) > 1:  # never slower than the start (times slowdown)
+            caps = slowdown * step_caps(q0, robot.velocity_limits, float(targets.fps))[:, index]
             x = within_speed(best_q[:, index], caps)
             best_q = angles(x)
             loss, _, terms = final(x)

@@ -45,12 +45,14 @@ from nlo_lab.inference.descent import STEPPERS
 from nlo_lab.objective import COLLISION_FORMS
 from nlo_lab.settings import (
     HANDSHAPE_SEARCH,
+    HANDSHAPE_SLOWDOWN,
     ITERATIONS_RANGE,
     LATENT_ITERATIONS,
     PATIENCE_RANGE,
     RATE_RANGE,
     SEARCH_GRID,
     SEED_RANGE,
+    SLOWDOWN_RANGE,
     check_bool,
     check_choice,
     check_int,
@@ -69,6 +71,7 @@ __all__ = [
     "OptimizeSettings",
     "JointOptimizeSettings",
     "HANDSHAPE_SEARCH",
+    "HANDSHAPE_SLOWDOWN",
 ]
 
 INITS = ("encoder", "random", "train-stats", "zeros")
@@ -118,6 +121,10 @@ class OptimizeSettings:
             <nlo_lab.objective.LossWeights.handshape>` is the handshape preset (``docs/RESULTS.md``, "Handshapes"):
             the index is left out, searched it opens and the thumb-index distance loses the human's course (the pinch).
         hand_grid: values per searched joint.
+        hand_slowdown: how much longer than the latent optimisation's the hand stage may make each segment of the
+            retimed trajectory (its speed clamp's caps times this; :func:`~nlo_lab.inference.hand_stage.step_caps`).
+            1 (the default): the hands never make the robot slower than the latent optimisation's output; the
+            handshape preset (:meth:`handshape`) takes :data:`HANDSHAPE_SLOWDOWN`.
     """
 
     init: str = "encoder"
@@ -145,6 +152,7 @@ class OptimizeSettings:
     hand_lr: float = 0.03
     hand_search: tuple[str, ...] = ()
     hand_grid: int = SEARCH_GRID
+    hand_slowdown: float = 1.0
 
     def __post_init__(self) -> None:
         if self.init not in INITS:
@@ -164,6 +172,7 @@ class OptimizeSettings:
         if twice:  # a second pass over a finger only repeats the first's search
             raise SettingsError(f"hand_search names {', '.join(twice)} more than once")
         check_int("hand_grid", self.hand_grid, 2, 256)
+        object.__setattr__(self, "hand_slowdown", check_range("hand_slowdown", self.hand_slowdown, *SLOWDOWN_RANGE))
         if self.lr is not None:
             object.__setattr__(self, "lr", check_range("lr", self.lr, *RATE_RANGE))
         object.__setattr__(self, "latent_sigma", check_range("latent_sigma", self.latent_sigma, *RATE_RANGE))
@@ -177,6 +186,13 @@ class OptimizeSettings:
         """The paper's optimisation: 100 Adam steps with patience 5 (lr 0.01 on the paper's objective,
         whose frames are independent); ``overrides`` as the fields."""
         return cls(**{"iterations": PAPER_ITERATIONS, "patience": PAPER_PATIENCE, "stepper": "adam", **overrides})
+
+    @classmethod
+    def handshape(cls, **overrides) -> OptimizeSettings:
+        """The handshape preset's settings (with :meth:`LossWeights.handshape <nlo_lab.objective.LossWeights.handshape>`,
+        ``nlo-lab retarget --handshape``): the hand stage first searches :data:`HANDSHAPE_SEARCH` and may stretch each
+        retimed segment :data:`HANDSHAPE_SLOWDOWN` times; ``overrides`` as the fields."""
+        return cls(**{"hand_search": HANDSHAPE_SEARCH, "hand_slowdown": HANDSHAPE_SLOWDOWN, **overrides})
 
     def step_rule(self, coupled: bool) -> tuple[str, float, int]:
         """``(stepper, first step, patience)`` for frames ``coupled`` by the smoothness term or not."""

@@ -111,9 +111,10 @@ class LossWeights:
 
     @classmethod
     def handshape(cls) -> LossWeights:
-        """The handshape preset's weights: the defaults with the wrist->fingertip directions (``tip_dir``) at 8000 and
-        the thumb->fingertip directions (``thumb``) at 800, for a hand stage that searches its one-actuator fingers
-        (``OptimizeSettings(hand_search=HANDSHAPE_SEARCH)``; ``nlo-lab retarget --handshape``). Without the search the
+        """The handshape preset's weights: the defaults with the wrist->fingertip directions (``tip_dir``) at 8000, the
+        thumb->fingertip directions (``thumb``) at 800 and the finger base->tip directions (``finger_dir``) at 2000, for
+        a hand stage that searches its one-actuator fingers (:meth:`OptimizeSettings.handshape
+        <nlo_lab.inference.OptimizeSettings.handshape>`; ``nlo-lab retarget --handshape``). Without the search the
         descent stays where the latent optimisation leaves those fingers and these weights change little
         (``benchmarks/hands.py`` measures both: docs/RESULTS.md, "Handshapes")."""
         return cls(**HANDSHAPE_WEIGHTS)

@@ -228,14 +228,14 @@ print(panel.measures)
 # `OptimizeSettings(hand_search=...)` the stage first tries `hand_grid` (16) values of each named finger's
 # motor in every frame and picks the cheapest path through them over the whole clip whose steps the robot
 # can play at the clip's pace (dynamic programming, `path_within_caps`); then Adam polishes. The handshape
-# preset (`nlo-lab retarget --handshape`) searches the middle, ring and little fingers and weighs the
-# fingertip directions more (`LossWeights.handshape()`). Here both run on the real recording of notebook 02;
+# preset (`nlo-lab retarget --handshape`) searches the middle, ring and little fingers, weighs the fingertip
+# directions more (`LossWeights.handshape()`) and lets the hands slow the robot down: each segment of the retimed
+# motion may take up to `hand_slowdown` (1.7) times the latent optimisation's (`OptimizeSettings.handshape()`; the
+# defaults' hands never slow it down). Here both run on the real recording of notebook 02;
 # the plot shows the objective (the preset's weights) along the right ring finger's motor in the first frame where it
 # has two valleys (else where the two runs differ most), and where each run put it; the table the four measures.
 
 # %%
-import dataclasses
-
 from nlo_lab.human import load_demonstration
 from nlo_lab.inference import HANDSHAPE_SEARCH
 from nlo_lab.lab import recording_path
@@ -243,7 +243,8 @@ from nlo_lab.lab import recording_path
 real = load_demonstration(recording_path())
 iters = OptimizeSettings(iterations=budget(40, 10), hand_iterations=budget(60, 10))
 runs = {"defaults": RetargetConfig(robot, settings=iters).build()(real),
-        "handshape preset": RetargetConfig(robot, settings=dataclasses.replace(iters, hand_search=HANDSHAPE_SEARCH),
+        "handshape preset": RetargetConfig(robot, settings=OptimizeSettings.handshape(iterations=iters.iterations,
+                                                                                     hand_iterations=iters.hand_iterations),
                                            weights=LossWeights.handshape()).build()(real)}
 import torch
 

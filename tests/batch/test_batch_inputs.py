@@ -134,13 +134,27 @@ def test_batch_handshape_runs_the_preset_and_its_search(monkeypatch, capsys):
     build a retargeter whose hand stage searches them."""
     import nlo_lab.batch as batch_mod
     from nlo_lab.cli import main as cli_main
-    from nlo_lab.settings import HANDSHAPE_SEARCH, HANDSHAPE_WEIGHTS
+    from nlo_lab.settings import HANDSHAPE_SEARCH, HANDSHAPE_SLOWDOWN, HANDSHAPE_WEIGHTS
 
     seen = {}
     monkeypatch.setattr(batch_mod, "retarget_many", lambda inputs, robot, out, **kw: seen.update(kw) or [])
     assert cli_main(["batch", str(POSE), "--robot", "yumi", "--out", "out", "--handshape", "--weights", "thumb=600"]) == 0
     assert seen["weights"] == {**HANDSHAPE_WEIGHTS, "thumb": 600.0} and seen["hand_search"] == HANDSHAPE_SEARCH
-    assert cli_main(["batch", str(POSE), "--robot", "yumi", "--out", "out", "--hand-search", "ring"]) == 0
-    assert seen["weights"] is None and seen["hand_search"] == ("ring",)
-    settings = BatchSettings("yumi", weights=seen["weights"], hand_search=seen["hand_search"])
+    assert seen["hand_slowdown"] == HANDSHAPE_SLOWDOWN
+    assert cli_main(["batch", str(POSE), "--robot", "yumi", "--out", "out", "--hand-search", "ring", "--hand-slowdown", "2"]) == 0
+    assert seen["weights"] is None and seen["hand_search"] == ("ring",) and seen["hand_slowdown"] == 2.0
+    settings = BatchSettings("yumi", weights=seen["weights"], hand_search=seen["hand_search"], hand_slowdown=seen["hand_slowdown"])
     assert settings.build().config.settings.hand_search == ("ring",)
+    assert settings.build().config.settings.hand_slowdown == 2.0
+
+
+def test_batch_hand_slowdown_is_checked_in_the_client_and_fingerprinted_only_when_not_1():
+    from nlo_lab.errors import SettingsError
+
+    with pytest.raises(SettingsError, match="hand_slowdown"):
+        BatchSettings("yumi", hand_slowdown=0.5)
+    plain = BatchSettings("yumi")
+    assert "hand_slowdown" not in plain.key()  # a batch without it keeps the fingerprint it had
+    assert BatchSettings("yumi", hand_slowdown=1.0).fingerprint() == plain.fingerprint()
+    assert BatchSettings("yumi", hand_slowdown=1.7).key()["hand_slowdown"] == 1.7
+    assert BatchSettings("yumi", hand_slowdown=1.7).fingerprint() != plain.fingerprint()

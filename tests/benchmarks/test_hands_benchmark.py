@@ -43,3 +43,11 @@ def test_the_benchmark_prints_its_tables_with_each_finger_s_error(tmp_path):
         assert len(per) == 5
         # each printed to 0.1°: the mean of the rounded values within 0.05° of the true mean, the rounded mean too
         assert np.mean(per) == pytest.approx(mean, abs=0.1 + 1e-9)
+    # robot time: the clips retimed, pooled and per group (the two groups add up to the pooled time)
+    pooled = [float(c.removesuffix(" s")) for c in cells(
+        "robot time: the clips retimed to the joint velocity limits (dex-retargeting's hands on nlo_lab's arms)")[:2]]
+    groups = [[float(c.strip().removesuffix(" s")) for c in line.strip("|").split("|")[1:]]
+              for line in out.splitlines() if line.startswith("| robot time: the clips retimed to the joint velocity limits |")]
+    assert len(groups) == 2 and all(len(g) == 2 for g in groups)
+    for k in range(2):
+        assert pooled[k] > 0 and groups[0][k] + groups[1][k] == pytest.approx(pooled[k], abs=0.011)

@@ -10,6 +10,7 @@ import nlo_lab.evaluation.scores as scores
 import nlo_lab.training.train as training_mod
 from nlo_lab.cli import main as cli_main
 from nlo_lab.model import load_checkpoint
+from nlo_lab.settings import HANDSHAPE_SLOWDOWN
 
 
 @pytest.mark.slow
@@ -81,3 +82,24 @@ def test_retarget_handshape_and_hand_search_reach_the_pipeline(extra, search, ti
     (config,) = seen
     assert config.settings.hand_search == search
     assert (config.weights.tip_dir, config.weights.thumb) == (tip_dir, thumb)
+    assert config.settings.hand_slowdown == (HANDSHAPE_SLOWDOWN if "--handshape" in extra else 1.0)
+
+
+@pytest.mark.parametrize("extra, slowdown", [(["--hand-slowdown", "2.5"], 2.5), (["--handshape", "--hand-slowdown", "1"], 1.0)])
+def test_retarget_hand_slowdown_reaches_the_pipeline(extra, slowdown, capsys, monkeypatch):
+    """``--hand-slowdown`` sets the hand stage's slowdown, over the preset's too."""
+    import nlo_lab.pipeline as pipeline
+
+    seen = []
+    build = pipeline.RetargetConfig.build
+    monkeypatch.setattr(pipeline.RetargetConfig, "build", lambda self: seen.append(self) or build(self))
+    assert cli_main(["retarget", "demo:introduction_06", "--robot", "yumi", "--iters", "0", "--json", "--quiet", *extra]) == 0
+    assert seen[0].settings.hand_slowdown == slowdown
+
+
+@pytest.mark.parametrize("value", ["0.5", "11", "nan", "x"])
+def test_a_bad_hand_slowdown_is_one_line_and_exit_2(value, capsys, tmp_path):
+    rc = cli_main(["retarget", "demo:introduction_06", "--robot", "yumi", "--hand-slowdown", value, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--hand-slowdown" in err[0], err
+    assert not (tmp_path / "o").exists()

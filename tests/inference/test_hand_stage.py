@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nlo_lab.errors import SettingsError
-from nlo_lab.inference import OptimizeSettings, smoothness_term
+from nlo_lab.inference import HANDSHAPE_SEARCH, HANDSHAPE_SLOWDOWN, OptimizeSettings, smoothness_term
 from nlo_lab.inference.hand_stage import (
     finger_joints,
     hand_joint_mask,
@@ -126,7 +126,8 @@ def test_robots_without_fingers_skip_the_hand_stage(demonstration_from_robot, ra
 @pytest.mark.parametrize("field, value", [("hand_iterations", -1), ("hand_iterations", 1.5), ("hand_lr", 0.0), ("hand_lr", float("nan")),
                                           ("hand_search", ("ring", "toe")), ("hand_search", "ring"), ("hand_search", 3),
                                           ("hand_search", ("ring", "middle", "ring")),
-                                          ("hand_grid", 1), ("hand_grid", 2.5)])
+                                          ("hand_grid", 1), ("hand_grid", 2.5), ("hand_slowdown", 0.5),
+                                          ("hand_slowdown", float("nan")), ("hand_slowdown", 11.0), ("hand_slowdown", "2")])
 def test_bad_hand_stage_settings_are_refused(field, value):
     with pytest.raises(SettingsError, match=field):
         dataclasses.replace(OptimizeSettings(), **{field: value})
@@ -530,6 +531,42 @@ def test_a_searched_hand_stage_is_the_same_fast_and_readable_and_moves_the_searc
     plain = refine_hands(y64, curled, t, iterations=3, fast=True)
     assert float(a.loss.sum()) < float(plain.loss.sum())
     assert (a.q[:, ring_little] < plain.q[:, ring_little] - 0.1).any()
+
+
+def test_the_hand_stage_slows_the_robot_at_most_by_its_slowdown(yumi, demonstration_from_robot, random_feasible_pose):
+    """The same jumping targets with ``slowdown=2``: every retimed segment at most twice the start's, and some longer
+    than the start's (the clamp of slowdown 1 would not allow it)."""
+    q = random_feasible_pose(yumi, 6, seed=25).to(yumi.lower_limits.dtype)
+    t = targets_from_demonstration(demonstration_from_robot(yumi, q), dtype=yumi.lower_limits.dtype)
+    hand = hand_joint_mask(yumi)
+    limits = yumi.velocity_limits.double().numpy()
+    start = q.clone()
+    start[:, hand] = yumi.lower_limits[hand]
+    start[3:] = start[3]
+    before = segment_durations(start.double().numpy(), float(t.fps), limits)
+    after = segment_durations(refine_hands(yumi, start, t, iterations=40, lr=0.1, slowdown=2.0).q.double().numpy(), float(t.fps), limits)
+    assert (after <= 2.0 * before * (1 + 1e-6)).all(), (before, after)
+    assert (after > before * (1 + 1e-3)).any(), (before, after)
+    with pytest.raises(SettingsError, match="slowdown"):
+        refine_hands(yumi, start, t, iterations=1, slowdown=0.9)
+
+
+def test_the_handshape_settings_are_the_preset_s():
+    preset = OptimizeSettings.handshape()
+    assert (preset.hand_search, preset.hand_slowdown) == (HANDSHAPE_SEARCH, HANDSHAPE_SLOWDOWN)
+    assert OptimizeSettings.handshape(hand_slowdown=1.0, iterations=3) == dataclasses.replace(preset, hand_slowdown=1.0, iterations=3)
+    assert OptimizeSettings().hand_slowdown == 1.0
+
+
+def test_retarget_passes_the_slowdown_to_the_stage(yumi, demonstration_from_robot, random_feasible_pose, monkeypatch):
+    import nlo_lab.pipeline as pipeline
+
+    seen = []
+    real = pipeline.refine_hands
+    monkeypatch.setattr(pipeline, "refine_hands", lambda *a, **k: seen.append(k["slowdown"]) or real(*a, **k))
+    q = random_feasible_pose(yumi, 3, seed=5).to(yumi.lower_limits.dtype)
+    RetargetConfig(yumi, OptimizeSettings(iterations=1, hand_iterations=1, hand_slowdown=3.5), retime=False).build()(demonstration_from_robot(yumi, q))
+    assert seen == [3.5]
 
 
 def test_retarget_passes_the_hand_search_to_the_stage(yumi, demonstration_from_robot, random_feasible_pose, monkeypatch):
