@@ -171,7 +171,7 @@ moves along the same frontier: 3x 16.99 / 25.95 / 33.74 / 0.808 and 14.38 / 30.7
 dex-retargeting on wrist->tip on the first group by 0.42°, on base->tip on the second by 0.12°), 6x 17.03 / 26.74 /
 34.31 / 0.795 and 14.24 / 31.32 / 26.81 / 0.769.
 
-It never makes the robot slower: after the descent, each hand joint's step between consecutive
+By default it never makes the robot slower: after the descent, each hand joint's step between consecutive
 frames is clamped, frame by frame, to what leaves the retimed segment no longer than the start's
 (:func:`step_caps`: its velocity limit times the time the retiming gives the start's segment,
 ``max(1/fps, max_k |Δq_k|/v_k)`` over all joints, :mod:`nlo_lab.inference.retime`), so the retimed
@@ -180,6 +180,31 @@ retimed duration from 2.9x to 3.5x (``benchmarks/motion.py``, 2026-11-26); the c
 own limit or start step, which this one replaced, cost the wrist->tip measure 0.25° on the hand
 benchmark's recordings (17.77° against 17.52°, measured 2026-11-26): where the arm already slows a
 segment down, the fingers may move as fast.
+
+``slowdown`` (:attr:`OptimizeSettings.hand_slowdown <nlo_lab.inference.OptimizeSettings.hand_slowdown>`, 1 by
+default) multiplies those caps, the search's and the clamp's: each retimed segment at most ``slowdown`` times the
+start's. The clamp is this stage's own rule, not the robot's (retiming keeps any trajectory within the velocity
+limits), and dex-retargeting has none: its hands, put on the arms of nlo_lab's default output and retimed alike,
+make the robot take 29.05 s over the preset's first four recordings and 22.11 s over the four added after, where
+nlo_lab's defaults take 24.12 s and 15.72 s (its filtered variant 18.42 s and 12.03 s; ``benchmarks/hands.py``'s
+"robot time", 2026-11-28 00:45 UTC).
+Given the time dex-retargeting's hands take, the clamp's caps 1.5x-2x move the frontier (``benchmarks/hands_levers.py
+--recordings chosen|added``, 2026-11-28 00:28-00:44 UTC; the preset's four / the added four, wrist->tip / thumb /
+base->tip [deg] / pinch r, robot time; dex-retargeting unfiltered 16.57 / 27.76 / 36.24 / 0.792 and 14.73 / 33.75 /
+26.66 / 0.757): the defaults with ``caps=1.5`` 16.99 / 25.45 / 33.44 / 0.807, 27.53 s and 14.55 / 28.90 / 26.39 /
+0.831, 17.61 s (ahead on all four on the added four, behind on wrist->tip on the first); the preset as it was
+(``tip_dir`` 8000, ``thumb`` 800, the search) with ``caps=1.5`` 16.38 / 26.64 / 33.44 / 0.805, 27.61 s and 14.01 /
+30.98 / 27.32 / 0.784, 17.80 s (behind on base->tip on the added four); with ``finger_dir`` 2000 too and ``caps=1.7``
+16.53 / 27.01 / 32.54 / 0.803, 28.47 s and 14.16 / 30.39 / 26.39 / 0.779, 18.23 s: ahead of dex-retargeting on all
+four measures on both groups, in less robot time than its hands take. That is the handshape preset now
+(:meth:`LossWeights.handshape <nlo_lab.objective.LossWeights.handshape>`, :meth:`OptimizeSettings.handshape
+<nlo_lab.inference.OptimizeSettings.handshape>`, ``HANDSHAPE_SLOWDOWN``); its margins on wrist->tip (0.04° on the
+first group) and base->tip (0.27° on the second) are narrow, and it was chosen on all eight recordings.
+Neighbours trade again: ``finger_dir`` 1500 with ``caps=1.5`` is behind on base->tip on the added four (26.83°),
+``finger_dir`` 2000 with ``caps=1.5`` behind on wrist->tip on the first (16.58°), ``caps=2`` ahead on both but the
+first group's robot time (29.44 s) above dex-retargeting's. On the held-out synthetic test clips (``--corpus 25``) the
+new preset scores 10.56 / 15.65 / 16.41 / 0.767 (the old 10.07 / 14.82 / 18.82 / 0.783, the defaults 11.23 / 16.54 /
+14.42 / 0.720), in 220.47 s of robot time against the defaults' 216.71 s.
 
 It never adds a self-collision: a frame where the stage's hands would put two capsules into each
 other (surface distance < 0) and the start's did not keeps the start's hands (the collision term

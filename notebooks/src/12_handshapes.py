@@ -296,7 +296,8 @@ for key, label in (("tip_deg", "wrist→tip"), ("thumb_deg", "thumb→tips"), ("
     print(f"{label:10s} {before[key]:6.1f}° -> {panel.measures[key]:6.1f}°")
 
 # %% [markdown]
-# One short clip decides little, and the preset was chosen on four real recordings.
+# One short clip decides little, and the preset was chosen on real recordings (its search and first weights on four,
+# its `finger_dir` weight and slowdown on eight).
 # The numbers of `benchmarks/hands.py` (nlo_lab and the preset against dex-retargeting on every
 # real recording we have, on four recordings added after the preset's choice apart, how sure each margin is,
 # and on held-out synthetic clips) are in `docs/RESULTS.md`, section "Handshapes".
