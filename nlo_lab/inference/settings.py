@@ -117,8 +117,9 @@ class OptimizeSettings:
             searches along the whole clip (``hand_grid`` values of each, every step within the speed clamp's caps,
             by the objective), before its Adam steps: a finger of one actuator (the Inspire hand's) has two basins,
             curled and half open, and the descent stays in the one it starts in (``nlo_lab.inference.hand_stage``).
-            Default none; :data:`HANDSHAPE_SEARCH` with :meth:`LossWeights.handshape
-            <nlo_lab.objective.LossWeights.handshape>` is the handshape preset (``docs/RESULTS.md``, "Handshapes"):
+            Default none; :data:`HANDSHAPE_SEARCH` (with :data:`HANDSHAPE_SLOWDOWN`: :meth:`handshape`) and
+            :meth:`LossWeights.handshape <nlo_lab.objective.LossWeights.handshape>` are the handshape preset
+            (``docs/RESULTS.md``, "Handshapes"):
             the index is left out, searched it opens and the thumb-index distance loses the human's course (the pinch).
         hand_grid: values per searched joint.
         hand_slowdown: how much longer than the latent optimisation's the hand stage may make each segment of the
