@@ -607,29 +607,9 @@ def refine_hands(robot: Robot, q: torch.Tensor, targets: Targets, weights: LossW
 
 def finger_joints(robot: Robot, side: str, finger: str) -> list[int]:
     """Indices into ``robot.joint_names`` of the actuated joints that move ``finger``'s tip link of ``side`` and no
-    other finger's (a mimic joint counts as the joint it follows): what a search of that finger sets. Empty when
-    the arm has no such finger (or every joint above its tip moves another finger too)."""
-    arm = robot.arm(side)
-
-    def above(link: str) -> set[int]:  # the actuated joints between the wrist link and ``link``
-        out: set[int] = set()
-        while link != arm.wrist:
-            joint = robot.model.parent_joint(link)
-            if joint is None:  # not below the wrist: no hand joint moves it
-                return set()
-            name = joint.mimic[0] if joint.mimic else joint.name
-            if joint.moving and name in robot.joint_names:
-                out.add(robot.joint_names.index(name))
-            link = joint.parent
-        return out
-
-    if finger not in arm.fingers:
-        return []
-    own = above(arm.fingers[finger][1])
-    for other, (_, tip) in arm.fingers.items():
-        if other != finger:
-            own -= above(tip)
-    return sorted(own)
+    other finger's: what a search of that finger sets (:meth:`Robot.finger_joints
+    <nlo_lab.robot.Robot.finger_joints>`, which ``nlo-lab robot check`` reports too)."""
+    return robot.finger_joints(side, finger)
 
 
 def path_within_caps(cost: np.ndarray, values: np.ndarray, caps: np.ndarray | None) -> tuple[np.ndarray, float]:

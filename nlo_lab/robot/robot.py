@@ -179,6 +179,32 @@ class Robot:
             raise RobotDescriptionError(f"{self.name}: unknown side {side!r}; expected one of {SIDES}")
         return self.spec.arms[side]
 
+    def finger_joints(self, side: str, finger: str) -> list[int]:
+        """Indices into :attr:`joint_names` of the actuated joints that move ``finger``'s tip link of ``side`` and no
+        other finger's (a mimic joint counts as the joint it follows): what the hand stage's search of that finger
+        sets. Empty when the arm has no such finger, or every joint above its tip moves another finger too."""
+        arm = self.arm(side)
+
+        def above(link: str) -> set[int]:  # the actuated joints between the wrist link and ``link``
+            out: set[int] = set()
+            while link != arm.wrist:
+                joint = self.model.parent_joint(link)
+                if joint is None:  # not below the wrist: no hand joint moves it
+                    return set()
+                name = joint.mimic[0] if joint.mimic else joint.name
+                if joint.moving and name in self.joint_names:
+                    out.add(self.joint_names.index(name))
+                link = joint.parent
+            return out
+
+        if finger not in arm.fingers:
+            return []
+        own = above(arm.fingers[finger][1])
+        for other, (_, tip) in arm.fingers.items():
+            if other != finger:
+                own -= above(tip)
+        return sorted(own)
+
     def wrist_alignment(self, side: str) -> torch.Tensor:
         """``(3, 3)`` ``R_wristlink_handframe`` of ``side`` in the robot's dtype and device."""
         return self.arm(side).wrist_alignment.to(dtype=self.dtype, device=self.device)

@@ -31,6 +31,8 @@ class SpecReport:
         fingers: side -> the fingers the spec names.
         fixed: how many moving joints of the URDF the spec fixes.
         colliding: checked pairs closer than 0 at the neutral pose, with their distance [m].
+        own_fingers: side -> the fingers with a joint of their own (:meth:`Robot.finger_joints
+            <nlo_lab.robot.Robot.finger_joints>`): those the hand stage's finger search can move.
     """
 
     robot: Robot
@@ -40,6 +42,7 @@ class SpecReport:
     fingers: dict[str, list[str]]
     fixed: int
     colliding: list[tuple[str, str, float]] = field(default_factory=list)
+    own_fingers: dict[str, list[str]] = field(default_factory=dict)
 
 
 def _below(model, link: str) -> set[str]:
@@ -74,7 +77,8 @@ def check_spec(path) -> SpecReport:
         d = robot.capsule_distances(robot.forward_kinematics(robot.neutral_q[None].double().to(robot.dtype)))[0]
     colliding = [(a, b, float(v)) for (a, b), v in zip(robot.spec.collision_pairs, d.tolist(), strict=True) if v < 0]
     fixed = len(robot.spec.fixed_joints or ())
-    return SpecReport(robot, arm_joints, hand_joints, lengths, fingers, fixed, colliding)
+    own = {side: [f for f in fingers[side] if robot.finger_joints(side, f)] for side in SIDES}
+    return SpecReport(robot, arm_joints, hand_joints, lengths, fingers, fixed, colliding, own)
 
 
 def spec_summary(report: SpecReport) -> list[str]:
@@ -86,6 +90,13 @@ def spec_summary(report: SpecReport) -> list[str]:
         up, fore = report.lengths[side]
         arm = r.arm(side)
         fingers = ", ".join(report.fingers[side]) or "none"
+        own = report.own_fingers.get(side, [])
+        if report.fingers[side] and own == report.fingers[side]:
+            fingers += " (each with a joint of its own)"
+        elif report.fingers[side]:  # the finger search (--hand-search) moves a finger's own joints only
+            alone = f"a joint of its own: {', '.join(own)}; " if own else ""
+            rest = [f for f in report.fingers[side] if f not in own]
+            fingers += f" ({alone}no joint of its own, the finger search cannot move: {', '.join(rest)})"
         lines.append(f"  {side:<5} arm: {len(report.arm_joints[side])} joints, upper arm {up:.3f} m + forearm {fore:.3f} m "
                      f"(shoulder {arm.shoulder}, elbow {arm.elbow}, wrist {arm.wrist}); "
                      f"hand: {len(report.hand_joints[side])} joints, fingers {fingers}")
