@@ -150,7 +150,7 @@ def add_hand_flags(parser: argparse.ArgumentParser) -> None:
     weights = ",".join(f"{k}={v:g}" for k, v in HANDSHAPE_WEIGHTS.items())
     parser.add_argument("--handshape", action="store_true",
                         help=f"the handshape preset: the hand stage first searches {fingers} along the clip, with {weights} "
-                             f"and --hand-slowdown {HANDSHAPE_SLOWDOWN:g} (--weights applies on top; see docs/RESULTS.md, Handshapes)")
+                             f"and the hands' slowdown at {HANDSHAPE_SLOWDOWN:g} (--weights applies on top; see docs/RESULTS.md, Handshapes)")
     parser.add_argument("--hand-search", type=finger_names, default=None, metavar="FINGERS",
                         help=f"fingers whose joints the hand stage first searches along the clip, e.g. {fingers} "
                              f"(default: none; with --handshape: {fingers})")
