@@ -131,7 +131,8 @@ class RetargetConfig:
         Raises:
             SettingsError: ``chunk_frames`` is not a whole number >= 1 or None; ``fast`` is
                 not True, False or a FastPaths; ``settings.hand_search`` names fingers for a robot without
-                finger joints, or a finger no joint of its hands moves alone (nothing to search).
+                finger joints, or a finger no joint of its hands moves alone (nothing to search);
+                ``settings.hand_slowdown`` other than 1 for a robot without hand joints (nothing to slow).
             CheckpointError: no shipped checkpoint for this robot (``model`` and ``checkpoint``
                 omitted), or a ``checkpoint`` that is missing, damaged or made for another robot.
         """
@@ -152,8 +153,13 @@ class RetargetConfig:
         return Retargeter(self, model, self.settings or OptimizeSettings(), self.weights or LossWeights())
 
     def _check_hand_search(self) -> None:
-        """A searched finger must have joints of its own on this robot: else the search would silently do nothing."""
+        """A searched finger must have joints of its own on this robot, and a hand slowdown hand joints: else the
+        setting would silently do nothing."""
         search = self.settings.hand_search if self.settings is not None else ()
+        slowdown = self.settings.hand_slowdown if self.settings is not None else 1.0
+        if slowdown != 1.0 and not search and not has_hand_joints(self.robot):  # with a search: its message below
+            raise SettingsError(f"hand_slowdown ({slowdown:g}): {self.robot.name} has no hand joints for the hand stage to "
+                                "move (a robot with hands, such as yumi)")
         if not search:
             return
         if not has_hand_joints(self.robot):

@@ -123,6 +123,9 @@ def run(args) -> int:
         flag = "--hand-search" if args.hand_search is not None else "--handshape"
         raise UsageError(f"nlo-lab retarget: {flag}: {robot.name} has no finger joints for the hand stage to search "
                          "(a robot with hands, such as yumi)")
+    if args.hand_slowdown not in (None, 1.0) and not has_hand_joints(robot):  # likewise: nothing to slow
+        raise UsageError(f"nlo-lab retarget: --hand-slowdown: {robot.name} has no hand joints for the hand stage to move "
+                         "(a robot with hands, such as yumi)")
     model = load_pretrained(robot, args.checkpoint)  # before any work: a missing checkpoint is refused at once
     progress = not args.quiet and sys.stderr.isatty()
     video = None

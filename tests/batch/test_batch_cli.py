@@ -162,6 +162,8 @@ def test_a_scheduler_address_where_something_else_listens(tmp_path):
     (["{corpus}", "--robot", "nao", "--out", "{out}", "--hand-search", "pinky,pinky"], "pinky named more than once"),
     (["{corpus}", "--robot", "nobody", "--out", "{out}", "--workers", "1"], "unknown robot 'nobody'"),
     (["{corpus}", "--robot", "nao", "--out", "{out}", "--handshape", "--workers", "1"], "nao has no finger joints to search"),
+    (["{corpus}", "--robot", "nao", "--out", "{out}", "--hand-slowdown", "2", "--workers", "1"], "nao has no hand joints"),
+    (["{corpus}", "--robot", "nao", "--out", "{out}", "--hand-slowdown", "0.5"], "--hand-slowdown: must be in [1, 10]"),
 ])
 def test_usage_errors_are_one_line_and_exit_2(tmp_path, args, needle):
     corpus = tmp_path / "corpus"

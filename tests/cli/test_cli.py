@@ -47,6 +47,15 @@ def test_a_hand_search_for_a_robot_without_fingers_exit_2(capsys, tmp_path, asse
     assert not (tmp_path / "o").exists()
 
 
+def test_a_hand_slowdown_for_a_robot_without_hands_exit_2(capsys, tmp_path, assert_one_line_error):
+    code, _, err = run(["retarget", "demo:introduction_06", "--robot", "nao", "--hand-slowdown", "2", "--out", str(tmp_path / "o")], capsys)
+    assert_one_line_error(code, err, "--hand-slowdown", "nao has no hand joints")
+    assert not (tmp_path / "o").exists()
+    code, _, err = run(["retarget", "demo:introduction_06", "--robot", "nao", "--hand-slowdown", "1", "--iters", "0", "--json",
+                        "--quiet"], capsys)
+    assert code == 0, err  # 1: the default, nothing asked of the hands
+
+
 def test_bad_weights_exit_2(capsys, assert_one_line_error):
     code, _, err = run(["retarget", "demo:x", "--robot", "nao", "--weights", "ee=banana"], capsys)
     assert_one_line_error(code, err, "ee")

@@ -100,6 +100,16 @@ def test_a_finger_search_on_a_robot_without_fingers_is_refused_when_built(nao, m
     assert not RetargetConfig(nao, SETTINGS, model=model).build().has_hand_joints  # without the search: built
 
 
+def test_a_hand_slowdown_on_a_robot_without_hands_is_refused_when_built(nao, model):
+    from nlo_lab.robot import load_robot
+
+    with pytest.raises(SettingsError, match=r"hand_slowdown \(2\): nao has no hand joints"):
+        RetargetConfig(nao, OptimizeSettings(iterations=8, hand_slowdown=2.0), model=model).build()
+    with pytest.raises(SettingsError, match=r"hand_search \(ring\): nao has no finger joints"):  # the search's message first
+        RetargetConfig(nao, OptimizeSettings(iterations=8, hand_search=("ring",), hand_slowdown=2.0), model=model).build()
+    RetargetConfig(load_robot("yumi"), OptimizeSettings(hand_slowdown=2.0))._check_hand_search()  # a robot with hands: accepted
+
+
 def test_a_searched_finger_the_hands_do_not_have_is_refused_when_built(tmp_path):
     import json
     from pathlib import Path
