@@ -20,8 +20,7 @@ from nlo_lab.cli.flags import (
     UsageError,
     add_hand_flags,
     add_optimisation_flags,
-    hand_search,
-    hand_slowdown,
+    hand_settings,
     ranged_int,
 )
 from nlo_lab.errors import escape
@@ -88,8 +87,7 @@ def run(args) -> int:
             tqdm.write(f"nlo-lab: error: {row['error']}", file=sys.stderr)  # above the bar, if there is one
 
     table = retarget_many(args.inputs, args.robot, args.out, init=args.init, iterations=args.iters, seed=args.seed,
-                          weights=weights, viewer=args.viewer, hand_search=hand_search(args),
-                          hand_slowdown=hand_slowdown(args), workers=args.workers,
+                          weights=weights, viewer=args.viewer, **hand_settings(args), workers=args.workers,
                           scheduler=args.scheduler,
                           resume=not args.no_resume, retry_failed=args.retry_failed, progress=not args.quiet, on_row=on_row)
     rows = table.to_dict("records") if hasattr(table, "to_dict") else table

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from nlo_lab import settings
 from nlo_lab.errors import NloLabError, SettingsError
@@ -42,6 +42,8 @@ __all__ = [
     "positive_float",
     "LazyChoices",
     "add_optimisation_flags",
+    "add_hand_flags",
+    "hand_settings",
 ]
 
 # Stated ranges of the numeric flags: a value outside is refused (exit 2, one line) before any work.
@@ -160,11 +162,10 @@ def add_hand_flags(parser: argparse.ArgumentParser) -> None:
                              f"retimed motion, {lo:g}..{hi:g} (default: 1, never slower; with --handshape: {HANDSHAPE_SLOWDOWN:g})")
 
 
-def hand_search(args) -> tuple[str, ...]:
-    """The fingers ``--hand-search`` names, else the preset's with ``--handshape``, else none."""
-    return args.hand_search if args.hand_search is not None else (HANDSHAPE_SEARCH if args.handshape else ())
-
-
-def hand_slowdown(args) -> float:
-    """The slowdown ``--hand-slowdown`` gives, else the preset's with ``--handshape``, else 1 (never slower)."""
-    return args.hand_slowdown if args.hand_slowdown is not None else (HANDSHAPE_SLOWDOWN if args.handshape else 1.0)
+def hand_settings(args) -> dict[str, Any]:
+    """The hand stage's settings the flags give (``OptimizeSettings``' and ``retarget_many``'s keywords):
+    ``hand_search``, the fingers ``--hand-search`` names, else the preset's with ``--handshape``, else none;
+    ``hand_slowdown``, ``--hand-slowdown``'s, else the preset's with ``--handshape``, else 1 (never slower)."""
+    search = args.hand_search if args.hand_search is not None else (HANDSHAPE_SEARCH if args.handshape else ())
+    slowdown = args.hand_slowdown if args.hand_slowdown is not None else (HANDSHAPE_SLOWDOWN if args.handshape else 1.0)
+    return {"hand_search": search, "hand_slowdown": slowdown}

@@ -20,8 +20,7 @@ from nlo_lab.cli.flags import (
     UsageError,
     add_hand_flags,
     add_optimisation_flags,
-    hand_search,
-    hand_slowdown,
+    hand_settings,
     positive_float,
     ranged_int,
 )
@@ -117,7 +116,7 @@ def run(args) -> int:
     weights = LossWeights.from_string(args.weights, base) if args.weights else base
     _check_weights(weights)
     settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed, latent_sigma=args.sigma,
-                                hand_search=hand_search(args), hand_slowdown=hand_slowdown(args))
+                                **hand_settings(args))
     robot = load_robot(args.robot)
     if settings.hand_search and not has_hand_joints(robot):  # the pipeline refuses it too, naming the setting
         flag = "--hand-search" if args.hand_search is not None else "--handshape"
