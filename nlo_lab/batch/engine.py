@@ -321,7 +321,8 @@ def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "
     Raises:
         InputError: an input path that does not exist, no input found, two inputs for one folder.
         SchedulerError: no scheduler at ``scheduler``; the batch extra missing.
-        SettingsError: ``workers`` outside :data:`nlo_lab.settings.WORKERS_RANGE`.
+        SettingsError: ``workers`` outside :data:`nlo_lab.settings.WORKERS_RANGE`, ``hand_slowdown`` outside
+            :data:`nlo_lab.settings.SLOWDOWN_RANGE` (both before any input is read).
         OutputError: ``out`` is empty, not a folder or cannot be written (checked before any input is
             read); another batch is writing it.
         NloLabError: an unknown robot, a bad setting (found when the first worker loads the model, before
