@@ -326,7 +326,7 @@ def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "
         OutputError: ``out`` is empty, not a folder or cannot be written (checked before any input is
             read); another batch is writing it.
         NloLabError: an unknown robot, a bad setting (found when the first worker loads the model, before
-            any input runs).
+            any input runs; no ``results.csv`` is written where there was none).
     """
     if client is not None and scheduler:
         raise SchedulerError("give a client or a scheduler address, not both")

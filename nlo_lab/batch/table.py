@@ -96,7 +96,8 @@ class ResultsTable:
     :meth:`set` records a row; the file is rewritten at most every ``interval`` seconds
     (a corpus of thousands of inputs would otherwise rewrite a large file per result) and
     by :meth:`flush`. The file only ever holds rows of finished inputs: an interrupted run
-    leaves a true table.
+    leaves a true table, and a run refused before any input was decided (an unknown robot,
+    a setting the robot cannot take) leaves none where there was none.
     """
 
     def __init__(self, path, order: list[str], interval: float = 1.0):
@@ -117,6 +118,8 @@ class ResultsTable:
 
     def flush(self) -> None:
         if not self._dirty and self.path.exists():
+            return
+        if not self.rows and not self.path.exists():  # nothing decided: no header-only file
             return
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")

@@ -20,6 +20,7 @@ from nlo_lab.cli.flags import (
     UsageError,
     add_hand_flags,
     add_optimisation_flags,
+    check_hand_flags,
     hand_settings,
     ranged_int,
 )
@@ -56,8 +57,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def _check(args):
-    """Flags that contradict each other, and weights out of their stated range, before any work; the weights to run
-    (``--handshape``'s under ``--weights``)."""
+    """Flags that contradict each other, weights out of their stated range and hand flags on a robot without hands,
+    before any work; the weights to run (``--handshape``'s under ``--weights``)."""
     from nlo_lab.batch import BatchSettings
 
     if args.scheduler and args.workers is not None:
@@ -71,6 +72,11 @@ def _check(args):
     for name, value in weights:
         if not lo <= value <= hi:  # NaN fails this too
             raise UsageError(f"nlo-lab batch: --weights: weight {name}={value!r} must be in [{lo:g}, {hi:g}]")
+    hand = hand_settings(args)
+    if hand["hand_search"] or hand["hand_slowdown"] != 1.0:  # on a robot without hands: refused here, naming the flag
+        from nlo_lab.robot import load_robot
+
+        check_hand_flags(args, load_robot(args.robot), "batch")
     return {**HANDSHAPE_WEIGHTS, **dict(weights)} if args.handshape else args.weights
 
 

@@ -44,6 +44,7 @@ __all__ = [
     "add_optimisation_flags",
     "add_hand_flags",
     "hand_settings",
+    "check_hand_flags",
 ]
 
 # Stated ranges of the numeric flags: a value outside is refused (exit 2, one line) before any work.
@@ -169,3 +170,20 @@ def hand_settings(args) -> dict[str, Any]:
     search = args.hand_search if args.hand_search is not None else (HANDSHAPE_SEARCH if args.handshape else ())
     slowdown = args.hand_slowdown if args.hand_slowdown is not None else (HANDSHAPE_SLOWDOWN if args.handshape else 1.0)
     return {"hand_search": search, "hand_slowdown": slowdown}
+
+
+def check_hand_flags(args, robot, command: str) -> None:
+    """``--handshape``, ``--hand-search`` and ``--hand-slowdown`` refused on a robot without hand joints, naming the
+    flag given (the pipeline refuses the settings too, naming them: here the user reads what they typed)."""
+    from nlo_lab.pipeline import has_hand_joints
+
+    if has_hand_joints(robot):
+        return
+    settings = hand_settings(args)
+    if settings["hand_search"]:
+        flag = "--hand-search" if args.hand_search is not None else "--handshape"
+        raise UsageError(f"nlo-lab {command}: {flag}: {robot.name} has no finger joints for the hand stage to search "
+                         "(a robot with hands, such as yumi)")
+    if args.hand_slowdown not in (None, 1.0):  # nothing to slow
+        raise UsageError(f"nlo-lab {command}: --hand-slowdown: {robot.name} has no hand joints for the hand stage to move "
+                         "(a robot with hands, such as yumi)")

@@ -20,6 +20,7 @@ from nlo_lab.cli.flags import (
     UsageError,
     add_hand_flags,
     add_optimisation_flags,
+    check_hand_flags,
     hand_settings,
     positive_float,
     ranged_int,
@@ -106,7 +107,7 @@ def run(args) -> int:
     from nlo_lab.inference import OptimizeSettings
     from nlo_lab.model import load_pretrained
     from nlo_lab.objective import LossWeights
-    from nlo_lab.pipeline import RetargetConfig, has_hand_joints
+    from nlo_lab.pipeline import RetargetConfig
     from nlo_lab.robot import load_robot
 
     if args.out is not None:
@@ -118,13 +119,7 @@ def run(args) -> int:
     settings = OptimizeSettings(init=args.init, iterations=args.iters, seed=args.seed, latent_sigma=args.sigma,
                                 **hand_settings(args))
     robot = load_robot(args.robot)
-    if settings.hand_search and not has_hand_joints(robot):  # the pipeline refuses it too, naming the setting
-        flag = "--hand-search" if args.hand_search is not None else "--handshape"
-        raise UsageError(f"nlo-lab retarget: {flag}: {robot.name} has no finger joints for the hand stage to search "
-                         "(a robot with hands, such as yumi)")
-    if args.hand_slowdown not in (None, 1.0) and not has_hand_joints(robot):  # likewise: nothing to slow
-        raise UsageError(f"nlo-lab retarget: --hand-slowdown: {robot.name} has no hand joints for the hand stage to move "
-                         "(a robot with hands, such as yumi)")
+    check_hand_flags(args, robot, "retarget")
     model = load_pretrained(robot, args.checkpoint)  # before any work: a missing checkpoint is refused at once
     progress = not args.quiet and sys.stderr.isatty()
     video = None

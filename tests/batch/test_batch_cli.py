@@ -161,8 +161,12 @@ def test_a_scheduler_address_where_something_else_listens(tmp_path):
     (["{corpus}", "--robot", "nao", "--out", "{out}", "--hand-search", "ring,toe"], "unknown fingers ['toe']"),
     (["{corpus}", "--robot", "nao", "--out", "{out}", "--hand-search", "pinky,pinky"], "pinky named more than once"),
     (["{corpus}", "--robot", "nobody", "--out", "{out}", "--workers", "1"], "unknown robot 'nobody'"),
-    (["{corpus}", "--robot", "nao", "--out", "{out}", "--handshape", "--workers", "1"], "nao has no finger joints to search"),
-    (["{corpus}", "--robot", "nao", "--out", "{out}", "--hand-slowdown", "2", "--workers", "1"], "nao has no hand joints"),
+    (["{corpus}", "--robot", "nao", "--out", "{out}", "--handshape", "--workers", "1"],
+     "--handshape: nao has no finger joints for the hand stage to search"),
+    (["{corpus}", "--robot", "nao", "--out", "{out}", "--hand-search", "ring", "--workers", "1"],
+     "--hand-search: nao has no finger joints for the hand stage to search"),
+    (["{corpus}", "--robot", "nao", "--out", "{out}", "--hand-slowdown", "2", "--workers", "1"],
+     "--hand-slowdown: nao has no hand joints for the hand stage to move"),
     (["{corpus}", "--robot", "nao", "--out", "{out}", "--hand-slowdown", "0.5"], "--hand-slowdown: must be in [1, 10]"),
 ])
 def test_usage_errors_are_one_line_and_exit_2(tmp_path, args, needle):
@@ -172,6 +176,7 @@ def test_usage_errors_are_one_line_and_exit_2(tmp_path, args, needle):
     proc = batch(*(a.format(corpus=corpus, out=tmp_path / "out") for a in args))
     assert_one_line_error(proc, needle)
     assert not (tmp_path / "out" / "a").exists()
+    assert not (tmp_path / "out" / "results.csv").exists()  # refused before any input was decided: no table at all
 
 
 def _children(pid: int) -> list[int]:

@@ -139,8 +139,22 @@ def test_an_unknown_robot_is_refused_when_the_first_worker_loads_it(tmp_path):
     shutil.copy(POSE, tmp_path / "in" / "a.pose")
     with pytest.raises(UnknownRobotError, match="unknown robot 'nobody'"):
         retarget_many([tmp_path / "in"], "nobody", tmp_path / "out", workers=1)
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".nlo-lab-batch.lock", "results.csv"]
-    assert (tmp_path / "out" / "results.csv").read_text().splitlines() == [",".join(COLUMNS)]  # no row: nothing ran
+    # nothing ran: no folder and no table (not even a header), only the run's lock
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".nlo-lab-batch.lock"]
+
+
+@pytest.mark.slow
+def test_a_refused_run_keeps_the_table_an_earlier_run_wrote(tmp_path):
+    from nlo_lab.errors import UnknownRobotError
+
+    (tmp_path / "in").mkdir()
+    shutil.copy(POSE, tmp_path / "in" / "a.pose")
+    (tmp_path / "out").mkdir()
+    earlier = ",".join(COLUMNS) + "\n" + ",".join(["a.pose", "failed", "boom"] + [""] * (len(COLUMNS) - 3)) + "\n"
+    (tmp_path / "out" / "results.csv").write_text(earlier)
+    with pytest.raises(UnknownRobotError, match="unknown robot 'nobody'"):
+        retarget_many([tmp_path / "in"], "nobody", tmp_path / "out", workers=1)
+    assert (tmp_path / "out" / "results.csv").read_text() == earlier
 
 
 def test_the_table_is_a_dataframe_when_pandas_is_there(tmp_path, monkeypatch):
