@@ -10,11 +10,33 @@
 * :func:`tracking_errors`: wrist and elbow Fréchet distances after mapping the
   human into the robot's frame, plus velocity and acceleration errors.
 * :func:`self_collision_frames`, :func:`limit_violations`: feasibility counts.
+* :func:`hand_scores`, :func:`hand_summary`: handshape measures, how well a robot hand takes the shape of
+  the human hand (below).
 * :func:`velocity_violations`, :func:`max_joint_speed_ratio`, :func:`max_joint_step`:
   joint speed against the robot's published velocity limits, on a trajectory's own
   time base (a retimed trajectory's samples are not ``1/fps`` apart), on
   :func:`joint_speeds` and :func:`speed_ratios` (at home in :mod:`nlo_lab.robot.speeds`:
   retiming reads them too; here for the metrics' readers).
+
+**Handshape measures.** One scorer for any method's joint angles (``benchmarks/hands.py`` scores nlo_lab
+and dex-retargeting with it; notebook 12 each handshape of its gallery; the retargeting summary its means).
+Everything is compared in the wrist frame (the human's ``R_body_wrist``; the robot's wrist link turned by
+the spec's ``wrist_alignment``), so the measures see the handshape alone, not where the arm put the hand.
+A **hand-frame** is one hand in one frame where the demonstration observed the wrist frame and
+all five fingers (base and tip). Directions are unit vectors; an angle is
+``atan2(|u × û|, u · û)`` in degrees. Per hand-frame:
+
+* ``tip``: wrist -> fingertip direction error, mean over the five fingers (``tip_fingers``: each finger's,
+  thumb .. little; :meth:`HandScores.tip_per_finger` their means over a set of hand-frames);
+* ``thumb``: thumb tip -> fingertip direction error, mean over the four other fingers;
+* ``finger``: finger base (knuckle; thumb: its metacarpophalangeal joint) -> tip direction
+  error, mean over the five fingers;
+* ``pinch_human``, ``pinch_robot``: thumb tip -> index tip distance in hand lengths (the mean
+  wrist -> knuckle distance of the four fingers: the demonstrator's median over the recording,
+  the robot's at its reference pose).
+
+Over a set of hand-frames (:meth:`HandScores.summary`): the three angles averaged, and the
+**pinch correlation**, Pearson's r of ``pinch_human`` against ``pinch_robot``.
 
 The metrics measure a trajectory; they come after inference on the data's path and import
 nothing of it. The retargeting summary (:func:`nlo_lab.pipeline.summary`) reports them
@@ -24,13 +46,16 @@ nothing of it. The retargeting summary (:func:`nlo_lab.pipeline.summary`) report
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import torch
 
 from nlo_lab.errors import SettingsError
 from nlo_lab.human import map_to_robot
-from nlo_lab.human.demonstration import SIDES
+from nlo_lab.human.demonstration import FINGERS, SIDES
+from nlo_lab.objective import point_plan, targets_from_demonstration
 from nlo_lab.robot import check_angles
 from nlo_lab.robot.speeds import joint_speeds, speed_ratios
 from nlo_lab.settings import check_array, check_positive
@@ -53,6 +78,13 @@ __all__ = [
     "velocity_violations",
     "max_joint_speed_ratio",
     "max_joint_step",
+    "MEASURES",
+    "HAND_KEYS",
+    "HandScores",
+    "angle_deg",
+    "hand_frames_mask",
+    "hand_scores",
+    "hand_summary",
 ]
 
 
@@ -398,3 +430,150 @@ def max_joint_step(angles: Any) -> float:
     if q.ndim != 2 or not np.isfinite(q).all():
         raise SettingsError(f"angles must be (T, n) finite joint angles, got shape {q.shape}")
     return float(np.abs(np.diff(q, axis=0)).max()) if len(q) > 1 and q.shape[1] else 0.0
+
+
+# ---- handshape measures (the module's docstring defines them) ----
+
+MEASURES = ("tip", "thumb", "finger", "pinch")  # the summary's keys: tip_deg, thumb_deg, finger_deg, pinch_r
+
+
+def angle_deg(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Angle between the vectors ``u, v (..., 3)`` in degrees, ``(...)`` (0 where either is zero)."""
+    return np.degrees(np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), (u * v).sum(-1)))
+
+
+@dataclass
+class HandScores:
+    """Per hand-frame measures (N hand-frames), see the module's docstring.
+
+    Attributes:
+        tip, thumb, finger: ``(N,)`` [deg].
+        pinch_human, pinch_robot: ``(N,)`` [hand lengths].
+        side: ``(N,)`` 0 left, 1 right; frame: ``(N,)`` the frame index.
+        tip_fingers: ``(N, 5)`` [deg] the wrist -> fingertip direction error of each finger (thumb .. little, the
+            demonstration's ``FINGERS``); ``tip`` is its mean over the fingers.
+    """
+
+    tip: np.ndarray
+    thumb: np.ndarray
+    finger: np.ndarray
+    pinch_human: np.ndarray
+    pinch_robot: np.ndarray
+    side: np.ndarray
+    frame: np.ndarray
+    tip_fingers: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.tip.shape[0])
+
+    @staticmethod
+    def cat(items: list[HandScores]) -> HandScores:
+        """Pool several recordings' hand-frames."""
+        return HandScores(**{f.name: np.concatenate([getattr(s, f.name) for s in items]) for f in fields(HandScores)})
+
+    def pinch_correlation(self) -> float:
+        """Pearson's r of the human's and the robot's thumb-index distance (NaN below 3 hand-frames or without variation)."""
+        a, b = self.pinch_human, self.pinch_robot
+        if len(a) < 3 or a.std() == 0 or b.std() == 0:
+            return float("nan")
+        return float(np.corrcoef(a, b)[0, 1])
+
+    def tip_per_finger(self) -> np.ndarray:
+        """``(5,)`` [deg] each finger's wrist -> fingertip direction error, mean over the hand-frames (NaN without any)."""
+        return self.tip_fingers.mean(0) if len(self) else np.full(len(FINGERS), np.nan)
+
+    def summary(self) -> dict[str, float]:
+        """``hand_frames``, ``tip_deg``, ``thumb_deg``, ``finger_deg`` (means) and ``pinch_r``."""
+        mean = lambda a: float(a.mean()) if len(a) else float("nan")  # noqa: E731
+        return {"hand_frames": len(self), "tip_deg": mean(self.tip), "thumb_deg": mean(self.thumb),
+                "finger_deg": mean(self.finger), "pinch_r": self.pinch_correlation()}
+
+
+def hand_frames_mask(demo: Demonstration) -> np.ndarray:
+    """``(T, 2)`` bool: the hand-frames (wrist frame, wrist and all five fingers observed)."""
+    return demo.wrist_mask & demo.arm_mask[:, :, 2] & demo.finger_mask.all(-1)
+
+
+def _robot_hand(robot, q: np.ndarray) -> dict[str, np.ndarray]:
+    """The robot's wrist, wrist frame, finger bases and tips (all five per side) for ``q (T, n)``, mapped
+    :data:`METRIC_CHUNK_FRAMES` frames at a time (the point plan of 20,000 YuMi frames at once raised the peak
+    memory by 1.8 GB)."""
+    plan = point_plan(robot, torch.float64)
+    side, finger = plan.finger_side.numpy(), plan.finger_index.numpy()
+    T = q.shape[0]
+    wrist, rotation = np.full((T, 2, 3), np.nan), np.full((T, 2, 3, 3), np.nan)
+    base, tip = np.full((T, 2, 5, 3), np.nan), np.full((T, 2, 5, 3), np.nan)
+    for rows in _chunks(T):
+        with torch.no_grad():
+            p = plan(torch.as_tensor(np.array(q[rows], dtype=np.float64)))  # a copy: q may be read-only
+        wrist[rows], rotation[rows] = p.wrist.numpy(), p.wrist_rotation.numpy()
+        base[rows, side, finger] = p.finger_base.numpy()
+        tip[rows, side, finger] = p.finger_tip.numpy()
+    return {"wrist": wrist, "rotation": rotation, "base": base, "tip": tip, "length": plan.hand_length.numpy()}
+
+
+def hand_scores(robot: Robot, q, demo: Demonstration) -> HandScores:
+    """Score the robot's hands at ``q (T, n)`` [rad] against the demonstration's (T frames).
+
+    Raises:
+        SettingsError: the robot has no fingers, or ``q`` does not fit the robot or the demonstration.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    if not robot.has_fingers:
+        raise SettingsError(f"{robot.name} has no fingers: there is no handshape to score")
+    fingers_of = {name for arm in robot.spec.arms.values() for name in (arm.fingers or {})}
+    if fingers_of != set(FINGERS):
+        raise SettingsError(f"{robot.name}: the hand measures need all five fingers, the spec names {sorted(fingers_of)}")
+    if q.ndim != 2 or q.shape != (len(demo), robot.n_joints):
+        raise SettingsError(f"joint angles of shape {q.shape} do not fit {len(demo)} frames x {robot.n_joints} joints")
+    h_len = targets_from_demonstration(demo, dtype=torch.float64).hand_length[0].numpy()  # (2,)
+    mask = hand_frames_mask(demo)
+    frames, sides = np.nonzero(mask)
+    seen = np.nonzero(mask.any(1))[0]  # the robot's hands mapped in the frames with a hand-frame only
+    r = _robot_hand(robot, q[seen])
+    row = np.searchsorted(seen, frames)  # each hand-frame's row in r
+
+    def wrist_frame(points, wrist, rotation):  # (N, k, 3) in the wrist frame
+        return np.einsum("nji,nkj->nki", rotation, points - wrist[:, None])
+
+    def pick(x):
+        return x[frames, sides]
+
+    human_base = wrist_frame(pick(demo.finger_positions[:, :, :, 0]), pick(demo.arm_positions[:, :, 2]), pick(demo.wrist_rotations))
+    human_tip = wrist_frame(pick(demo.finger_positions[:, :, :, 1]), pick(demo.arm_positions[:, :, 2]), pick(demo.wrist_rotations))
+    def pick_robot(x):
+        return x[row, sides]
+
+    robot_base = wrist_frame(pick_robot(r["base"]), pick_robot(r["wrist"]), pick_robot(r["rotation"]))
+    robot_tip = wrist_frame(pick_robot(r["tip"]), pick_robot(r["wrist"]), pick_robot(r["rotation"]))
+    tip_fingers = angle_deg(robot_tip, human_tip)  # (N, 5)
+    return HandScores(
+        tip=tip_fingers.mean(-1),
+        thumb=angle_deg(robot_tip[:, 1:] - robot_tip[:, :1], human_tip[:, 1:] - human_tip[:, :1]).mean(-1),
+        finger=angle_deg(robot_tip - robot_base, human_tip - human_base).mean(-1),
+        pinch_human=np.linalg.norm(human_tip[:, 1] - human_tip[:, 0], axis=-1) / h_len[sides],
+        pinch_robot=np.linalg.norm(robot_tip[:, 1] - robot_tip[:, 0], axis=-1) / r["length"][sides],
+        side=sides.astype(np.int64),
+        frame=frames.astype(np.int64),
+        tip_fingers=tip_fingers,
+    )
+
+
+# the retargeting summary's hand keys (nlo_lab.pipeline.summary; README, "Command line"): HandScores.summary's
+HAND_KEYS = ("hand_frames", "wrist_tip_deg", "thumb_tips_deg", "base_tip_deg", "pinch_r")
+
+
+def hand_summary(robot: Robot, angles: Any, demo: Demonstration) -> dict[str, Any]:
+    """:data:`HAND_KEYS` of ``angles (T, n)`` against ``demo``: the hand-frames' count and the means of
+    :func:`hand_scores` (``wrist_tip_deg``: ``tip``, ``thumb_tips_deg``: ``thumb``, ``base_tip_deg``: ``finger``,
+    ``pinch_r``: the pinch correlation). All None on a robot whose hands cannot be scored (no fingers, or not all
+    five); the measures None without a hand-frame (``pinch_r`` below 3, or without variation)."""
+    if not robot.has_fingers or {f for arm in robot.spec.arms.values() for f in (arm.fingers or {})} != set(FINGERS):
+        return dict.fromkeys(HAND_KEYS)
+    s = hand_scores(robot, _angles(robot, angles), demo).summary()
+
+    def finite(x: float) -> float | None:
+        return float(x) if math.isfinite(x) else None
+
+    return {"hand_frames": int(s["hand_frames"]), "wrist_tip_deg": finite(s["tip_deg"]), "thumb_tips_deg": finite(s["thumb_deg"]),
+            "base_tip_deg": finite(s["finger_deg"]), "pinch_r": finite(s["pinch_r"])}

@@ -40,6 +40,7 @@ from nlo_lab.inference.retime import retime_times
 from nlo_lab.inference.settings import OptimizeSettings
 from nlo_lab.inference.trajectory import RobotTrajectory
 from nlo_lab.metrics import (
+    hand_summary,
     limit_violations,
     max_joint_speed_ratio,
     max_joint_step,
@@ -376,6 +377,8 @@ def summary(demo: Demonstration, robot: Robot, result: RetargetResult, cull: boo
     rate; ``slowdown`` the output's duration over the recording's (1 = not retimed);
     ``max_joint_step_rad`` the largest change of a joint between consecutive frames;
     ``depth``: ``"world"`` (measured 3-D) or ``"image"`` (reconstructed from an image-only recording).
+    Handshape keys (:func:`~nlo_lab.metrics.hand_summary`): ``hand_frames``, ``wrist_tip_deg``, ``thumb_tips_deg``,
+    ``base_tip_deg``, ``pinch_r`` (None on a robot without five fingers).
     ``cull``: count the self-collision frames by the culled check (the same count, :func:`~nlo_lab.metrics.self_collision_frames`);
     the retargeting's own summary takes it with its fast paths.
     """
@@ -401,4 +404,5 @@ def summary(demo: Demonstration, robot: Robot, result: RetargetResult, cull: boo
         "max_joint_step_rad": round(max_joint_step(traj.angles), 4),
         "depth": str(demo.meta.get("depth", "world")),
         "final_loss": float(result.optimization.history[-1]) if len(result.optimization.history) else None,
+        **hand_summary(robot, angles, demo),
     }

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from nlo_lab.atomic_files import atomic_write_bytes
 
-__all__ = ["COLUMNS", "QUALITY", "STATUSES", "ResultsTable", "read_rows", "row_from_summary", "failed_row"]
+__all__ = ["COLUMNS", "QUALITY", "HANDS", "STATUSES", "ResultsTable", "read_rows", "row_from_summary", "failed_row"]
 
 STATUSES = ("ok", "failed", "skipped")
 QUALITY = (
@@ -27,15 +27,18 @@ QUALITY = (
     "velocity_violations", "max_joint_speed_ratio", "recording_speed_ratio", "slowdown", "max_joint_step_rad",
     "depth", "iterations", "final_loss", "retarget_seconds", "pose_seconds",
 )
-COLUMNS = ("input", "status", "error", "frames", "seconds", "output", *QUALITY, "warnings", "input_sha256", "settings")
-_INTS = {"frames", "self_collision_frames", "limit_violations", "velocity_violations", "iterations"}
+# the handshape measures (nlo_lab.metrics.HAND_KEYS, spelt out: importing the metrics imports torch, which a run with
+# nothing left to do never does), after the columns an earlier version wrote; empty on a robot without five fingers
+HANDS = ("hand_frames", "wrist_tip_deg", "thumb_tips_deg", "base_tip_deg", "pinch_r")
+COLUMNS = ("input", "status", "error", "frames", "seconds", "output", *QUALITY, "warnings", "input_sha256", "settings", *HANDS)
+_INTS = {"frames", "self_collision_frames", "limit_violations", "velocity_violations", "iterations", "hand_frames"}
 _TEXT = {"input", "status", "error", "output", "depth", "warnings", "input_sha256", "settings"}
 
 
 def row_from_summary(summary: dict, status: str = "ok") -> dict:
     """A row from an input's ``summary.json`` (what its folder says about the run that made it)."""
     made = summary.get("batch", {})
-    row = {c: summary.get(c) for c in QUALITY}
+    row = {c: summary.get(c) for c in (*QUALITY, *HANDS)}
     row["retarget_seconds"] = summary.get("seconds")
     row.update(input=made.get("input"), status=status, error="", frames=summary.get("frames"), seconds=made.get("seconds"),
                output=made.get("output"), warnings="; ".join(made.get("warnings", [])),

@@ -42,7 +42,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     add_hand_flags(p)
     p.add_argument("--out", default=None, help="folder for trajectory.npz, trajectory.csv and viewer.html")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
-    p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
+    p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0,
+                   help="seed of the random initialisation, 0..2^32-1 (default: 0)")
     p.add_argument("--sigma", type=positive_float, default=1.0,
                    help="σ of --init random, a standard deviation: z0 ~ N(0, σ²) (default: 1, the paper's; its ablation's "
                         "variances 0.1 and 0.2 are σ 0.32 and 0.45)")
@@ -105,6 +106,7 @@ def _print_summary(summary: dict) -> None:
 def run(args) -> int:
     from nlo_lab.atomic_files import check_output_place
     from nlo_lab.inference import OptimizeSettings
+    from nlo_lab.metrics import HAND_KEYS
     from nlo_lab.model import load_pretrained
     from nlo_lab.objective import LossWeights
     from nlo_lab.pipeline import RetargetConfig
@@ -141,7 +143,8 @@ def run(args) -> int:
         print(json.dumps(finite_or_null(result.summary), allow_nan=False))  # valid JSON: no NaN
     else:
         print(f"retargeted {escape(demo.name or args.input)} ({len(demo)} frames) to {escape(robot.name)}:")
-        _print_summary({k: escape(v) if isinstance(v, str) else v for k, v in result.summary.items()})
+        shown = {k: v for k, v in result.summary.items() if not (k in HAND_KEYS and result.summary["hand_frames"] is None)}
+        _print_summary({k: escape(v) if isinstance(v, str) else v for k, v in shown.items()})  # no hands to score: no lines of None
         if args.out is not None:
             print(f"wrote {escape(args.out)}/trajectory.npz, trajectory.csv, viewer.html")
         if save_pose is not None:

@@ -222,6 +222,7 @@ def test_resume_after_an_interrupted_run(tmp_path, sig):
     assert resumed.returncode == 0, resumed.stderr
     rows = table(out)
     assert len(rows) == 6 and all(complete(out / name) for name in rows)
+    assert all(int(r["hand_frames"]) > 0 and float(r["wrist_tip_deg"]) > 0 for r in rows.values())  # YuMi's hands scored
     skipped = {name for name, r in rows.items() if r["status"] == "skipped"}
     assert set(done) <= skipped and {r["status"] for n, r in rows.items() if n not in skipped} == {"ok"}
     assert no_temporary_folders(out)  # what the killed run left half-written is gone

@@ -117,12 +117,13 @@ def test_the_table_round_trips_and_only_holds_finished_rows(tmp_path):
     table.set(failed_row("/x/c.pose", "c", 'bad "quote", comma\nand newline', input_sha256="ab", settings="cd"))
     assert (tmp_path / "results.csv").is_file()  # the first row is written at once
     table.set({**dict.fromkeys(COLUMNS), "input": "/x/a.pose", "output": "a", "status": "ok", "frames": 47, "frechet_m": 0.125,
-               "seconds": float("nan")})
+               "seconds": float("nan"), "hand_frames": 40, "wrist_tip_deg": 15.5})
     assert len(read_rows(tmp_path / "results.csv")) == 1  # throttled: not yet written
     table.flush()
     rows = read_rows(tmp_path / "results.csv")
     assert list(rows) == ["a", "c"]  # the inputs' order
     assert rows["a"]["frames"] == 47 and rows["a"]["frechet_m"] == 0.125 and rows["a"]["seconds"] is None
+    assert rows["a"]["hand_frames"] == 40 and rows["a"]["wrist_tip_deg"] == 15.5 and rows["a"]["pinch_r"] is None
     assert rows["c"]["error"] == 'bad "quote", comma\nand newline' and rows["c"]["status"] == "failed"
     assert (tmp_path / "results.csv").read_text().splitlines()[0] == ",".join(COLUMNS)
     (tmp_path / "other.csv").write_text("name,value\n1,2\n")
@@ -158,3 +159,21 @@ def test_batch_hand_slowdown_is_checked_in_the_client_and_fingerprinted_only_whe
     assert BatchSettings("yumi", hand_slowdown=1.0).fingerprint() == plain.fingerprint()
     assert BatchSettings("yumi", hand_slowdown=1.7).key()["hand_slowdown"] == 1.7
     assert BatchSettings("yumi", hand_slowdown=1.7).fingerprint() != plain.fingerprint()
+
+
+def test_the_tables_hand_columns_are_the_summarys_hand_keys(tmp_path):
+    """``results.csv``'s hand columns (spelt out in the table: the metrics import torch) are the summary's, carried
+    from an input's ``summary.json``; a table of an earlier version, without them, still resumes."""
+    from nlo_lab.batch.table import HANDS, row_from_summary
+    from nlo_lab.metrics import HAND_KEYS
+
+    assert HANDS == HAND_KEYS and COLUMNS[-len(HANDS):] == HANDS
+    summary = {"frames": 47, "seconds": 1.5, "frechet_m": 0.1, "hand_frames": 30, "wrist_tip_deg": 16.0, "thumb_tips_deg": 25.0,
+               "base_tip_deg": 31.0, "pinch_r": 0.8, "batch": {"input": "/x/a.pose", "output": "a", "seconds": 2.0}}
+    row = row_from_summary(summary)
+    assert {k: row[k] for k in HANDS} == {k: summary[k] for k in HANDS}
+    old = COLUMNS[:-len(HANDS)]
+    (tmp_path / "results.csv").write_text(",".join(old) + "\n" + ",".join("a" if c == "output" else "ok" if c == "status" else ""
+                                                                        for c in old) + "\n")
+    rows = read_rows(tmp_path / "results.csv")
+    assert list(rows) == ["a"] and all(rows["a"][k] is None for k in HANDS)

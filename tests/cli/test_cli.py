@@ -233,3 +233,29 @@ def test_a_bad_flag_or_help_does_not_wait_for_torch():
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.stdout.split() == ["False", "True"], r.stdout + r.stderr
+
+
+def test_the_summary_scores_the_hands_of_what_it_wrote(capsys, tmp_path):
+    """On YuMi the JSON's hand keys are the handshape measures of the written trajectory against the recording."""
+    from nlo_lab.human import load_demonstration
+    from nlo_lab.metrics import HAND_KEYS, hand_summary
+    from nlo_lab.paths import RECORDINGS_DIR
+    from nlo_lab.robot import load_robot
+
+    pose = RECORDINGS_DIR / "holistic_both_hands_47f.pose"
+    code, out, err = run(["retarget", str(pose), "--robot", "yumi", "--out", str(tmp_path / "o"), "--json"], capsys)
+    assert code == 0, err
+    summary = json.loads(out.strip().splitlines()[-1])
+    angles = np.load(tmp_path / "o" / "trajectory.npz")["angles"]
+    expected = hand_summary(load_robot("yumi"), angles, load_demonstration(pose))
+    assert expected["hand_frames"] > 0 and {k: summary[k] for k in HAND_KEYS} == pytest.approx(expected)
+
+
+def test_the_printed_summary_has_no_hand_lines_without_hands(capsys):
+    from nlo_lab.corpus import corpus_names
+
+    code, out, err = run(["retarget", f"demo:{corpus_names('test')[0]}", "--robot", "nao", "--iters", "2"], capsys)
+    assert code == 0, err
+    assert "frechet_m" in out and "wrist_tip_deg" not in out and "hand_frames" not in out
+    code, out, err = run(["retarget", f"demo:{corpus_names('test')[0]}", "--robot", "nao", "--iters", "2", "--json"], capsys)
+    assert json.loads(out.strip().splitlines()[-1])["hand_frames"] is None  # the JSON keeps its keys: null

@@ -142,3 +142,33 @@ def test_bad_input_is_named(yumi, demonstration_from_robot):
     nao = load_robot("nao")
     with pytest.raises(SettingsError, match="no fingers"):
         hand_scores(nao, np.zeros((3, nao.n_joints)), demo)
+
+
+def test_the_summarys_hand_keys_are_the_scorers_means(yumi, demonstration_from_robot):
+    """``hand_summary`` (the retargeting summary's hand keys) names the scorer's means; a hand turned by a known angle
+    shows in ``wrist_tip_deg``."""
+    from nlo_lab.metrics import HAND_KEYS, hand_summary
+
+    q = hand_poses(yumi, seed=7)
+    demo = demonstration_from_robot(yumi, q)
+    perfect = hand_summary(yumi, q.numpy(), demo)
+    assert tuple(perfect) == HAND_KEYS and perfect["hand_frames"] == 2 * len(q)
+    assert perfect["wrist_tip_deg"] < 1e-6 and perfect["base_tip_deg"] < 1e-6 and perfect["pinch_r"] == pytest.approx(1.0)
+    other = hand_poses(yumi, seed=8)  # the robot's hands elsewhere: every measure as the scorer has it
+    got, s = hand_summary(yumi, other.numpy(), demo), hand_scores(yumi, other.numpy(), demo).summary()
+    assert got == {"hand_frames": s["hand_frames"], "wrist_tip_deg": s["tip_deg"], "thumb_tips_deg": s["thumb_deg"],
+                   "base_tip_deg": s["finger_deg"], "pinch_r": s["pinch_r"]}
+    assert got["wrist_tip_deg"] > 1.0
+
+
+def test_the_summarys_hand_keys_without_hands_to_score(yumi, demonstration_from_robot):
+    from nlo_lab.metrics import HAND_KEYS, hand_summary
+
+    nao = load_robot("nao")
+    q = nao.neutral_q[None].repeat(4, 1)
+    assert hand_summary(nao, q.numpy(), demonstration_from_robot(nao, q)) == dict.fromkeys(HAND_KEYS)  # no fingers
+    q = hand_poses(yumi, T=4)
+    demo = demonstration_from_robot(yumi, q)
+    demo.finger_mask[:] = False  # no hand-frame: a count of 0, no measure (not NaN: the JSON has none)
+    demo.finger_positions[:] = np.nan
+    assert hand_summary(yumi, q.numpy(), demo) == {"hand_frames": 0, **dict.fromkeys(HAND_KEYS[1:])}
