@@ -9,11 +9,13 @@ STAMP := $(VENV)/.installed
 
 setup: $(STAMP)
 
-# CPU torch first: a bare `torch` requirement resolved by pip may pull a multi-GB GPU build.
+# torch first: a bare `torch` requirement resolved by pip may pull a multi-GB GPU build. TORCH_INDEX: an index
+# to take it from (https://download.pytorch.org/whl/cpu for a CPU build where PyPI's Linux wheel is CUDA's)
+TORCH_INDEX ?=
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
-	$(PIP) install --quiet torch==2.13.0
+	$(PIP) install --quiet torch==2.13.0 $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX))
 	$(PIP) install --quiet -e ".[lab,test,video,batch,docs]"
 	touch $(STAMP)
 

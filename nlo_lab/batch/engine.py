@@ -37,7 +37,7 @@ from nlo_lab.batch.progress import Progress
 from nlo_lab.batch.settings import BatchSettings
 from nlo_lab.batch.table import COLUMNS, ResultsTable, failed_row
 from nlo_lab.errors import NloLabError, escape
-from nlo_lab.settings import WORKERS_RANGE, check_int
+from nlo_lab.settings import LATENT_ITERATIONS, WORKERS_RANGE, check_int
 
 if TYPE_CHECKING:  # annotations only: no import at run time
     from nlo_lab.robot import Robot
@@ -285,7 +285,7 @@ def to_frame(rows: list[dict]):
     return pandas.DataFrame(rows, columns=list(COLUMNS))
 
 
-def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "encoder", iterations: int = 100, seed: int = 0,
+def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "encoder", iterations: int = LATENT_ITERATIONS, seed: int = 0,
                   weights=None, viewer: bool = False, hand_search=(), hand_slowdown: float = 1.0, workers: int | None = None, scheduler: str | None = None,
                   resume: bool = True, retry_failed: bool = False, progress: bool = False, on_row=None):
     """Retarget every input to ``robot`` on a dask.distributed cluster; the results table.

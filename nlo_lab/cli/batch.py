@@ -50,7 +50,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="run inputs that failed before on unchanged content again (default: keep their failed rows)")
     add_optimisation_flags(p, "ee=1000,ori=100,smooth=10")
     add_hand_flags(p)
-    p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0, help="seed of the random initialisation")
+    p.add_argument("--seed", type=ranged_int(0, MAX_SEED), default=0,
+                   help="seed of the random initialisation, 0..2^32-1 (default: 0)")
     p.add_argument("--viewer", action="store_true", help="also write each input's viewer.html")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr (failures are still listed)")
     return p

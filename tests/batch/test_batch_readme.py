@@ -77,3 +77,21 @@ def test_the_slurm_examples_job_script_asks_one_core_and_one_thread():
         assert line in script.splitlines(), script
     worker = script.splitlines()[-1]
     assert "dask_worker tcp://127.0.0.1:8786" in worker and worker.count("--nthreads 1") == 1, worker
+
+
+def test_retarget_many_defaults_are_the_batch_commands():
+    """The README: ``retarget_many(...)`` "does the same" as ``nlo-lab batch``: the same defaults (the latent
+    budget was once 100 in Python and 40 on the command line)."""
+    import dataclasses
+
+    from nlo_lab.batch import BatchSettings
+    from nlo_lab.cli.flags import hand_settings
+    from nlo_lab.settings import LATENT_ITERATIONS
+
+    parser = argparse.ArgumentParser(prog="nlo-lab")
+    batch_command.add_parser(parser.add_subparsers())
+    args = parser.parse_args(["batch", "in", "--robot", "yumi", "--out", "out"])
+    command = {"init": args.init, "iterations": args.iters, "seed": args.seed, "viewer": args.viewer, **hand_settings(args)}
+    library = {k: p.default for k, p in inspect.signature(retarget_many).parameters.items() if k in command}
+    fields = {f.name: f.default for f in dataclasses.fields(BatchSettings) if f.name in command}
+    assert library == command == fields and command["iterations"] == LATENT_ITERATIONS
