@@ -512,6 +512,16 @@ def _robot_hand(robot, q: np.ndarray) -> dict[str, np.ndarray]:
     return {"wrist": wrist, "rotation": rotation, "base": base, "tip": tip, "length": plan.hand_length.numpy()}
 
 
+def _why_unscorable(robot: Robot) -> str:
+    """Why the hand measures cannot score ``robot``'s hands ("" if they can: five fingers a side)."""
+    if not robot.has_fingers:
+        return f"{robot.name} has no fingers: there is no handshape to score"
+    fingers_of = {name for arm in robot.spec.arms.values() for name in (arm.fingers or {})}
+    if fingers_of != set(FINGERS):
+        return f"{robot.name}: the hand measures need all five fingers, the spec names {sorted(fingers_of)}"
+    return ""
+
+
 def hand_scores(robot: Robot, q, demo: Demonstration) -> HandScores:
     """Score the robot's hands at ``q (T, n)`` [rad] against the demonstration's (T frames).
 
@@ -519,11 +529,9 @@ def hand_scores(robot: Robot, q, demo: Demonstration) -> HandScores:
         SettingsError: the robot has no fingers, or ``q`` does not fit the robot or the demonstration.
     """
     q = np.asarray(q, dtype=np.float64)
-    if not robot.has_fingers:
-        raise SettingsError(f"{robot.name} has no fingers: there is no handshape to score")
-    fingers_of = {name for arm in robot.spec.arms.values() for name in (arm.fingers or {})}
-    if fingers_of != set(FINGERS):
-        raise SettingsError(f"{robot.name}: the hand measures need all five fingers, the spec names {sorted(fingers_of)}")
+    unscorable = _why_unscorable(robot)
+    if unscorable:
+        raise SettingsError(unscorable)
     if q.ndim != 2 or q.shape != (len(demo), robot.n_joints):
         raise SettingsError(f"joint angles of shape {q.shape} do not fit {len(demo)} frames x {robot.n_joints} joints")
     h_len = targets_from_demonstration(demo, dtype=torch.float64).hand_length[0].numpy()  # (2,)
@@ -568,7 +576,7 @@ def hand_summary(robot: Robot, angles: Any, demo: Demonstration) -> dict[str, An
     :func:`hand_scores` (``wrist_tip_deg``: ``tip``, ``thumb_tips_deg``: ``thumb``, ``base_tip_deg``: ``finger``,
     ``pinch_r``: the pinch correlation). All None on a robot whose hands cannot be scored (no fingers, or not all
     five); the measures None without a hand-frame (``pinch_r`` below 3, or without variation)."""
-    if not robot.has_fingers or {f for arm in robot.spec.arms.values() for f in (arm.fingers or {})} != set(FINGERS):
+    if _why_unscorable(robot):
         return dict.fromkeys(HAND_KEYS)
     s = hand_scores(robot, _angles(robot, angles), demo).summary()
 
