@@ -34,6 +34,7 @@ import results_doc  # noqa: E402
 
 from nlo_lab.corpus import sign_corpus  # noqa: E402
 from nlo_lab.human import Demonstration, save_npz  # noqa: E402
+from nlo_lab.settings import LATENT_ITERATIONS  # noqa: E402
 
 _RUN = """
 import resource, sys
@@ -86,10 +87,10 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="yumi")
     parser.add_argument("--frames", type=int, nargs="+", default=[1000, 5000, 10000])
-    parser.add_argument("--iters", type=int, default=None, help="default: the command line's (100)")
+    parser.add_argument("--iters", type=int, default=None, help=f"default: the command line's ({LATENT_ITERATIONS})")
     parser.add_argument("--no-write", action="store_true", help="do not update docs/RESULTS.md")
     args = parser.parse_args(argv)
-    print(f"nlo-lab retarget, {args.robot}, iterations {args.iters or 'default (100)'}, "
+    print(f"nlo-lab retarget, {args.robot}, iterations {args.iters or f'default ({LATENT_ITERATIONS})'}, "
           f"NLO_LAB_THREADS={os.environ.get('NLO_LAB_THREADS', 'unset')}, {os.cpu_count()} cores")
     print(f"{'frames':>7} {'wall s':>8} {'CPU s':>7} {'retarget s':>10} {'peak MB':>8} {'MB/1k frames':>12} {'viewer MB':>9} {'frechet m':>9}")
     table = ["| frames | wall s | CPU s | retarget s | peak MB | MB per 1k frames above the first | viewer.html MB | Fréchet m |",
