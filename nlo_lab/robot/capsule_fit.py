@@ -83,16 +83,19 @@ def fit_capsule(points) -> tuple[np.ndarray, np.ndarray, float]:
         lo, hi = float(along.min()), float(along.max())
         base = centre2[0] * v + centre2[1] * w
         r_cyl = float(np.linalg.norm(np.column_stack([pts @ v, pts @ w]) - centre2, axis=1).max())
-        for s in np.linspace(0.0, max(r_cyl, 1e-9), _SHRINK_STEPS):
-            a_t, b_t = lo + s, hi - s
-            if a_t > b_t:
-                a_t = b_t = 0.5 * (lo + hi)
-            a, b = base + a_t * u, base + b_t * u
-            r = float(_segment_distance(pts, a, b).max())
-            r = max(r * (1.0 + 1e-9), 1e-6)
-            vol = capsule_volume(a, b, r)
-            if best is None or vol < best[0]:
-                best = (vol, a, b, r)
+        # every segment length at once: the ends pulled in by s from the points' extent along u (meeting in the middle)
+        s = np.linspace(0.0, max(r_cyl, 1e-9), _SHRINK_STEPS)
+        a_t, b_t = lo + s, hi - s
+        a_t, b_t = np.where(a_t > b_t, 0.5 * (lo + hi), a_t), np.where(a_t > b_t, 0.5 * (lo + hi), b_t)
+        # every point's distance to each segment: the segments lie along u through base, so along u it is the
+        # overshoot past the nearer end, and across u the distance from the axis
+        across = np.linalg.norm(pts - base - np.outer(along - base @ u, u), axis=1)
+        overshoot = np.maximum(np.maximum(a_t[:, None] - along, along - b_t[:, None]), 0.0)
+        r = np.maximum(np.sqrt(overshoot**2 + across**2).max(1) * (1.0 + 1e-9), 1e-6)
+        vol = np.pi * r**2 * (b_t - a_t) + 4.0 / 3.0 * np.pi * r**3
+        k = int(np.argmin(vol))
+        if best is None or vol[k] < best[0]:
+            best = (float(vol[k]), base + a_t[k] * u, base + b_t[k] * u, float(r[k]))
     _, a, b, r = best
     return a, b, r
 

@@ -254,6 +254,33 @@ def test_the_prefilters_plane_test_pruned_by_bounding_spheres_is_the_all_planes_
     assert sum(answers) == sum((k // 3) % 5 in (0, 2, 4) for k in range(500))  # the deciding plane below the least value
 
 
+def test_the_quick_apart_is_every_face_plane_against_every_corner():
+    """overlap_depth's quick "apart" (a face plane of one polytope with all the other's corners beyond it, less the
+    tolerance) measures only the corners and planes its bounding spheres and witnesses leave open, in one polytope's
+    frame: the same answer as every posed corner against every posed plane, on edge poses where the answer turns on
+    fractions of a millimetre."""
+    from nlo_lab.robot.geometry_collision import _face_separated
+
+    def exhaustive(a, Ta, b, Tb):
+        for p, Tp, o, To in ((a, Ta, b, Tb), (b, Tb, a, Ta)):
+            n = p.normals @ Tp[:3, :3].T
+            corners = o.vertices @ To[:3, :3].T + To[:3, 3]
+            if ((corners @ n.T).min(0) >= p.offsets + n @ Tp[:3, 3] - DEPTH_TOLERANCE).any():
+                return True
+        return False
+
+    gen = np.random.default_rng(11)
+    shapes = [polytope("a", trimesh.creation.icosphere(subdivisions=2, radius=0.04)),
+              polytope("b", trimesh.creation.box(extents=(0.12, 0.04, 0.03))),
+              polytope("c", trimesh.creation.cylinder(radius=0.02, height=0.1, sections=32))]
+    answers = []
+    for a, b in [(shapes[0], shapes[1]), (shapes[1], shapes[2]), (shapes[2], shapes[0]), (shapes[1], shapes[1])]:
+        for Ta, Tb in zip(*edge_poses(a, b, gen, 120), strict=True):
+            answers.append(exhaustive(a, Ta, b, Tb))
+            assert _face_separated(a, Ta, b, Tb) == answers[-1]
+    assert 0.2 < np.mean(answers) < 0.8  # both answers, many times
+
+
 def test_the_checks_depths_are_each_pairs_own_programme():
     """GeometryCollision.depths solves the near pairs' programmes together (overlap_depths): each depth is the one
     overlap_depth gives that pair alone, on NAO's collision meshes in random poses within its limits."""
