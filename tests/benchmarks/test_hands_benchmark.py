@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.mark.slow
 def test_the_benchmark_prints_its_tables_with_each_finger_s_error(tmp_path):
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "hands.py"), "--no-write", "--no-video", "--no-held-out",
-                           "--passes", "1", "--dex-python", str(tmp_path / "no-python")],
+                           "--no-arms", "--passes", "1", "--dex-python", str(tmp_path / "no-python")],
                           capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "dex-retargeting left out" in proc.stderr
@@ -51,3 +51,34 @@ def test_the_benchmark_prints_its_tables_with_each_finger_s_error(tmp_path):
     assert len(groups) == 2 and all(len(g) == 2 for g in groups)
     for k in range(2):
         assert pooled[k] > 0 and groups[0][k] + groups[1][k] == pytest.approx(pooled[k], abs=0.011)
+
+
+def _hands_module():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("nlo_lab_benchmarks_hands", ROOT / "benchmarks" / "hands.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_presets_table1_bound_reads_its_own_figures():
+    """The row holding the preset's arms to issue 27's bound: Table I at most 5 % worse than the defaults'."""
+    hands = _hands_module()
+    near = hands.table1_row({"nlo_lab": 0.1, hands.PRESET: 0.1049}, 25)
+    far = hands.table1_row({"nlo_lab": 0.1, hands.PRESET: 0.1051}, 25)
+    assert near.endswith("| 0.1049 m vs 0.1000 m (+4.9 %) | yes |") and "25 test sequences" in near
+    assert far.endswith("| 0.1051 m vs 0.1000 m (+5.1 %) | **no** |")
+
+
+@pytest.mark.slow
+def test_the_presets_arms_are_scored_with_the_presets_weights():
+    """arms_table1 scores Table I's latent_encoder twice, the second time with the preset's weights (its thumb acts in the
+    latent optimisation, so the arms differ), on the synthetic test split's first sequences."""
+    from nlo_lab.robot import load_robot
+
+    hands = _hands_module()
+    arms = hands.arms_table1(load_robot("yumi"), limit=2)
+    assert set(arms) == {"nlo_lab", hands.PRESET}
+    assert all(np.isfinite(v) and 0 < v < 1 for v in arms.values())
+    assert arms["nlo_lab"] != arms[hands.PRESET]
