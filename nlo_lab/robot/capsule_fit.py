@@ -30,14 +30,6 @@ def capsule_volume(p0, p1, radius: float) -> float:
     return float(np.pi * radius**2 * length + 4.0 / 3.0 * np.pi * radius**3)
 
 
-def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance of each point to the segment ``a``-``b``."""
-    ab = b - a
-    denom = float(ab @ ab)
-    s = np.zeros(len(points)) if denom < 1e-18 else np.clip((points - a) @ ab / denom, 0.0, 1.0)
-    return np.linalg.norm(points - (a + s[:, None] * ab), axis=1)
-
-
 def _circle_centre(points2d: np.ndarray) -> np.ndarray:
     """Centre of the smallest circle around 2-D points (trimesh's minimum n-sphere)."""
     # lazy: trimesh loads its mesh formats on import: only where meshes are read
