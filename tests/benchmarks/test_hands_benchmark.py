@@ -53,18 +53,13 @@ def test_the_benchmark_prints_its_tables_with_each_finger_s_error(tmp_path):
         assert pooled[k] > 0 and groups[0][k] + groups[1][k] == pytest.approx(pooled[k], abs=0.011)
 
 
-def _hands_module():
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("nlo_lab_benchmarks_hands", ROOT / "benchmarks" / "hands.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+@pytest.fixture(scope="module")
+def hands(checkout_script):
+    return checkout_script("benchmarks/hands.py")
 
 
-def test_the_presets_table1_bound_reads_its_own_figures():
+def test_the_presets_table1_bound_reads_its_own_figures(hands):
     """The row holding the preset's arms to issue 27's bound: Table I at most 5 % worse than the defaults'."""
-    hands = _hands_module()
     near = hands.table1_row({"nlo_lab": 0.1, hands.PRESET: 0.1049}, 25)
     far = hands.table1_row({"nlo_lab": 0.1, hands.PRESET: 0.1051}, 25)
     assert near.endswith("| 0.1049 m vs 0.1000 m (+4.9 %) | yes |") and "25 test sequences" in near
@@ -72,12 +67,11 @@ def test_the_presets_table1_bound_reads_its_own_figures():
 
 
 @pytest.mark.slow
-def test_the_presets_arms_are_scored_with_the_presets_weights():
+def test_the_presets_arms_are_scored_with_the_presets_weights(hands):
     """arms_table1 scores Table I's latent_encoder twice, the second time with the preset's weights (its thumb acts in the
     latent optimisation, so the arms differ), on the synthetic test split's first sequences."""
     from nlo_lab.robot import load_robot
 
-    hands = _hands_module()
     arms = hands.arms_table1(load_robot("yumi"), limit=2)
     assert set(arms) == {"nlo_lab", hands.PRESET}
     assert all(np.isfinite(v) and 0 < v < 1 for v in arms.values())
