@@ -13,13 +13,14 @@ Methods, on every hand-frame (one hand in one frame with its wrist frame and fiv
 
 * **nlo_lab**: ``nlo_lab.pipeline.retarget`` with the shipped YuMi checkpoint and the default
   weights and settings (both arms and both hands together, smoothness, the latent optimisation,
-  then the hand stage: the hand joints alone on the same objective, ``nlo_lab.inference.hand_stage``;
+  then the hand stage: a search of the middle, ring and little fingers' joints along the clip within the latent
+  optimisation's speed, then the hand joints alone on the same objective, ``nlo_lab.inference.hand_stage``;
   retiming);
 * **nlo_lab, handshape preset** (``nlo-lab retarget --handshape``): the same pipeline with
-  ``LossWeights.handshape()`` and ``OptimizeSettings.handshape()``: the hand stage first searches the middle, ring and
-  little fingers' joints along the clip (``nlo_lab.inference.hand_stage.searched_start``), then descends, and its speed
-  clamp lets each retimed segment take up to ``HANDSHAPE_SLOWDOWN`` times the latent optimisation's; timed and held to
-  the targets as nlo_lab's defaults are;
+  ``LossWeights.handshape()`` and ``OptimizeSettings.handshape()``: the same search
+  (``nlo_lab.inference.hand_stage.searched_start``) and descent, other weights, and a speed clamp that lets each
+  retimed segment take up to ``HANDSHAPE_SLOWDOWN`` times the latent optimisation's; timed and held to the targets as
+  nlo_lab's defaults are;
 * **dex, filtered** and **dex, unfiltered**: dex-retargeting 0.5 vector retargeting with our
   configs and hand-only URDFs (``benchmarks/hands/``), with and without its low-pass filter. It
   needs numpy >= 2, which mediapipe (and so this environment) cannot have: it runs in
@@ -97,7 +98,7 @@ from nlo_lab.inference import (  # noqa: E402
 )
 from nlo_lab.model import load_pretrained  # noqa: E402
 from nlo_lab.objective import HAND_STAGE_TERMS, LossWeights, Objective, point_plan, targets_from_demonstration  # noqa: E402
-from nlo_lab.pipeline import RetargetConfig  # noqa: E402
+from nlo_lab.pipeline import RetargetConfig, hand_search  # noqa: E402
 from nlo_lab.robot import load_robot  # noqa: E402
 from nlo_lab.robot.geometry_collision import DEPTH_TOLERANCE, GeometryCollision  # noqa: E402
 
@@ -356,7 +357,9 @@ def choice_groups(items: list, scores: dict[str, list[HandScores]], methods: lis
              "The handshape preset's searched fingers and its `tip_dir` and `thumb` weights were chosen "
              "(`benchmarks/hands_levers.py`) on the first group; the second, `benchmarks/data/recordings/`, came afterwards. "
              "Its `finger_dir` weight and `hand_slowdown` were then chosen on both groups (2026-11-28): no real recording is "
-             "held out from the preset now (the synthetic test split below is). The targets above pool both.", ""]
+             "held out from the preset now (the synthetic test split below is). The defaults' `tip_dir` weight (7000) and "
+             "their finger search (the preset's fingers, without its slowdown) were chosen on both groups too (2026-11-28). "
+             "The targets above pool both.", ""]
     for flag, title in ((False, "the preset chosen on"), (True, "added after the choice")):
         chosen = [i for i, a in enumerate(added) if a == flag]
         pooled = {m: HandScores.cat([scores[m][i] for i in chosen]) for m in methods}
@@ -604,8 +607,9 @@ def main() -> None:
     preset_weights = ", ".join(f"{k} {v:g}" for k, v in LossWeights.handshape().as_dict().items() if v != weights.as_dict()[k])
     lines = [f"- data: {len(items)} recordings ({', '.join(label for label, _ in items)}), {hand_frames} hand-frames",
              f"- nlo_lab: shipped checkpoint `assets/checkpoints/yumi.pt`, default weights ({weights.as_dict()}; the latent "
-             f"optimisation without {', '.join(f'`{n}`' for n in HAND_STAGE_TERMS)}), then the hand stage ({OptimizeSettings().hand_iterations} Adam steps "
-             f"of {OptimizeSettings().hand_lr} rad on the hand joints, same weights)",
+             f"optimisation without {', '.join(f'`{n}`' for n in HAND_STAGE_TERMS)}), then the hand stage (its finger search first: `hand_search={hand_search(robot, OptimizeSettings())}`, "
+             f"{OptimizeSettings().hand_grid} values of each searched joint, every step within the latent optimisation's speed; "
+             f"then {OptimizeSettings().hand_iterations} Adam steps of {OptimizeSettings().hand_lr} rad on the hand joints, same weights)",
              f"- nlo_lab, handshape preset: the same with `LossWeights.handshape()` ({preset_weights}) "
              f"and `OptimizeSettings.handshape()` (`hand_search={HANDSHAPE_SEARCH}`, {OptimizeSettings().hand_grid} values of each "
              f"searched joint; `hand_slowdown={HANDSHAPE_SLOWDOWN:g}`: each retimed segment up to {HANDSHAPE_SLOWDOWN:g} times the "

@@ -91,8 +91,8 @@ class Levers:
             if kind == "weight":
                 out.weights[name] = float(value)
             elif kind == "setting":
-                kind_of = type(getattr(OptimizeSettings(), name))
-                out.settings[name] = tuple(value.split(",")) if kind_of is tuple else kind_of(value)
+                kind_of = tuple if name == "hand_search" else type(getattr(OptimizeSettings(), name))  # None: the default
+                out.settings[name] = tuple(x for x in value.split(",") if x) if kind_of is tuple else kind_of(value)
             elif kind == "finger" and name in FINGER_KINDS:
                 out.finger[name] = np.array([float(x) for x in value.split(",")])
             elif kind == "pair" and name in PAIR_KINDS:

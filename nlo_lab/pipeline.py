@@ -51,7 +51,7 @@ from nlo_lab.metrics import (
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import TERMS, LossWeights, Targets
 from nlo_lab.robot import Robot
-from nlo_lab.settings import COUNT_RANGE, check_bool, check_int, check_type
+from nlo_lab.settings import COUNT_RANGE, HAND_SEARCH, check_bool, check_int, check_type
 from nlo_lab.threads import single_thread
 
 if TYPE_CHECKING:  # annotations only: no import at run time
@@ -90,6 +90,25 @@ class RetargetResult:
 def has_hand_joints(robot: Robot) -> bool:
     """Does ``robot`` have finger joints below its wrists, the hand stage's (YuMi's hands; not NAO's or Pepper's)?"""
     return robot.has_fingers and bool(hand_joint_mask(robot).any())
+
+
+def searchable_fingers(robot: Robot) -> tuple[str, ...]:
+    """The fingers (``FINGERS`` order) that a joint of ``robot``'s hands moves alone on some side: what the hand
+    stage's search can set (none on a robot without hand joints)."""
+    if not has_hand_joints(robot):
+        return ()
+    own = {f for side in SIDES for f in robot.arm(side).fingers if finger_joints(robot, side, f)}
+    return tuple(f for f in FINGERS if f in own)
+
+
+def hand_search(robot: Robot, settings: OptimizeSettings) -> tuple[str, ...]:
+    """The fingers the hand stage searches on ``robot``: ``settings.hand_search``, or when it is None (the default)
+    those of ``HAND_SEARCH`` that ``robot``'s hands move alone (YuMi's Inspire hands: middle, ring and little;
+    none on NAO or Pepper)."""
+    if settings.hand_search is not None:
+        return settings.hand_search
+    own = searchable_fingers(robot)
+    return tuple(f for f in HAND_SEARCH if f in own)
 
 
 @dataclass(frozen=True)
@@ -156,7 +175,8 @@ class RetargetConfig:
     def _check_hand_search(self) -> None:
         """A searched finger must have joints of its own on this robot, and a hand slowdown hand joints: else the
         setting would silently do nothing."""
-        search = self.settings.hand_search if self.settings is not None else ()
+        search = self.settings.hand_search if self.settings is not None else None
+        search = search or ()  # None: the robot's default (hand_search), never refused
         slowdown = self.settings.hand_slowdown if self.settings is not None else 1.0
         if slowdown != 1.0 and not search and not has_hand_joints(self.robot):  # with a search: its message below
             raise SettingsError(f"hand_slowdown ({slowdown:g}): {self.robot.name} has no hand joints for the hand stage to "
@@ -166,7 +186,7 @@ class RetargetConfig:
         if not has_hand_joints(self.robot):
             raise SettingsError(f"hand_search ({', '.join(search)}): {self.robot.name} has no finger joints to search "
                                 "(the hand stage runs on a robot with hands, such as yumi)")
-        own = {f for side in SIDES for f in self.robot.arm(side).fingers if finger_joints(self.robot, side, f)}
+        own = searchable_fingers(self.robot)
         missing = [f for f in search if f not in own]
         if missing:
             raise SettingsError(f"hand_search: no joint of {self.robot.name}'s hands moves {', '.join(missing)} alone, so nothing "
@@ -187,6 +207,7 @@ class Retargeter:
         self.config, self.robot, self.model = config, config.robot, model
         self.settings, self.weights = settings, weights
         self.has_hand_joints = has_hand_joints(self.robot)
+        self.hand_search = hand_search(self.robot, settings)  # the fingers its hand stage searches
 
     def inputs(self, demo: Demonstration) -> RetargetInputs:
         """The demonstration's targets (in the robot's dtype and device) and encoder input."""
@@ -261,7 +282,7 @@ class Retargeter:
         stage = refine_hands(self.robot, result.q, targets, self.weights, iterations=self.settings.hand_iterations,
                              patience=self.settings.patience, lr=self.settings.hand_lr,
                              collision_form=self.settings.collision_form, anchor=options.get("anchor"), fast=fast,
-                             search=self.settings.hand_search, grid=self.settings.hand_grid,
+                             search=self.hand_search, grid=self.settings.hand_grid,
                              slowdown=self.settings.hand_slowdown)
         if result.z is not None:  # the latent term, as in the latent optimisation's loss
             latent = result.z.detach().pow(2).flatten(1).sum(1).to(stage.loss.dtype)

@@ -40,6 +40,7 @@ __all__ = [
     "COUNT_RANGE",
     "WEIGHT_RANGE",
     "WORKERS_RANGE",
+    "HAND_SEARCH",
     "HANDSHAPE_SEARCH",
     "HANDSHAPE_WEIGHTS",
     "HANDSHAPE_SLOWDOWN",
@@ -75,9 +76,12 @@ WEIGHT_RANGE = (0.0, 1e6)  # a loss weight: 1000x the largest default; beyond it
 RATE_RANGE = (1e-12, 1e3)  # step sizes, sigmas, damping, tolerances, clips
 SECONDS_RANGE = (1e-3, 1e7)  # wall-clock budgets [s] (1e7 s: 116 days)
 WORKERS_RANGE = (1, 1024)  # worker processes of a batch's local cluster
+# the fingers the hand stage searches by default (OptimizeSettings.hand_search None: those of them a robot's hands move
+# alone; nlo_lab.inference.hand_stage says why; the index is left out: searched, it opens and loses the pinch)
+HAND_SEARCH = ("middle", "ring", "pinky")
 # the handshape preset (`retarget --handshape`, `batch --handshape`): the hand stage's searched fingers and the weights
 # that differ from LossWeights' defaults (LossWeights.handshape; nlo_lab.inference.hand_stage says why)
-HANDSHAPE_SEARCH = ("middle", "ring", "pinky")
+HANDSHAPE_SEARCH = HAND_SEARCH
 HANDSHAPE_WEIGHTS = {"tip_dir": 8000.0, "thumb": 800.0, "finger_dir": 2000.0}
 # ... and how much longer than the latent optimisation's the hand stage may make each retimed segment
 # (OptimizeSettings.hand_slowdown): the preset's robot time stays below dex-retargeting's (docs/RESULTS.md, "Handshapes")

@@ -286,7 +286,7 @@ def to_frame(rows: list[dict]):
 
 
 def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "encoder", iterations: int = LATENT_ITERATIONS, seed: int = 0,
-                  weights=None, viewer: bool = False, hand_search=(), hand_slowdown: float = 1.0, workers: int | None = None, scheduler: str | None = None,
+                  weights=None, viewer: bool = False, hand_search=None, hand_slowdown: float = 1.0, workers: int | None = None, scheduler: str | None = None,
                   resume: bool = True, retry_failed: bool = False, progress: bool = False, on_row=None):
     """Retarget every input to ``robot`` on a dask.distributed cluster; the results table.
 
@@ -302,7 +302,8 @@ def retarget_many(inputs, robot: Robot | str, out, client=None, *, init: str = "
         init, iterations, seed, weights: as ``nlo-lab retarget``'s ``--init``, ``--iters``,
             ``--seed``, ``--weights`` (weights: ``"ee=1000,ori=100"``, a mapping or a ``LossWeights``).
         viewer: also write each input's ``viewer.html``.
-        hand_search: as ``--hand-search``: fingers the hand stage first searches (``OptimizeSettings.hand_search``).
+        hand_search: as ``--hand-search``: fingers the hand stage first searches (``OptimizeSettings.hand_search``;
+            None: the robot's default, ``()``: none).
         hand_slowdown: as ``--hand-slowdown``: how much longer than the latent optimisation's the hand stage may make
             each retimed segment (``OptimizeSettings.hand_slowdown``).
         workers: worker processes of the LocalCluster (default: the cores available, at most one per input

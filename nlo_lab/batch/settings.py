@@ -77,8 +77,9 @@ class BatchSettings:
             canonical form: the pairs given, sorted by name.
         viewer: also write ``viewer.html`` for each input.
         hand_search: fingers whose joints the hand stage first searches (``--hand-search``,
-            :attr:`OptimizeSettings.hand_search <nlo_lab.inference.OptimizeSettings.hand_search>`); in the
-            fingerprint only when given, so that the fingerprints of batches without it stay as they were.
+            :attr:`OptimizeSettings.hand_search <nlo_lab.inference.OptimizeSettings.hand_search>`); None (the
+            default): the robot's default fingers, ``()``: no search; in the fingerprint only when given, so that the
+            fingerprints of batches without it stay as they were.
         hand_slowdown: how much longer than the latent optimisation's the hand stage may make each retimed segment
             (``--hand-slowdown``, :attr:`OptimizeSettings.hand_slowdown
             <nlo_lab.inference.OptimizeSettings.hand_slowdown>`); in the fingerprint only when not 1, likewise.
@@ -90,7 +91,7 @@ class BatchSettings:
     seed: int = 0
     weights: Any = ()
     viewer: bool = False
-    hand_search: tuple[str, ...] = ()
+    hand_search: tuple[str, ...] | None = None
     hand_slowdown: float = 1.0
 
     def __post_init__(self) -> None:
@@ -98,7 +99,7 @@ class BatchSettings:
         object.__setattr__(self, "robot", str(robot))
         object.__setattr__(self, "weights", _canonical_weights(self.weights))
         search = self.hand_search
-        object.__setattr__(self, "hand_search", (search,) if isinstance(search, str) else tuple(search or ()))
+        object.__setattr__(self, "hand_search", None if search is None else (search,) if isinstance(search, str) else tuple(search))
         # refused here, in the client, before any input is read (the workers' OptimizeSettings checks it again)
         object.__setattr__(self, "hand_slowdown", check_range("hand_slowdown", self.hand_slowdown, *SLOWDOWN_RANGE))
 
@@ -110,7 +111,7 @@ class BatchSettings:
             digest.update(f.name.encode() + b"\0" + file_sha256(f).encode())
         key = {"nlo_lab": nlo_lab.__version__, "robot_files": digest.hexdigest(),
                "init": self.init, "iterations": self.iterations, "seed": self.seed, "weights": self.weights}
-        if self.hand_search:
+        if self.hand_search is not None:
             key["hand_search"] = list(self.hand_search)
         if self.hand_slowdown != 1.0:
             key["hand_slowdown"] = float(self.hand_slowdown)

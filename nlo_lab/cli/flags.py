@@ -15,6 +15,7 @@ from typing import Any, NoReturn
 from nlo_lab import settings
 from nlo_lab.errors import NloLabError, SettingsError
 from nlo_lab.settings import (
+    HAND_SEARCH,
     HANDSHAPE_SEARCH,
     HANDSHAPE_SLOWDOWN,
     HANDSHAPE_WEIGHTS,
@@ -133,9 +134,11 @@ def add_optimisation_flags(parser: argparse.ArgumentParser, weights_example: str
 
 
 def finger_names(text: str) -> tuple[str, ...]:
-    """``--hand-search``: finger names separated by commas (``nlo_lab.human.FINGERS``)."""
+    """``--hand-search``: finger names separated by commas (``nlo_lab.human.FINGERS``), or ``none`` (no search)."""
     from nlo_lab.human.demonstration import FINGERS  # numpy only
 
+    if text.strip() == "none":
+        return ()
     names = tuple(x.strip() for x in text.split(",") if x.strip())
     unknown = [x for x in names if x not in FINGERS]
     if unknown or not names:
@@ -155,8 +158,8 @@ def add_hand_flags(parser: argparse.ArgumentParser) -> None:
                         help=f"the handshape preset: the hand stage first searches {fingers} along the clip, with {weights} "
                              f"and the hands' slowdown at {HANDSHAPE_SLOWDOWN:g} (--weights applies on top; see docs/RESULTS.md, Handshapes)")
     parser.add_argument("--hand-search", type=finger_names, default=None, metavar="FINGERS",
-                        help=f"fingers whose joints the hand stage first searches along the clip, e.g. {fingers} "
-                             f"(default: none; with --handshape: {fingers})")
+                        help=f"fingers whose joints the hand stage first searches along the clip, comma-separated, or none "
+                             f"(default: those of {','.join(HAND_SEARCH)} the robot's hands move alone)")
     lo, hi = SLOWDOWN_RANGE
     parser.add_argument("--hand-slowdown", type=arg_type(check_range, float, lo=lo, hi=hi), default=None, metavar="X",
                         help=f"how much longer than the latent optimisation's the hand stage may make each segment of the "
@@ -165,9 +168,10 @@ def add_hand_flags(parser: argparse.ArgumentParser) -> None:
 
 def hand_settings(args) -> dict[str, Any]:
     """The hand stage's settings the flags give (``OptimizeSettings``' and ``retarget_many``'s keywords):
-    ``hand_search``, the fingers ``--hand-search`` names, else the preset's with ``--handshape``, else none;
+    ``hand_search``, the fingers ``--hand-search`` names (``none``: ``()``), else the preset's with ``--handshape``, else
+    None (the robot's default: ``nlo_lab.pipeline.hand_search``);
     ``hand_slowdown``, ``--hand-slowdown``'s, else the preset's with ``--handshape``, else 1 (never slower)."""
-    search = args.hand_search if args.hand_search is not None else (HANDSHAPE_SEARCH if args.handshape else ())
+    search = args.hand_search if args.hand_search is not None else (HANDSHAPE_SEARCH if args.handshape else None)
     slowdown = args.hand_slowdown if args.hand_slowdown is not None else (HANDSHAPE_SLOWDOWN if args.handshape else 1.0)
     return {"hand_search": search, "hand_slowdown": slowdown}
 

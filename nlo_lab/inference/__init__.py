@@ -23,6 +23,7 @@ from nlo_lab.inference.joint_space import optimize_joints
 from nlo_lab.inference.latent import initial_latent, optimize_latent, optimize_stream, sequence_start
 from nlo_lab.inference.retime import retime_times, segment_durations
 from nlo_lab.inference.settings import (
+    HAND_SEARCH,
     HANDSHAPE_SEARCH,
     HANDSHAPE_SLOWDOWN,
     INITS,
@@ -41,7 +42,7 @@ from nlo_lab.inference.trajectory import FORMAT_VERSION, RobotTrajectory, Trajec
 __all__ = [
     # settings
     "INITS", "JOINT_INITS", "JOINT_LIMITS", "PAPER_LR", "SMOOTH_LR", "RPROP_LR", "PAPER_ITERATIONS", "PAPER_PATIENCE",
-    "OptimizeSettings", "JointOptimizeSettings", "HANDSHAPE_SEARCH", "HANDSHAPE_SLOWDOWN",
+    "OptimizeSettings", "JointOptimizeSettings", "HAND_SEARCH", "HANDSHAPE_SEARCH", "HANDSHAPE_SLOWDOWN",
     # fast paths
     "FastPaths", "fast_paths",
     # descent

@@ -44,6 +44,7 @@ from nlo_lab.human.demonstration import FINGERS
 from nlo_lab.inference.descent import STEPPERS
 from nlo_lab.objective import COLLISION_FORMS
 from nlo_lab.settings import (
+    HAND_SEARCH,
     HANDSHAPE_SEARCH,
     HANDSHAPE_SLOWDOWN,
     ITERATIONS_RANGE,
@@ -70,6 +71,7 @@ __all__ = [
     "JOINT_LIMITS",
     "OptimizeSettings",
     "JointOptimizeSettings",
+    "HAND_SEARCH",
     "HANDSHAPE_SEARCH",
     "HANDSHAPE_SLOWDOWN",
 ]
@@ -117,10 +119,12 @@ class OptimizeSettings:
             searches along the whole clip (``hand_grid`` values of each, every step within the speed clamp's caps,
             by the objective), before its Adam steps: a finger of one actuator (the Inspire hand's) has two basins,
             curled and half open, and the descent stays in the one it starts in (``nlo_lab.inference.hand_stage``).
-            Default none; :data:`HANDSHAPE_SEARCH` (with :data:`HANDSHAPE_SLOWDOWN`: :meth:`handshape`) and
-            :meth:`LossWeights.handshape <nlo_lab.objective.LossWeights.handshape>` are the handshape preset
-            (``docs/RESULTS.md``, "Handshapes"):
-            the index is left out, searched it opens and the thumb-index distance loses the human's course (the pinch).
+            None (the default): the fingers of :data:`HAND_SEARCH` (middle, ring, little) that the robot's hands
+            move alone, none on a robot without hand joints; ``()``: no search. With the default ``tip_dir`` weight
+            this is what puts the hands ahead of dex-retargeting on all four handshape measures (``docs/RESULTS.md``,
+            "Handshapes"); the index is left out, searched it opens and the thumb-index distance loses the human's
+            course (the pinch). :data:`HANDSHAPE_SEARCH` (with :data:`HANDSHAPE_SLOWDOWN`: :meth:`handshape`) and
+            :meth:`LossWeights.handshape <nlo_lab.objective.LossWeights.handshape>` are the handshape preset.
         hand_grid: values per searched joint.
         hand_slowdown: how much longer than the latent optimisation's the hand stage may make each segment of the
             retimed trajectory (its speed clamp's caps times this; :func:`~nlo_lab.inference.hand_stage.step_caps`).
@@ -151,7 +155,7 @@ class OptimizeSettings:
     # after 10).
     hand_iterations: int = 60
     hand_lr: float = 0.03
-    hand_search: tuple[str, ...] = ()
+    hand_search: tuple[str, ...] | None = None
     hand_grid: int = SEARCH_GRID
     hand_slowdown: float = 1.0
 
@@ -164,14 +168,15 @@ class OptimizeSettings:
         check_int("warm_window", self.warm_window, 0, 1000)
         check_int("hand_iterations", self.hand_iterations, *ITERATIONS_RANGE)
         object.__setattr__(self, "hand_lr", check_range("hand_lr", self.hand_lr, *RATE_RANGE))
-        if not isinstance(self.hand_search, (tuple, list)) or not all(isinstance(f, str) for f in self.hand_search):
-            raise SettingsError(f"hand_search must be a sequence of finger names, got {self.hand_search!r}")
-        object.__setattr__(self, "hand_search", tuple(self.hand_search))
-        for finger in self.hand_search:
-            check_choice("hand_search finger", finger, FINGERS)
-        twice = sorted({f for f in self.hand_search if self.hand_search.count(f) > 1})
-        if twice:  # a second pass over a finger only repeats the first's search
-            raise SettingsError(f"hand_search names {', '.join(twice)} more than once")
+        if self.hand_search is not None:  # None: the robot's default (HAND_SEARCH), resolved by the pipeline
+            if not isinstance(self.hand_search, (tuple, list)) or not all(isinstance(f, str) for f in self.hand_search):
+                raise SettingsError(f"hand_search must be a sequence of finger names or None, got {self.hand_search!r}")
+            object.__setattr__(self, "hand_search", tuple(self.hand_search))
+            for finger in self.hand_search:
+                check_choice("hand_search finger", finger, FINGERS)
+            twice = sorted({f for f in self.hand_search if self.hand_search.count(f) > 1})
+            if twice:  # a second pass over a finger only repeats the first's search
+                raise SettingsError(f"hand_search names {', '.join(twice)} more than once")
         check_int("hand_grid", self.hand_grid, 2, 256)
         object.__setattr__(self, "hand_slowdown", check_range("hand_slowdown", self.hand_slowdown, *SLOWDOWN_RANGE))
         if self.lr is not None:

@@ -22,7 +22,7 @@ from nlo_lab.inference import HANDSHAPE_SEARCH, OptimizeSettings
 from nlo_lab.lab.views import View, guarded
 from nlo_lab.model import load_pretrained
 from nlo_lab.objective import HAND_TERMS, LossWeights, point_plan, targets_from_demonstration
-from nlo_lab.pipeline import RetargetConfig
+from nlo_lab.pipeline import RetargetConfig, hand_search
 from nlo_lab.viz import RobotScene, frame_points, style_viewer
 from nlo_lab.viz.tracks import translation
 
@@ -47,8 +47,8 @@ class HandPanel:
         frame: the frame shown first.
         side: ``"right"`` or ``"left"``: the hand in close-up.
         iterations: latent optimisation steps per update.
-        search: the fingers the hand stage searches first (default none; ``HANDSHAPE_SEARCH`` with
-            ``LossWeights.handshape()`` is the handshape preset).
+        search: the fingers the hand stage searches first (default None: the pipeline's, those of ``HAND_SEARCH``
+            the robot's hands move alone; ``HANDSHAPE_SEARCH`` with ``LossWeights.handshape()`` is the handshape preset).
         view: ``"auto"`` (a 3-D widget), None (no view: tests) or a meshcat ``Visualizer``.
         height: 3-D view height [px].
 
@@ -64,7 +64,7 @@ class HandPanel:
     """
 
     def __init__(self, demo, robot: Robot, model: RetargetModel | None = None, weights: LossWeights | None = None, frame: int = 0, side: str = "right",
-                 iterations: int = 60, view: Any = "auto", height: int = 380, search: Sequence[str] = ()):
+                 iterations: int = 60, view: Any = "auto", height: int = 380, search: Sequence[str] | None = None):
         # lazy: a kernel's widgets: only when a panel is built
         import ipywidgets as W
 
@@ -74,6 +74,8 @@ class HandPanel:
             raise SettingsError(f"side must be 'left' or 'right', got {side!r}")
         if not 0 <= frame < len(demo):
             raise SettingsError(f"frame {frame} is outside 0..{len(demo) - 1}")
+        if search is None:
+            search = hand_search(robot, OptimizeSettings())
         search = OptimizeSettings(hand_search=tuple(search)).hand_search  # a finger unknown or named twice: refused here
         if model is None:
             model = load_pretrained(robot)

@@ -92,7 +92,9 @@ def test_the_fingerprint_follows_the_settings_and_the_robots_files(tmp_path):
     assert BatchSettings("yumi", viewer=True).fingerprint() == base.fingerprint()  # a viewer changes no result
     different = [BatchSettings("nao"), BatchSettings("yumi", iterations=99), BatchSettings("yumi", init="zeros"),
                  BatchSettings("yumi", seed=1), BatchSettings("yumi", weights="ee=3"), BatchSettings("yumi", hand_search=("ring",))]
-    assert "hand_search" not in base.key()  # without it, the fingerprints of earlier batches hold
+    assert "hand_search" not in base.key() and base.hand_search is None  # without it, the fingerprints of earlier batches hold
+    different.append(BatchSettings("yumi", hand_search=()))  # no search: not the default's
+    assert BatchSettings("yumi", hand_search=()).key()["hand_search"] == []
     assert len({s.fingerprint() for s in different} | {base.fingerprint()}) == len(different) + 1
     # a copy of the spec whose checkpoint differs: another robot
     assert [f.name for f in robot_files("yumi")] == ["yumi.json", "yumi.urdf", "yumi.pt"]

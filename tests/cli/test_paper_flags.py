@@ -65,22 +65,25 @@ def test_retarget_sigma_is_the_standard_deviation_of_the_random_start(capsys):
     assert "--sigma" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("extra, search, tip_dir, thumb", [
-    ([], (), 4000.0, 500.0),
-    (["--handshape"], ("middle", "ring", "pinky"), 8000.0, 800.0),
-    (["--handshape", "--weights", "thumb=600", "--hand-search", "ring"], ("ring",), 8000.0, 600.0),
-    (["--hand-search", "ring,pinky"], ("ring", "pinky"), 4000.0, 500.0),
+@pytest.mark.parametrize("extra, given, search, tip_dir, thumb", [
+    ([], None, ("middle", "ring", "pinky"), 7000.0, 500.0),  # the defaults: the robot's fingers of HAND_SEARCH
+    (["--hand-search", "none"], (), (), 7000.0, 500.0),
+    (["--handshape"], ("middle", "ring", "pinky"), ("middle", "ring", "pinky"), 8000.0, 800.0),
+    (["--handshape", "--weights", "thumb=600", "--hand-search", "ring"], ("ring",), ("ring",), 8000.0, 600.0),
+    (["--hand-search", "ring,pinky"], ("ring", "pinky"), ("ring", "pinky"), 7000.0, 500.0),
 ])
-def test_retarget_handshape_and_hand_search_reach_the_pipeline(extra, search, tip_dir, thumb, capsys, monkeypatch):
-    """``--handshape`` is the preset (LossWeights.handshape, HANDSHAPE_SEARCH); ``--weights`` and ``--hand-search`` refine it."""
+def test_retarget_handshape_and_hand_search_reach_the_pipeline(extra, given, search, tip_dir, thumb, capsys, monkeypatch):
+    """``--handshape`` is the preset (LossWeights.handshape, HANDSHAPE_SEARCH); ``--weights`` and ``--hand-search`` refine it;
+    without them the pipeline searches the robot's default fingers, ``--hand-search none`` none."""
     import nlo_lab.pipeline as pipeline
 
-    seen = []
+    seen, built = [], []
     build = pipeline.RetargetConfig.build
-    monkeypatch.setattr(pipeline.RetargetConfig, "build", lambda self: seen.append(self) or build(self))
+    monkeypatch.setattr(pipeline.RetargetConfig, "build", lambda self: seen.append(self) or built.append(build(self)) or built[-1])
     assert cli_main(["retarget", "demo:introduction_06", "--robot", "yumi", "--iters", "0", "--json", "--quiet", *extra]) == 0
     (config,) = seen
-    assert config.settings.hand_search == search
+    assert config.settings.hand_search == given
+    assert built[0].hand_search == search
     assert (config.weights.tip_dir, config.weights.thumb) == (tip_dir, thumb)
     assert config.settings.hand_slowdown == (HANDSHAPE_SLOWDOWN if "--handshape" in extra else 1.0)
 

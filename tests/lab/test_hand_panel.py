@@ -10,7 +10,7 @@ import pytest
 import nlo_lab.lab.hand_panel as hand_panel
 from nlo_lab.corpus.fingerspelling import fingerspelling_demonstration
 from nlo_lab.errors import SettingsError
-from nlo_lab.inference import HANDSHAPE_SEARCH, OptimizeSettings
+from nlo_lab.inference import HAND_SEARCH, HANDSHAPE_SEARCH, OptimizeSettings
 from nlo_lab.lab import HAND_SLIDERS, HandPanel
 from nlo_lab.objective import LossWeights
 from nlo_lab.pipeline import RetargetConfig
@@ -46,6 +46,11 @@ def test_the_panel_starts_with_the_search_it_is_given(yumi):
     for bad in (("wrist",), ("ring", "ring")):
         with pytest.raises(SettingsError, match="hand_search"):
             HandPanel(fingerspelling_demonstration("A"), yumi, iterations=10, view=None, search=bad)
+
+
+def test_the_panel_starts_with_the_pipelines_search(yumi):
+    panel = HandPanel(fingerspelling_demonstration("A"), yumi, iterations=10, view=None)
+    assert panel.controls["search"].value == HAND_SEARCH and panel.settings.hand_search == HAND_SEARCH
 
 
 def test_a_robot_without_hands_is_refused():

@@ -11,10 +11,10 @@ import torch
 from nlo_lab.corpus import corpus_clip
 from nlo_lab.errors import SettingsError
 from nlo_lab.evaluation import BaselineSettings, run_method
-from nlo_lab.inference import OptimizeSettings, RetargetInputs, initial_latent, optimize_latent, retime_times
+from nlo_lab.inference import HAND_SEARCH, OptimizeSettings, RetargetInputs, initial_latent, optimize_latent, retime_times
 from nlo_lab.model import encoder_input, load_pretrained
 from nlo_lab.objective import LossWeights, targets_from_demonstration
-from nlo_lab.pipeline import RetargetConfig, Retargeter, retarget
+from nlo_lab.pipeline import RetargetConfig, Retargeter, hand_search, retarget
 from nlo_lab.threads import single_thread
 
 SETTINGS = OptimizeSettings(iterations=8)
@@ -126,6 +126,34 @@ def test_a_searched_finger_the_hands_do_not_have_is_refused_when_built(tmp_path)
     with pytest.raises(SettingsError, match=r"moves pinky alone.*thumb, index, middle, ring\)"):
         RetargetConfig(four, OptimizeSettings(hand_search=("ring", "pinky"))).build()
     RetargetConfig(four, OptimizeSettings(hand_search=("ring",)))._check_hand_search()  # a finger it has: accepted
+    assert hand_search(four, OptimizeSettings()) == ("middle", "ring")  # the default: the fingers of HAND_SEARCH it has
+
+
+def test_the_default_search_is_the_robots_fingers_of_hand_search(nao, model):
+    from nlo_lab.robot import load_robot
+
+    yumi = load_robot("yumi")
+    assert OptimizeSettings().hand_search is None
+    assert hand_search(yumi, OptimizeSettings()) == HAND_SEARCH == ("middle", "ring", "pinky")
+    assert hand_search(nao, OptimizeSettings()) == ()  # no hand joints: nothing to search, and not refused
+    assert hand_search(yumi, OptimizeSettings(hand_search=())) == ()  # none, when asked
+    assert hand_search(yumi, OptimizeSettings(hand_search=("ring",))) == ("ring",)
+    assert RetargetConfig(nao, OptimizeSettings(iterations=2), model=model).build().hand_search == ()
+
+
+def test_the_default_pipeline_runs_the_finger_search(robots):
+    """Without a setting the hand stage searches HAND_SEARCH: the same angles as naming those fingers, not those of no search."""
+    yumi = robots["yumi"]
+    demo = corpus_clip("introduction_06").slice(0, 12)
+    model = load_pretrained(yumi)
+
+    def angles(**hand):
+        settings = OptimizeSettings(iterations=3, **hand)
+        return np.asarray(RetargetConfig(yumi, settings, model=model).build()(demo).trajectory.angles)
+
+    default = angles()
+    np.testing.assert_array_equal(default, angles(hand_search=HAND_SEARCH))
+    assert np.abs(default - angles(hand_search=())).max() > 1e-3
 
 
 def test_the_evaluation_runs_the_pipeline(nao, model, demo, monkeypatch):
