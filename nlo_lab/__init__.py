@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 # name -> the module it lives in (docs/ARCHITECTURE.md, "The front door")
 _HOMES = {
