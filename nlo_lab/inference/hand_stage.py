@@ -132,7 +132,7 @@ benchmark's search evaluates the whole objective 16 times per joint and hand, to
 ring's own terms over a table of its joint's values).
 
 The finger search (``search``, :attr:`OptimizeSettings.hand_search <nlo_lab.inference.OptimizeSettings.hand_search>`;
-off by default) is that search in the stage, for every finger it names: before the descent each named finger's own
+off by default until 2026-11-28, the pipeline's default since: the middle, ring and little fingers, below) is that search in the stage, for every finger it names: before the descent each named finger's own
 joints (:func:`finger_joints`), one at a time and each hand the clip shows, go to the path of least objective through
 ``grid`` values over the joint's limits, every step within the speed clamp's caps (:func:`searched_start`,
 :func:`path_within_caps`); the table is the objective per frame without the smoothness term (the caps bound the
@@ -205,6 +205,23 @@ Neighbours trade again: ``finger_dir`` 1500 with ``caps=1.5`` is behind on base-
 first group's robot time (29.44 s) above dex-retargeting's. On the held-out synthetic test clips (``--corpus 25``) the
 new preset scores 10.56 / 15.65 / 16.41 / 0.767 (the old 10.07 / 14.82 / 18.82 / 0.783, the defaults 11.23 / 16.54 /
 14.42 / 0.720), in 220.47 s of robot time against the defaults' 216.71 s.
+
+The defaults search too (2026-11-28). On all eight recordings (``benchmarks/hands_levers.py --dex``, 08:05-08:12 UTC,
+load below 1; wrist->tip / thumb / base->tip [deg] / pinch r, the clips' robot time; dex-retargeting's best 15.84 /
+30.16 / 32.41 / 0.771) the preset scores 15.58 / 28.37 / 30.08 / 0.792, 46.70 s and the defaults as they were 16.20 /
+26.73 / 31.19 / 0.813, 39.83 s. The preset's weights without its slowdown (``hand_slowdown`` 1) score 15.52 / 30.48 /
+31.23 / 0.776, 39.72 s: at ``tip_dir`` 8000 the thumb's lead needs the slower robot. At the default ``thumb`` and ``finger_dir`` (the latent optimisation's weights
+unchanged) with the search and no slowdown: ``tip_dir`` 6500 15.54 / 29.66 / 31.54 / 0.786, 39.74 s; 7000 15.47 /
+29.85 / 31.63 / 0.782, 39.57 s; 7500 15.44 / 30.00 / 31.72 / 0.780; the search of the ring and little fingers alone at
+7000 15.68 / 29.09 / 31.71 / 0.782; 7000 without the search 15.83 / 27.88 / 32.50 / 0.781 (behind on base->tip); the
+search at the old 4000 16.08 / 27.24 / 30.84 / 0.815. So the defaults are now ``tip_dir`` 7000 and the search of
+``HAND_SEARCH`` (the middle, ring and little fingers; :attr:`OptimizeSettings.hand_search
+<nlo_lab.inference.OptimizeSettings.hand_search>` None): ahead of dex-retargeting on all four measures, the robot no
+slower than before, the latent optimisation (which runs without ``tip_dir``) and so Table I's arms unchanged. On the
+held-out synthetic test clips (``--corpus 25 --dex``, 08:10-08:22 UTC) they score 10.30 / 15.65 / 17.76 / 0.771 in
+212.64 s of robot time (dex-retargeting unfiltered 12.85 / 17.42 / 11.04 / 0.609, filtered 13.12 / 19.44 / 15.02 /
+0.511): better than the old defaults on three measures and worse on base->tip (14.42°), as the preset is. The preset
+stays for what it adds on the thumb, base->tip and the pinch at the cost of robot time (docs/RESULTS.md, "Handshapes").
 
 It never adds a self-collision: a frame where the stage's hands would put two capsules into each
 other (surface distance < 0) and the start's did not keeps the start's hands (the collision term

@@ -205,7 +205,8 @@ print(f"\nmade: {''.join(c for c, m in zip(letters, made, strict=True) if m) or 
 # `pinch`, `tip_dir`, `finger_dir`, `thumb_gap`; the latent optimisation, then the hand stage) and shows the robot
 # framed on its right hand; the red spheres above it are the human's wrist and fingertips at the robot
 # hand's size, in the robot's wrist frame: where the fingertips should be. Its `search` list names the fingers
-# whose motor the hand stage searches before its descent (the next section), and its *handshape preset* button sets
+# whose motor the hand stage searches before its descent (the next section; at first the pipeline's: middle, ring,
+# little), and its *handshape preset* button sets
 # the preset's weights and search at once.
 # Try the letter V with `tip` and `tip_dir` at 0.1, then `tip` at 1000: the robot cannot spread, so only
 # the curl follows.
@@ -224,16 +225,19 @@ print(panel.measures)
 # ## Two basins per finger: the search and the handshape preset
 #
 # Each Inspire finger is one motor, and along it the objective can have two valleys: the finger curled, and
-# the finger open. The hand stage's Adam steps stay in the valley the decoder's hands start in. With
-# `OptimizeSettings(hand_search=...)` the stage first tries `hand_grid` (16) values of each named finger's
-# motor in every frame and picks the cheapest path through them over the whole clip whose steps the robot
-# can play at the clip's pace (dynamic programming, `path_within_caps`); then Adam polishes. The handshape
-# preset (`nlo-lab retarget --handshape`) searches the middle, ring and little fingers, weighs the fingertip
-# directions more (`LossWeights.handshape()`) and lets the hands slow the robot down: each segment of the retimed
-# motion may take up to `hand_slowdown` (1.7) times the latent optimisation's (`OptimizeSettings.handshape()`; the
-# defaults' hands never slow it down). Here both run on the real recording of notebook 02;
-# the plot shows the objective (the preset's weights) along the right ring finger's motor in the first frame where it
-# has two valleys (else where the two runs differ most), and where each run put it; the table the four measures.
+# the finger open. The hand stage's Adam steps stay in the valley the decoder's hands start in. So the stage
+# first tries `hand_grid` (16) values of some fingers' motors in every frame and picks the cheapest path through
+# them over the whole clip whose steps the robot can play at the clip's pace (dynamic programming,
+# `path_within_caps`); then Adam polishes. By default it searches the middle, ring and little fingers
+# (`OptimizeSettings().hand_search` is None: the fingers of `HAND_SEARCH` the robot's hands move alone; the index
+# is left out: searched, it opens and the thumb–index distance loses the human's course); `hand_search=()` turns
+# the search off. The handshape preset (`nlo-lab retarget --handshape`) searches the same fingers, weighs the
+# thumb and the base→tip directions more (`LossWeights.handshape()`) and lets the hands slow the robot down: each
+# segment of the retimed motion may take up to `hand_slowdown` (1.7) times the latent optimisation's
+# (`OptimizeSettings.handshape()`; the defaults' hands never slow it down). Here the three run on the real
+# recording of notebook 02; the plot shows the objective (the default weights) along the right ring finger's
+# motor in the first frame where it has two valleys (else where the search moved it most), and where each run put
+# it; the table the four measures and the retimed duration.
 
 # %%
 from nlo_lab.human import load_demonstration
@@ -241,34 +245,34 @@ from nlo_lab.inference import HANDSHAPE_SEARCH
 from nlo_lab.lab import recording_path
 
 real = load_demonstration(recording_path())
-iters = OptimizeSettings(iterations=budget(40, 10), hand_iterations=budget(60, 10))
-runs = {"defaults": RetargetConfig(robot, settings=iters).build()(real),
-        "handshape preset": RetargetConfig(robot, settings=OptimizeSettings.handshape(iterations=iters.iterations,
-                                                                                     hand_iterations=iters.hand_iterations),
+budgets = {"iterations": budget(40, 10), "hand_iterations": budget(60, 10)}
+runs = {"no search": RetargetConfig(robot, settings=OptimizeSettings(hand_search=(), **budgets)).build()(real),
+        "defaults": RetargetConfig(robot, settings=OptimizeSettings(**budgets)).build()(real),
+        "handshape preset": RetargetConfig(robot, settings=OptimizeSettings.handshape(**budgets),
                                            weights=LossWeights.handshape()).build()(real)}
 import torch
 
 from nlo_lab.objective import Objective, targets_from_demonstration
 
-# the objective along the right ring motor, frame by frame, the rest of the robot as the defaults left it: the
-# table the search builds (48 values here, 16 in the search)
+# the objective along the right ring motor, frame by frame, the rest of the robot as the run without the search
+# left it: the table the search builds (48 values here, 16 in the search)
 ring = robot.joint_names.index("yumi_hand_r_ring_proximal_joint")
-q_def, q_pre = (torch.as_tensor(np.array(r.trajectory.angles), dtype=robot.lower_limits.dtype) for r in runs.values())
+q_run = {name: torch.as_tensor(np.array(r.trajectory.angles), dtype=robot.lower_limits.dtype) for name, r in runs.items()}
 T, values = len(real), torch.linspace(float(robot.lower_limits[ring]), float(robot.upper_limits[ring]), 48)
-trial = q_def.repeat_interleave(len(values), 0)
+trial = q_run["no search"].repeat_interleave(len(values), 0)
 trial[:, ring] = values.repeat(T)
 targets = targets_from_demonstration(real).index(torch.arange(T).repeat_interleave(len(values)))
 with torch.no_grad():
-    table = Objective(robot, targets, LossWeights.handshape())(trial)[0].reshape(T, len(values)).numpy()
+    table = Objective(robot, targets, LossWeights())(trial)[0].reshape(T, len(values)).numpy()
 inner = (table[:, 1:-1] < table[:, :-2]) & (table[:, 1:-1] < table[:, 2:])
 valleys = inner.sum(1) + (table[:, 0] < table[:, 1]) + (table[:, -1] < table[:, -2])  # local minima, the ends too
 two = np.flatnonzero(valleys >= 2)
 print(f"frames where the right ring's objective has two valleys or more: {len(two)} of {T}")
-t = int(two[0]) if len(two) else int((q_pre[:, ring] - q_def[:, ring]).abs().argmax())
+t = int(two[0]) if len(two) else int((q_run["defaults"][:, ring] - q_run["no search"][:, ring]).abs().argmax())
 cost = table[t]
 fig_r, ax = plt.subplots(figsize=(6, 2.4))
 ax.plot(values, cost, color="0.3")
-for name, qq, c in (("defaults", q_def, "C0"), ("handshape preset", q_pre, "C1")):
+for (name, qq), c in zip(q_run.items(), ("C7", "C0", "C1"), strict=True):
     ax.axvline(float(qq[t, ring]), color=c, label=f"{name}: {float(qq[t, ring]):.2f} rad")
 ax.set(xlabel="right ring motor [rad] (0: open)", ylabel=f"objective, frame {t}")
 ax.legend(frameon=False, fontsize=8)
@@ -279,10 +283,16 @@ measures = {name: hand_scores(robot, np.asarray(run.trajectory.angles, dtype=np.
 for name, m in measures.items():
     print(f"{name:18s} {m['tip_deg']:8.1f}° {m['thumb_deg']:9.1f}° {m['finger_deg']:8.1f}° {m['pinch_r']:8.2f} "
           f"{runs[name].trajectory.duration:7.2f} s")
-a, b = measures["handshape preset"], measures["defaults"]
-wins = [k for k in ("tip_deg", "thumb_deg", "finger_deg") if a[k] < b[k]]
-wins += ["pinch_r"] if a["pinch_r"] > b["pinch_r"] else []
-print(f"on this clip the preset is better on: {', '.join(wins) or 'none'}")
+
+
+def better(a: dict, b: dict) -> str:
+    """The measures on which ``a`` is better than ``b``."""
+    wins = [k for k in ("tip_deg", "thumb_deg", "finger_deg") if a[k] < b[k]] + (["pinch_r"] if a["pinch_r"] > b["pinch_r"] else [])
+    return ", ".join(wins) or "none"
+
+
+print(f"on this clip the defaults are better than no search on: {better(measures['defaults'], measures['no search'])}")
+print(f"on this clip the preset is better than the defaults on: {better(measures['handshape preset'], measures['defaults'])}")
 
 # %% [markdown]
 # On the panel, the preset's button (`panel.use_weights` with the preset's weights and fingers, one update) on the
@@ -296,8 +306,9 @@ for key, label in (("tip_deg", "wrist→tip"), ("thumb_deg", "thumb→tips"), ("
     print(f"{label:10s} {before[key]:6.1f}° -> {panel.measures[key]:6.1f}°")
 
 # %% [markdown]
-# One short clip decides little, and the preset was chosen on real recordings (its search and first weights on four,
-# its `finger_dir` weight and slowdown on eight).
+# One short clip decides little, and the search and the weights were chosen on real recordings (the preset's search
+# and first weights on four, its `finger_dir` weight and slowdown on eight; the defaults' `tip_dir` weight and search
+# on the eight).
 # The numbers of `benchmarks/hands.py` (nlo_lab and the preset against dex-retargeting on every
 # real recording we have, on four recordings added after the preset's choice apart, how sure each margin is,
 # and on held-out synthetic clips) are in `docs/RESULTS.md`, section "Handshapes".
