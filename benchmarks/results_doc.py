@@ -69,12 +69,13 @@ def draft_figures() -> Path:
 
 def default_budget() -> str:
     """The default latent budget and step rule of a recording, as the pipeline runs it (nlo_lab.inference.settings)."""
-    from nlo_lab.inference import OptimizeSettings
+    from nlo_lab.inference import HAND_SEARCH, OptimizeSettings
 
     settings = OptimizeSettings()
     rule, _, patience = settings.step_rule(coupled=True)
     stop = f", patience {patience}" if rule == "adam" else ", no early stop"
-    return f"{settings.iterations} {dict(rprop='Rprop', adam='Adam')[rule]} steps on the latent code{stop}, then the hand stage's {settings.hand_iterations} Adam steps"
+    return (f"{settings.iterations} {dict(rprop='Rprop', adam='Adam')[rule]} steps on the latent code{stop}, then the hand stage: "
+            f"on a robot with hands its search of {', '.join(HAND_SEARCH)}, then {settings.hand_iterations} Adam steps")
 
 
 def cpu_model() -> str:
