@@ -132,8 +132,9 @@ benchmark's search evaluates the whole objective 16 times per joint and hand, to
 ring's own terms over a table of its joint's values).
 
 The finger search (``search``, :attr:`OptimizeSettings.hand_search <nlo_lab.inference.OptimizeSettings.hand_search>`;
-off by default until 2026-11-28, the pipeline's default since: the middle, ring and little fingers, below) is that search in the stage, for every finger it names: before the descent each named finger's own
-joints (:func:`finger_joints`), one at a time and each hand the clip shows, go to the path of least objective through
+off by default until 2026-11-28, the pipeline's default since: the middle, ring and little fingers, below) is that
+search in the stage, for every finger it names: before the descent each named finger's own joints
+(:func:`finger_joints`), one at a time and each hand the clip shows, go to the path of least objective through
 ``grid`` values over the joint's limits, every step within the speed clamp's caps (:func:`searched_start`,
 :func:`path_within_caps`); the table is the objective per frame without the smoothness term (the caps bound the
 steps), from the same form of the objective the descent runs, and a joint keeps its start where the path costs more.
@@ -210,9 +211,9 @@ The defaults search too (2026-11-28). On all eight recordings (``benchmarks/hand
 load below 1; wrist->tip / thumb / base->tip [deg] / pinch r, the clips' robot time; dex-retargeting's best 15.84 /
 30.16 / 32.41 / 0.771) the preset scores 15.58 / 28.37 / 30.08 / 0.792, 46.70 s and the defaults as they were 16.20 /
 26.73 / 31.19 / 0.813, 39.83 s. The preset's weights without its slowdown (``hand_slowdown`` 1) score 15.52 / 30.48 /
-31.23 / 0.776, 39.72 s: at ``tip_dir`` 8000 the thumb's lead needs the slower robot. At the default ``thumb`` and ``finger_dir`` (the latent optimisation's weights
-unchanged) with the search and no slowdown: ``tip_dir`` 6500 15.54 / 29.66 / 31.54 / 0.786, 39.74 s; 7000 15.47 /
-29.85 / 31.63 / 0.782, 39.57 s; 7500 15.44 / 30.00 / 31.72 / 0.780; the search of the ring and little fingers alone at
+31.23 / 0.776, 39.72 s: at ``tip_dir`` 8000 the thumb's lead needs the slower robot. At the default ``thumb`` and
+``finger_dir`` (the latent optimisation's weights unchanged) with the search and no slowdown: ``tip_dir`` 6500 15.54 /
+29.66 / 31.54 / 0.786, 39.74 s; 7000 15.47 / 29.85 / 31.63 / 0.782, 39.57 s; 7500 15.44 / 30.00 / 31.72 / 0.780; the search of the ring and little fingers alone at
 7000 15.68 / 29.09 / 31.71 / 0.782; 7000 without the search 15.83 / 27.88 / 32.50 / 0.781 (behind on base->tip); the
 search at the old 4000 16.08 / 27.24 / 30.84 / 0.815. So the defaults are now ``tip_dir`` 7000 and the search of
 ``HAND_SEARCH`` (the middle, ring and little fingers; :attr:`OptimizeSettings.hand_search
