@@ -219,7 +219,7 @@ search at the old 4000 16.08 / 27.24 / 30.84 / 0.815. So the defaults are now ``
 ``HAND_SEARCH`` (the middle, ring and little fingers; :attr:`OptimizeSettings.hand_search
 <nlo_lab.inference.OptimizeSettings.hand_search>` None): ahead of dex-retargeting on all four measures, the robot no
 slower than before, the latent optimisation (which runs without ``tip_dir``) and so Table I's arms unchanged. On the
-held-out synthetic test clips (``--corpus 25 --dex``, 08:10-08:22 UTC) they score 10.30 / 15.65 / 17.76 / 0.771 in
+held-out synthetic test clips (``--corpus 25 --dex``, 08:08-08:11 UTC) they score 10.30 / 15.65 / 17.76 / 0.771 in
 212.64 s of robot time (dex-retargeting unfiltered 12.85 / 17.42 / 11.04 / 0.609, filtered 13.12 / 19.44 / 15.02 /
 0.511): better than the old defaults on three measures and worse on base->tip (14.42°), as the preset is. The preset
 stays for what it adds on the thumb, base->tip and the pinch at the cost of robot time (docs/RESULTS.md, "Handshapes").
